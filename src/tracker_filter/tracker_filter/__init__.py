@@ -1,0 +1,1 @@
+"""Alpha-beta and Kalman tracking with multi-target track management and target selection."""

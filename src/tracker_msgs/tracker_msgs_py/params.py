@@ -1,0 +1,163 @@
+"""Parameter conventions shared by the suite's nodes.
+
+A node lists its parameters once as `ParamSpec`s; `declare_parameters` declares them with
+descriptors (description, type, numeric range, allowed choices), rejects bad start-up values with
+a clear message, and rejects bad runtime changes (`ros2 param set`) with a reason while leaving the
+node's state untouched. Accepted changes are handed to the node's `on_change` callback.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+from rcl_interfaces.msg import (
+    FloatingPointRange,
+    IntegerRange,
+    ParameterDescriptor,
+    ParameterType,
+    SetParametersResult,
+)
+from rclpy.node import Node
+from rclpy.parameter import Parameter
+
+ParamValue = bool | int | float | str | list
+Validator = Callable[[Any], str | None]
+
+
+@dataclass(frozen=True)
+class ParamSpec:
+    """One node parameter: its default, documentation and constraints."""
+
+    name: str
+    default: ParamValue
+    description: str
+    min: float | None = None  # inclusive numeric range (both ends needed for a ROS range)
+    max: float | None = None
+    choices: tuple[str, ...] | None = None  # allowed values of a string parameter
+    read_only: bool = False  # may only be set at start-up
+    validator: Validator | None = None  # returns a reason when the value is unacceptable
+
+    def check(self, value: Any) -> str | None:
+        """Why `value` is not acceptable for this parameter, or None when it is."""
+        if isinstance(value, float) and not math.isfinite(value):
+            return f"{self.name} must be a finite number, got {value}"
+        is_number = isinstance(value, int | float) and not isinstance(value, bool)
+        if is_number and self.min is not None and value < self.min:
+            return f"{self.name} must be >= {self.min}, got {value}"
+        if is_number and self.max is not None and value > self.max:
+            return f"{self.name} must be <= {self.max}, got {value}"
+        if self.choices is not None and value not in self.choices:
+            return f"{self.name} must be one of {', '.join(self.choices)}; got '{value}'"
+        return self.validator(value) if self.validator else None
+
+    def descriptor(self) -> ParameterDescriptor:
+        descriptor = ParameterDescriptor(
+            name=self.name,
+            type=_parameter_type(self.default),
+            description=self.description,
+            read_only=self.read_only,
+        )
+        if self.choices:
+            descriptor.additional_constraints = "one of: " + ", ".join(self.choices)
+        if self.min is not None and self.max is not None:
+            if isinstance(self.default, bool):
+                pass
+            elif isinstance(self.default, int):
+                descriptor.integer_range = [
+                    IntegerRange(from_value=int(self.min), to_value=int(self.max), step=0)
+                ]
+            elif isinstance(self.default, float):
+                descriptor.floating_point_range = [
+                    FloatingPointRange(from_value=float(self.min), to_value=float(self.max), step=0.0)
+                ]
+        return descriptor
+
+
+class ParameterError(ValueError):
+    """A start-up parameter value a node cannot run with."""
+
+
+def _parameter_type(default: ParamValue) -> int:
+    if isinstance(default, bool):
+        return ParameterType.PARAMETER_BOOL
+    if isinstance(default, int):
+        return ParameterType.PARAMETER_INTEGER
+    if isinstance(default, float):
+        return ParameterType.PARAMETER_DOUBLE
+    if isinstance(default, str):
+        return ParameterType.PARAMETER_STRING
+    if isinstance(default, list) and default and isinstance(default[0], float):
+        return ParameterType.PARAMETER_DOUBLE_ARRAY
+    if isinstance(default, list) and default and isinstance(default[0], int):
+        return ParameterType.PARAMETER_INTEGER_ARRAY
+    if isinstance(default, list):
+        return ParameterType.PARAMETER_STRING_ARRAY
+    raise TypeError(f"unsupported parameter default {default!r}")
+
+
+def declare_parameters(
+    node: Node,
+    specs: Sequence[ParamSpec],
+    on_change: Callable[[dict[str, Any]], None] | None = None,
+    check_all: Callable[[dict[str, Any]], str | None] | None = None,
+) -> dict[str, Any]:
+    """Declare `specs` on `node` and return their start-up values by name.
+
+    `on_change(changed)` is called after a runtime change was accepted, with the new values of the
+    changed parameters. `check_all(values)` may veto combinations (e.g. min < max) and sees the
+    values as they would be after the change. Raises ParameterError for a bad start-up value.
+    """
+    by_name = {spec.name: spec for spec in specs}
+    values: dict[str, Any] = {}
+    for spec in specs:
+        try:
+            param = node.declare_parameter(spec.name, spec.default, spec.descriptor())
+        except Exception as error:  # rclpy raises several types for range/type violations
+            raise ParameterError(f"parameter {spec.name}: {error}") from error
+        value = _as_python(param.value, spec.default)
+        reason = spec.check(value)
+        if reason:
+            raise ParameterError(reason)
+        values[spec.name] = value
+    if check_all:
+        reason = check_all(dict(values))
+        if reason:
+            raise ParameterError(reason)
+
+    def validate(params: list[Parameter]) -> SetParametersResult:
+        proposed = dict(values)
+        for param in params:
+            spec = by_name.get(param.name)
+            if spec is None:
+                continue
+            value = _as_python(param.value, spec.default)
+            reason = spec.check(value)
+            if reason:
+                return SetParametersResult(successful=False, reason=reason)
+            proposed[param.name] = value
+        reason = check_all(proposed) if check_all else None
+        return SetParametersResult(successful=reason is None, reason=reason or "")
+
+    def apply(params: list[Parameter]) -> None:
+        changed = {
+            p.name: _as_python(p.value, by_name[p.name].default) for p in params if p.name in by_name
+        }
+        values.update(changed)
+        if changed and on_change:
+            on_change(changed)
+
+    node.add_on_set_parameters_callback(validate)
+    node.add_post_set_parameters_callback(apply)
+    return values
+
+
+def _as_python(value: Any, default: ParamValue) -> Any:
+    """rclpy hands integers for double parameters given as '1'; keep the declared type."""
+    if isinstance(default, float) and isinstance(value, int) and not isinstance(value, bool):
+        return float(value)
+    if isinstance(default, list) and not isinstance(value, list):
+        return list(value)
+    return value

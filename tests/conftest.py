@@ -1,0 +1,19 @@
+"""Shared test setup: source-tree imports for the pure-Python cores, DDS isolation for ROS tests."""
+
+from __future__ import annotations
+
+import os
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+for pkg_dir in ("tracker_msgs", "tracker_detect", "tracker_filter", "tracker_ptz_sim"):
+    path = str(ROOT / "src" / pkg_dir)
+    if path not in sys.path:
+        sys.path.insert(0, path)
+
+# Every test run gets its own DDS domain on localhost only, so concurrent runs never cross-talk.
+# Child processes started by tests inherit these.
+os.environ.setdefault("ROS_DOMAIN_ID", str(100 + os.getpid() % 100))
+os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
+os.environ.setdefault("RMW_IMPLEMENTATION", "rmw_fastrtps_cpp")
