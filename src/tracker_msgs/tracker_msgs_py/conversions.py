@@ -99,8 +99,10 @@ def array_to_image(pixels: np.ndarray, encoding: str, stamp: Time, frame_id: str
         raise UnsupportedEncodingError(f"cannot publish encoding '{encoding}'")
     expected_ndim = 2 if channels == 1 else 3
     if pixels.dtype != np.uint8 or pixels.ndim != expected_ndim:
-        raise ValueError(f"{encoding} needs a uint8 array of {expected_ndim} dims, got "
-                         f"{pixels.dtype} {pixels.shape}")
+        raise ValueError(
+            f"{encoding} needs a uint8 array of {expected_ndim} dims, got "
+            f"{pixels.dtype} {pixels.shape}"
+        )
     msg = Image()
     msg.header.stamp = stamp
     msg.header.frame_id = frame_id
@@ -113,8 +115,9 @@ def array_to_image(pixels: np.ndarray, encoding: str, stamp: Time, frame_id: str
 
 
 def rect_to_msg(rect: Rect) -> RectMsg:
-    return RectMsg(x=float(rect.x), y=float(rect.y), width=float(rect.width),
-                   height=float(rect.height))
+    return RectMsg(
+        x=float(rect.x), y=float(rect.y), width=float(rect.width), height=float(rect.height)
+    )
 
 
 def msg_to_rect(msg: RectMsg) -> Rect:
@@ -125,7 +128,13 @@ def msg_to_rect(msg: RectMsg) -> Rect:
 
 
 def camera_info(
-    width: int, height: int, fx: float, fy: float, cx: float, cy: float, stamp: Time,
+    width: int,
+    height: int,
+    fx: float,
+    fy: float,
+    cx: float,
+    cy: float,
+    stamp: Time,
     frame_id: str,
 ) -> CameraInfo:
     """A CameraInfo for an undistorted pinhole camera (plumb_bob model with zero distortion)."""

@@ -71,7 +71,9 @@ class ParamSpec:
                 ]
             elif isinstance(self.default, float):
                 descriptor.floating_point_range = [
-                    FloatingPointRange(from_value=float(self.min), to_value=float(self.max), step=0.0)
+                    FloatingPointRange(
+                        from_value=float(self.min), to_value=float(self.max), step=0.0
+                    )
                 ]
         return descriptor
 
@@ -143,7 +145,9 @@ def declare_parameters(
 
     def apply(params: list[Parameter]) -> None:
         changed = {
-            p.name: _as_python(p.value, by_name[p.name].default) for p in params if p.name in by_name
+            p.name: _as_python(p.value, by_name[p.name].default)
+            for p in params
+            if p.name in by_name
         }
         values.update(changed)
         if changed and on_change:

@@ -1,0 +1,46 @@
+# The README's commands. Everything runs inside .venv with ROS 2 Jazzy sourced (scripts/env.sh).
+SHELL := /bin/bash
+.DEFAULT_GOAL := help
+ENV := source scripts/env.sh &&
+PYTEST_ARGS ?=
+VIDEO ?=
+
+.PHONY: help setup build test lint format shell sample demo bench evaluate clean freeze
+
+help:  ## List the targets
+	@grep -E '^[a-z]+:.*## ' $(MAKEFILE_LIST) | awk -F':.*## ' '{printf "  make %-10s %s\n", $$1, $$2}'
+
+setup:  ## Create .venv, install ROS 2 Jazzy + libraries (pinned), build the workspace (idempotent)
+	@bash scripts/setup.sh
+
+build: setup  ## Rebuild the workspace (colcon build --symlink-install)
+	@$(ENV) colcon build --symlink-install --event-handlers console_cohesion- summary+
+
+lint: setup  ## ruff lint + format check
+	@$(ENV) ruff check src tests bench scripts && ruff format --check src tests bench scripts
+
+format: setup  ## Apply ruff's fixes and formatting
+	@$(ENV) ruff check --fix src tests bench scripts; ruff format src tests bench scripts
+
+test: setup lint  ## Set up if needed, build, lint, and run every test
+	@$(ENV) python -m pytest tests/ $(PYTEST_ARGS)
+
+shell: setup  ## A bash shell with ROS 2, the venv and this workspace sourced
+	@bash --rcfile scripts/shell-rc.sh -i
+
+sample: setup  ## Fetch and verify the sample clip vtest.avi (cached outside the repository)
+	@$(ENV) fetch_sample
+
+demo: setup  ## Run the surveillance demo (VIDEO=path/to/video to use your own)
+	@$(ENV) python scripts/demo.py $(if $(VIDEO),--video "$(VIDEO)")
+
+bench: setup  ## Benchmarks: prints tables, writes out/bench/*.json
+	@$(ENV) for b in bench/bench_*.py; do echo "== $$b"; python "$$b" || exit 1; done
+
+clean:  ## Remove build products (keeps .venv and the sample cache)
+	rm -rf build install log out
+
+freeze: setup  ## Rewrite constraints.txt from the current .venv
+	@$(ENV) pip freeze --exclude-editable | grep -vE '^[A-Za-z0-9]+(_[A-Za-z0-9]+)+==|^(rclpy|rcutils|pip|setuptools|wheel)==' | sort -f > constraints.tmp && \
+	  { echo "# Exact versions of every Python package the workspace installs (pip install -c constraints.txt)."; \
+	    echo "# Regenerate with 'make freeze' after changing requirements.txt."; cat constraints.tmp; } > constraints.txt && rm constraints.tmp

@@ -1,0 +1,64 @@
+"""Every node executable starts from the install space and exits 0 within 2 s of SIGINT."""
+
+from __future__ import annotations
+
+import time
+
+import cv2
+import numpy as np
+import pytest
+from ros_process import RosProcess, installed_executables
+
+pytestmark = pytest.mark.ros
+
+STARTUP_S = 2.5  # long enough for rclpy + OpenCV imports and node construction on this machine
+SHUTDOWN_S = 2.0
+
+# Command-line tools: run to completion, not nodes.
+TOOLS = {"make_scene", "fetch_sample", "evaluate", "run_demo"}
+
+
+def _video(tmp_path):
+    path = tmp_path / "clip.avi"
+    writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"MJPG"), 10.0, (160, 120))
+    rng = np.random.default_rng(0)
+    for _ in range(20):
+        writer.write(rng.integers(0, 255, (120, 160, 3), dtype=np.uint8))
+    writer.release()
+    return path
+
+
+def node_params(name: str, tmp_path) -> dict[str, object]:
+    """Parameters a node needs to start at all (most need none)."""
+    if name == "video_source":
+        return {"path": str(_video(tmp_path)), "loop": True}
+    return {}
+
+
+def node_executables() -> list[tuple[str, str]]:
+    return [
+        (package, name)
+        for package, names in installed_executables().items()
+        for name in names
+        if name not in TOOLS
+    ]
+
+
+def test_the_suite_installs_node_executables():
+    assert node_executables(), "no node executables installed: run 'make setup'"
+
+
+@pytest.mark.parametrize(("package", "name"), node_executables())
+def test_node_exits_cleanly_on_sigint(package, name, tmp_path):
+    node = RosProcess(package, name, log_dir=tmp_path, params=node_params(name, tmp_path))
+    try:
+        time.sleep(STARTUP_S)
+        assert node.process.poll() is None, f"{name} died at start-up:\n{node.output()}"
+        started = time.monotonic()
+        code = node.interrupt(timeout=SHUTDOWN_S)
+        elapsed = time.monotonic() - started
+        assert code is not None, f"{name} still running {SHUTDOWN_S} s after SIGINT"
+        assert code == 0, f"{name} exited {code} after SIGINT:\n{node.output()}"
+        assert elapsed <= SHUTDOWN_S
+    finally:
+        node.kill()

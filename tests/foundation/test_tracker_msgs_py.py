@@ -1,0 +1,150 @@
+"""The shared helpers: scene geometry, message conversions and parameter validation."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from tracker_msgs_py.geometry import Rect, SceneGeometry, camera_pixel_to_angles
+
+
+def test_scene_mapping_follows_rep103_signs():
+    geometry = SceneGeometry(width=768, height=576, focal_length=400.0)
+    assert geometry.angles_to_pixel(0.0, 0.0) == (384.0, 288.0)
+    x, y = geometry.angles_to_pixel(0.1, 0.05)  # pan left, tilt down
+    assert x == pytest.approx(384.0 - 40.0) and y == pytest.approx(288.0 + 20.0)
+    assert geometry.pixel_to_angles(x, y) == pytest.approx((0.1, 0.05))
+    vx, vy = geometry.rate_to_pixel_velocity(0.2, -0.1)
+    assert (vx, vy) == pytest.approx((-80.0, -40.0))
+    assert geometry.pixel_velocity_to_rate(vx, vy) == pytest.approx((0.2, -0.1))
+
+
+def test_scene_geometry_rejects_nonsense():
+    with pytest.raises(ValueError, match="focal_length"):
+        SceneGeometry(100, 100, float("nan"))
+    with pytest.raises(ValueError, match="scene size"):
+        SceneGeometry(0, 100, 10.0)
+
+
+def test_camera_pixel_to_angles_matches_pinhole_rays():
+    # A pixel 100 px right of the principal point with fx = 100 is 45 deg to the right (pan -pi/4).
+    pan, tilt = camera_pixel_to_angles(420.0, 240.0, 0.2, 0.1, 100.0, 100.0, 320.0, 240.0)
+    assert pan == pytest.approx(0.2 - math.pi / 4) and tilt == pytest.approx(0.1)
+    pan, tilt = camera_pixel_to_angles(320.0, 340.0, 0.0, 0.0, 100.0, 100.0, 320.0, 240.0)
+    assert pan == pytest.approx(0.0) and tilt == pytest.approx(math.pi / 4)
+
+
+def test_rect_operations():
+    a, b = Rect(0, 0, 10, 10), Rect(5, 5, 10, 10)
+    assert a.intersection(b) == Rect(5, 5, 5, 5)
+    assert a.iou(b) == pytest.approx(25 / 175)
+    assert a.intersection(Rect(20, 20, 1, 1)) is None and a.iou(Rect(20, 20, 1, 1)) == 0.0
+    assert Rect.from_center(5, 5, 10, 4) == Rect(0, 3, 10, 4)
+    assert a.contains(0, 0) and not a.contains(10, 5)
+
+
+@pytest.mark.ros
+class TestConversions:
+    def test_image_round_trip_all_encodings(self):
+        from tracker_msgs_py.conversions import (
+            array_to_image,
+            image_to_array,
+            image_to_bgr,
+            image_to_gray,
+            ns_to_stamp,
+        )
+
+        rng = np.random.default_rng(1)
+        bgr = rng.integers(0, 256, (4, 5, 3), dtype=np.uint8)
+        stamp = ns_to_stamp(1_500_000_001)
+        msg = array_to_image(bgr, "bgr8", stamp, "cam")
+        assert (msg.height, msg.width, msg.step, msg.header.frame_id) == (4, 5, 15, "cam")
+        assert np.array_equal(image_to_array(msg), bgr)
+        rgb_msg = array_to_image(np.ascontiguousarray(bgr[:, :, ::-1]), "rgb8", stamp, "cam")
+        assert np.array_equal(image_to_bgr(rgb_msg), bgr)
+        gray = image_to_gray(msg)
+        b, g, r = (bgr[..., i].astype(float) for i in range(3))
+        assert np.abs(gray - (0.299 * r + 0.587 * g + 0.114 * b)).max() <= 1.0
+        mono = array_to_image(gray, "mono8", stamp, "cam")
+        assert np.array_equal(image_to_gray(mono), gray)
+
+    def test_padded_rows_are_read_correctly(self):
+        from sensor_msgs.msg import Image
+
+        from tracker_msgs_py.conversions import image_to_array
+
+        msg = Image(height=2, width=3, encoding="mono8", step=4)
+        msg.data = bytes([1, 2, 3, 99, 4, 5, 6, 99])
+        assert image_to_array(msg).tolist() == [[1, 2, 3], [4, 5, 6]]
+
+    def test_unsupported_and_malformed_images_are_named(self):
+        from sensor_msgs.msg import Image
+
+        from tracker_msgs_py.conversions import UnsupportedEncodingError, image_to_array
+
+        with pytest.raises(UnsupportedEncodingError, match="'16UC1'"):
+            image_to_array(Image(height=1, width=1, encoding="16UC1", step=2, data=b"\0\0"))
+        with pytest.raises(UnsupportedEncodingError, match="malformed"):
+            image_to_array(Image(height=2, width=2, encoding="bgr8", step=6, data=b"\0" * 6))
+
+    def test_stamps_and_rects(self):
+        from tracker_msgs_py.conversions import msg_to_rect, ns_to_stamp, rect_to_msg, stamp_to_ns
+
+        assert stamp_to_ns(ns_to_stamp(12_345_678_901)) == 12_345_678_901
+        with pytest.raises(ValueError):
+            ns_to_stamp(-1)
+        rect = Rect(1.5, 2.0, 3.0, 4.0)
+        assert msg_to_rect(rect_to_msg(rect)) == rect
+        bad = rect_to_msg(rect)
+        bad.width = float("nan")
+        with pytest.raises(ValueError, match="invalid rectangle"):
+            msg_to_rect(bad)
+
+
+@pytest.mark.ros
+def test_parameters_are_validated_at_startup_and_on_change():
+    import rclpy
+    from rclpy.node import Node
+    from rclpy.parameter import Parameter
+
+    from tracker_msgs_py.params import ParameterError, ParamSpec, declare_parameters
+
+    specs = [
+        ParamSpec("gap", 3, "frames", 1, 30),
+        ParamSpec("threshold", 0.5, "SSIM", -1.0, 1.0),
+        ParamSpec("mode", "fast", "estimator", choices=("fast", "seed")),
+        ParamSpec("low", 1.0, "lower bound"),
+        ParamSpec("high", 2.0, "upper bound"),
+    ]
+    changes = []
+
+    def ordered(values):
+        return None if values["low"] < values["high"] else "low must be below high"
+
+    context = rclpy.Context()
+    rclpy.init(context=context, args=["--ros-args", "-p", "gap:=4"])
+    try:
+        node = Node("param_test", context=context)
+        values = declare_parameters(node, specs, on_change=changes.append, check_all=ordered)
+        assert values["gap"] == 4
+        for name, value, reason in [
+            ("gap", 31, "out of range"),
+            ("mode", "slow", "one of"),
+            ("high", 0.5, "low must be below high"),
+            ("threshold", float("nan"), ""),
+        ]:
+            result = node.set_parameters([Parameter(name, value=value)])[0]
+            assert not result.successful and reason in result.reason
+        assert changes == [] and values["gap"] == 4 and values["mode"] == "fast"
+        assert node.set_parameters([Parameter("threshold", value=0.6)])[0].successful
+        assert changes == [{"threshold": 0.6}] and values["threshold"] == 0.6
+        with pytest.raises(ParameterError, match="mode must be one of"):
+            declare_parameters(
+                Node("bad", context=context, parameter_overrides=[Parameter("mode", value="slow")]),
+                [specs[2]],
+            )
+        node.destroy_node()
+    finally:
+        rclpy.shutdown(context=context)
