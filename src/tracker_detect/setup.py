@@ -18,7 +18,10 @@ setup(
     zip_safe=True,
     maintainer="Tracker suite maintainers",
     maintainer_email="maintainers@tracker-suite.dev",
-    description="Motion detection for a moving pan-tilt camera: SSIM change detection with ego-motion compensation (seed 000).",
+    description=(
+        "Motion detection for a moving pan-tilt camera: SSIM change detection with "
+        "ego-motion compensation (seed 000)."
+    ),
     license="Apache-2.0",
     entry_points={
         "console_scripts": [],

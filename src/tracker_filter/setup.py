@@ -18,7 +18,9 @@ setup(
     zip_safe=True,
     maintainer="Tracker suite maintainers",
     maintainer_email="maintainers@tracker-suite.dev",
-    description="Alpha-beta and Kalman tracking with multi-target track management and target selection.",
+    description=(
+        "Alpha-beta and Kalman tracking with multi-target track management and target selection."
+    ),
     license="Apache-2.0",
     entry_points={
         "console_scripts": [],

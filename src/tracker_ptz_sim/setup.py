@@ -18,7 +18,11 @@ setup(
     zip_safe=True,
     maintainer="Tracker suite maintainers",
     maintainer_email="maintainers@tracker-suite.dev",
-    description="Recorded video and rosbag2 replay as a camera stream, a simulated pan-tilt-zoom camera, the pan-tilt controller, the surveillance demo graph and synthetic scenes with ground truth.",
+    description=(
+        "Recorded video and rosbag2 replay as a camera stream, a simulated pan-tilt-zoom "
+        "camera, the pan-tilt controller, the surveillance demo graph and synthetic "
+        "scenes with ground truth."
+    ),
     license="Apache-2.0",
     entry_points={
         "console_scripts": [],
