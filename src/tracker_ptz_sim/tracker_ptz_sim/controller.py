@@ -1,0 +1,240 @@
+"""Pan-tilt controller: keeps the selected target in view (no rclpy).
+
+Works in the pan-tilt angles of REP-103 (pan positive = left, tilt positive = down). The target
+arrives in scene pixels; because the scene mapping is linear (`tracker_msgs_py.geometry`), an offset
+of d px from the view centre is an angle of d / f, so only the focal length is needed.
+
+States:
+- TRACK: a target is locked. `direct` mode (seed 000) jumps the line of sight to the target's
+  estimate; `servo` mode runs a PI controller on the angular error with a dead zone, velocity
+  feed-forward from the track, and aims at the target's predicted position (latency compensation).
+- SCAN: the target was lost; oscillate around its last position for `lost_scan_time` s.
+- HOME: go to the home preset and dwell there for `home_dwell_time` s.
+- SEARCH: nothing tracked; sweep horizontally, reversing at the pan limits (seed 000), or visit a
+  list of preset poses in turn.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from enum import Enum
+
+
+class ControlState(Enum):
+    SEARCH = "search"
+    TRACK = "track"
+    SCAN = "scan"
+    HOME = "home"
+
+
+class CommandMode(Enum):
+    POSITION = "position"
+    VELOCITY = "velocity"
+    HOLD = "hold"
+
+
+@dataclass(frozen=True)
+class Command:
+    """What to send to the pan-tilt unit: angles [rad] for POSITION, rates [rad/s] for VELOCITY."""
+
+    mode: CommandMode
+    pan: float = 0.0
+    tilt: float = 0.0
+    pan_rate: float = 0.0
+    tilt_rate: float = 0.0
+
+
+@dataclass(frozen=True)
+class CameraPose:
+    """Where the camera looks now: line-of-sight angles and the view centre in scene pixels."""
+
+    pan: float
+    tilt: float
+    center_x: float
+    center_y: float
+    focal_length: float  # scene px per radian
+
+
+@dataclass(frozen=True)
+class TargetEstimate:
+    """The tracker's target in scene pixels: position, velocity [px/s] and predicted position."""
+
+    x: float
+    y: float
+    vx: float
+    vy: float
+    predicted_x: float
+    predicted_y: float
+
+
+@dataclass
+class ControllerConfig:
+    mode: str = "servo"  # "direct" or "servo"
+    kp: float = 1.5  # 1/s: rate per radian of error
+    ki: float = 0.3  # 1/s^2
+    dead_zone: float = 0.01  # rad: errors below this are not corrected
+    max_rate: float = 1.5  # rad/s
+    feed_forward: bool = True  # add the target's angular velocity to the command
+    aim_at_prediction: bool = True  # aim at the tracker's predicted position (latency compensation)
+    search: str = "sweep"  # "sweep", "presets" or "none"
+    sweep_rate: float = 0.25  # rad/s
+    pan_limits: tuple[float, float] = (-math.pi, math.pi)  # rad; the sweep also reverses on a stall
+    presets: list[tuple[float, float]] = field(
+        default_factory=list
+    )  # (pan, tilt) rad, for "presets"
+    preset_dwell_time: float = 3.0  # s at each search preset
+    home: tuple[float, float] = (0.0, 0.0)  # (pan, tilt) rad
+    lost_scan_time: float = 3.0  # s scanning the last region after a loss
+    scan_amplitude: float = 0.15  # rad, half-width of the scan around the last position
+    scan_period: float = 2.0  # s for one scan oscillation
+    home_dwell_time: float = 5.0  # s at home before searching again
+
+    def check(self) -> str | None:
+        """Why this configuration is unusable, or None."""
+        if self.mode not in ("direct", "servo"):
+            return f"mode must be direct or servo, got '{self.mode}'"
+        if self.search not in ("sweep", "presets", "none"):
+            return f"search must be sweep, presets or none, got '{self.search}'"
+        if self.search == "presets" and not self.presets:
+            return "search 'presets' needs at least one preset pose"
+        if self.pan_limits[0] >= self.pan_limits[1]:
+            return f"pan_limits must be increasing, got {self.pan_limits}"
+        return None
+
+
+class PanTiltController:
+    """One step per tracker cycle: `step(t, pose, target) -> Command`."""
+
+    STALL_EPSILON = 1e-6  # rad: a sweep that moved less than this in a cycle has stopped
+
+    def __init__(self, config: ControllerConfig) -> None:
+        reason = config.check()
+        if reason:
+            raise ValueError(reason)
+        self.config = config
+        self.state = ControlState.SEARCH if config.search != "none" else ControlState.HOME
+        self._entered_at: float | None = None
+        self._last_time: float | None = None
+        self._integral = (0.0, 0.0)
+        self._last_target_angles: tuple[float, float] | None = None
+        self._sweep_direction = 1.0
+        self._sweep_moved = False
+        self._last_pan: float | None = None
+
+    def reset(self) -> None:
+        self.__init__(self.config)
+
+    def step(self, t: float, pose: CameraPose, target: TargetEstimate | None) -> Command:
+        """The command for time t [s] given the camera pose and the locked target (None if none)."""
+        dt = 0.0 if self._last_time is None else max(0.0, t - self._last_time)
+        self._last_time = t
+        self._update_state(t, target)
+        if self.state is ControlState.TRACK:
+            command = self._track(pose, target, dt)
+        elif self.state is ControlState.SCAN:
+            command = self._scan(t, pose)
+        elif self.state is ControlState.HOME:
+            command = Command(
+                CommandMode.POSITION, pan=self.config.home[0], tilt=self.config.home[1]
+            )
+        else:
+            command = self._search(t, pose)
+        self._last_pan = pose.pan
+        return command
+
+    def _enter(self, state: ControlState, t: float) -> None:
+        if state is not self.state:
+            self.state = state
+            self._entered_at = t
+            self._integral = (0.0, 0.0)
+        elif self._entered_at is None:
+            self._entered_at = t
+
+    def _time_in_state(self, t: float) -> float:
+        return 0.0 if self._entered_at is None else t - self._entered_at
+
+    def _update_state(self, t: float, target: TargetEstimate | None) -> None:
+        if target is not None:
+            self._enter(ControlState.TRACK, t)
+            return
+        if self._entered_at is None:
+            self._entered_at = t
+        elapsed = self._time_in_state(t)
+        if self.state is ControlState.TRACK:
+            self._enter(ControlState.SCAN if self._last_target_angles else ControlState.HOME, t)
+        elif self.state is ControlState.SCAN and elapsed >= self.config.lost_scan_time:
+            self._enter(ControlState.HOME, t)
+        elif (
+            self.state is ControlState.HOME
+            and self.config.search != "none"
+            and elapsed >= self.config.home_dwell_time
+        ):
+            self._enter(ControlState.SEARCH, t)
+
+    def _track(self, pose: CameraPose, target: TargetEstimate, dt: float) -> Command:
+        cfg = self.config
+        aim_x, aim_y = (
+            (target.predicted_x, target.predicted_y)
+            if cfg.aim_at_prediction
+            else (target.x, target.y)
+        )
+        # Scene x grows to the right while pan grows to the left; scene y and tilt both grow down.
+        error_pan = -(aim_x - pose.center_x) / pose.focal_length
+        error_tilt = (aim_y - pose.center_y) / pose.focal_length
+        self._last_target_angles = (pose.pan + error_pan, pose.tilt + error_tilt)
+        if cfg.mode == "direct":
+            pan, tilt = self._last_target_angles
+            return Command(CommandMode.POSITION, pan=pan, tilt=tilt)
+        feed_pan, feed_tilt = (
+            (-target.vx / pose.focal_length, target.vy / pose.focal_length)
+            if cfg.feed_forward
+            else (0.0, 0.0)
+        )
+        pan_rate, integral_pan = self._pi(error_pan, self._integral[0], feed_pan, dt)
+        tilt_rate, integral_tilt = self._pi(error_tilt, self._integral[1], feed_tilt, dt)
+        self._integral = (integral_pan, integral_tilt)
+        return Command(CommandMode.VELOCITY, pan_rate=pan_rate, tilt_rate=tilt_rate)
+
+    def _pi(self, error: float, integral: float, feed: float, dt: float) -> tuple[float, float]:
+        """Rate command and new integral for one axis; no integration inside the dead zone or
+        while saturated (anti-windup)."""
+        cfg = self.config
+        if abs(error) <= cfg.dead_zone:
+            return _clamp(feed, cfg.max_rate), integral
+        effective = error - math.copysign(cfg.dead_zone, error)
+        rate = cfg.kp * effective + cfg.ki * integral + feed
+        if abs(rate) < cfg.max_rate:
+            integral += effective * dt
+        return _clamp(rate, cfg.max_rate), integral
+
+    def _scan(self, t: float, pose: CameraPose) -> Command:
+        cfg = self.config
+        center_pan, center_tilt = self._last_target_angles or (pose.pan, pose.tilt)
+        phase = 2.0 * math.pi * self._time_in_state(t) / cfg.scan_period
+        pan = center_pan + cfg.scan_amplitude * math.sin(phase)
+        return Command(CommandMode.POSITION, pan=pan, tilt=center_tilt)
+
+    def _search(self, t: float, pose: CameraPose) -> Command:
+        cfg = self.config
+        if cfg.search == "presets":
+            elapsed = self._time_in_state(t)
+            index = int(elapsed // cfg.preset_dwell_time) % len(cfg.presets)
+            pan, tilt = cfg.presets[index]
+            return Command(CommandMode.POSITION, pan=pan, tilt=tilt)
+        low, high = cfg.pan_limits
+        moved = self._last_pan is not None and abs(pose.pan - self._last_pan) >= self.STALL_EPSILON
+        # A sweep that has been moving and stops has reached the unit's (or the scene's) limit.
+        stalled = self._sweep_moved and not moved
+        self._sweep_moved = self._sweep_moved or moved
+        moving_out = (self._sweep_direction > 0 and pose.pan >= high) or (
+            self._sweep_direction < 0 and pose.pan <= low
+        )
+        if moving_out or stalled:
+            self._sweep_direction = -self._sweep_direction
+            self._sweep_moved = False
+        return Command(CommandMode.VELOCITY, pan_rate=self._sweep_direction * cfg.sweep_rate)
+
+
+def _clamp(value: float, limit: float) -> float:
+    return max(-limit, min(limit, value))

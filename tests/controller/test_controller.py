@@ -1,0 +1,179 @@
+"""The pan-tilt controller's control law and state machine, against an ideal pan-tilt plant."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from tracker_ptz_sim.controller import (
+    CameraPose,
+    CommandMode,
+    ControllerConfig,
+    ControlState,
+    PanTiltController,
+    TargetEstimate,
+)
+
+F = 400.0  # scene px per rad
+CX, CY = 384.0, 288.0  # scene centre
+DT = 0.1
+
+
+class IdealUnit:
+    """Pan-tilt unit that follows commands exactly (position jumps, velocity integrates)."""
+
+    def __init__(self, limit: float = 0.6):
+        self.pan = self.tilt = 0.0
+        self.limit = limit
+
+    def apply(self, command, dt: float) -> None:
+        if command.mode is CommandMode.POSITION:
+            self.pan, self.tilt = command.pan, command.tilt
+        elif command.mode is CommandMode.VELOCITY:
+            self.pan += command.pan_rate * dt
+            self.tilt += command.tilt_rate * dt
+        self.pan = max(-self.limit, min(self.limit, self.pan))
+
+    def pose(self) -> CameraPose:
+        return CameraPose(self.pan, self.tilt, CX - F * self.pan, CY + F * self.tilt, F)
+
+
+def target_at(x: float, y: float, vx: float = 0.0, vy: float = 0.0, lead: float = 0.0):
+    return TargetEstimate(x, y, vx, vy, x + vx * lead, y + vy * lead)
+
+
+def test_direct_mode_jumps_to_the_target():
+    controller = PanTiltController(ControllerConfig(mode="direct"))
+    unit = IdealUnit()
+    command = controller.step(0.0, unit.pose(), target_at(CX - 40.0, CY + 20.0))
+    assert command.mode is CommandMode.POSITION
+    assert (command.pan, command.tilt) == pytest.approx((0.1, 0.05))  # left and down, REP-103
+
+
+@pytest.mark.parametrize("feed_forward", [True, False])
+def test_servo_centres_a_moving_target(feed_forward):
+    config = ControllerConfig(mode="servo", feed_forward=feed_forward, kp=3.0, ki=0.5)
+    controller = PanTiltController(config)
+    unit = IdealUnit(limit=10.0)
+    errors = []
+    x, vx = CX + 60.0, 30.0  # starts off-centre, moves right at 30 px/s
+    for k in range(200):
+        x += vx * DT
+        command = controller.step(k * DT, unit.pose(), target_at(x, CY, vx, 0.0, lead=DT))
+        unit.apply(command, DT)
+        errors.append(abs(unit.pose().center_x - x))
+    steady = max(errors[-50:])
+    assert steady < (3.0 if feed_forward else 12.0)
+    assert max(errors) > 30.0  # it did have to move
+
+
+def test_dead_zone_holds_still_for_small_errors():
+    controller = PanTiltController(ControllerConfig(mode="servo", dead_zone=0.02))
+    command = controller.step(0.0, IdealUnit().pose(), target_at(CX + 4.0, CY - 4.0))  # 0.01 rad
+    assert command.mode is CommandMode.VELOCITY
+    assert command.pan_rate == 0.0 and command.tilt_rate == 0.0
+
+
+def test_rates_are_limited():
+    controller = PanTiltController(ControllerConfig(mode="servo", max_rate=0.5))
+    command = controller.step(0.0, IdealUnit().pose(), target_at(CX + 380.0, CY))
+    assert command.pan_rate == pytest.approx(-0.5)
+
+
+def test_sweep_reverses_at_limits_and_on_a_stall():
+    controller = PanTiltController(
+        ControllerConfig(search="sweep", sweep_rate=0.3, pan_limits=(-0.4, 0.4))
+    )
+    unit = IdealUnit(limit=0.25)  # the unit stops before the configured limits: a stall
+    pans = []
+    for k in range(120):
+        unit.apply(controller.step(k * DT, unit.pose(), None), DT)
+        pans.append(unit.pan)
+    assert controller.state is ControlState.SEARCH
+    assert max(pans) == pytest.approx(0.25) and min(pans) == pytest.approx(-0.25)
+    steps = [b - a for a, b in zip(pans, pans[1:], strict=False) if abs(b - a) > 1e-9]
+    reversals = sum(1 for a, b in zip(steps, steps[1:], strict=False) if a * b < 0)
+    assert 3 <= reversals <= 8
+
+
+def test_loss_scans_then_returns_home_then_searches():
+    config = ControllerConfig(
+        mode="direct",
+        lost_scan_time=2.0,
+        home_dwell_time=1.0,
+        home=(0.05, 0.02),
+        scan_amplitude=0.1,
+    )
+    controller = PanTiltController(config)
+    unit = IdealUnit()
+    last_x = CX - 120.0  # target at pan 0.3
+    unit.apply(controller.step(0.0, unit.pose(), target_at(last_x, CY)), DT)
+    assert controller.state is ControlState.TRACK
+    states, scan_pans, commands = [], [], []
+    t = DT
+    while t < 4.5:
+        command = controller.step(t, unit.pose(), None)
+        unit.apply(command, DT)
+        states.append(controller.state)
+        commands.append(command)
+        if controller.state is ControlState.SCAN:
+            scan_pans.append(command.pan)
+        t += DT
+    assert states[0] is ControlState.SCAN
+    assert max(scan_pans) == pytest.approx(0.4, abs=0.01) and min(scan_pans) == pytest.approx(
+        0.2, abs=0.01
+    )
+    first_home = states.index(ControlState.HOME)
+    assert first_home * DT == pytest.approx(2.0, abs=DT + 1e-9)
+    assert ControlState.SEARCH in states[first_home:]
+    assert (commands[first_home].pan, commands[first_home].tilt) == (0.05, 0.02)
+    first_search = states.index(ControlState.SEARCH)
+    assert (first_search - first_home) * DT == pytest.approx(1.0, abs=DT + 1e-9)
+
+
+def test_home_position_is_commanded():
+    controller = PanTiltController(ControllerConfig(search="none", home=(0.1, -0.05)))
+    command = controller.step(0.0, IdealUnit().pose(), None)
+    assert controller.state is ControlState.HOME
+    assert (command.mode, command.pan, command.tilt) == (CommandMode.POSITION, 0.1, -0.05)
+
+
+def test_presets_are_visited_in_turn():
+    presets = [(0.1, 0.0), (-0.1, 0.05)]
+    controller = PanTiltController(
+        ControllerConfig(search="presets", presets=presets, preset_dwell_time=1.0)
+    )
+    visited = [controller.step(k * 0.5, IdealUnit().pose(), None) for k in range(5)]
+    assert [(c.pan, c.tilt) for c in visited] == [
+        presets[0],
+        presets[0],
+        presets[1],
+        presets[1],
+        presets[0],
+    ]
+
+
+@pytest.mark.parametrize(
+    ("change", "reason"),
+    [
+        ({"mode": "fast"}, "mode"),
+        ({"search": "presets"}, "preset"),
+        ({"pan_limits": (1.0, -1.0)}, "increasing"),
+    ],
+)
+def test_bad_configurations_are_rejected(change, reason):
+    with pytest.raises(ValueError, match=reason):
+        PanTiltController(ControllerConfig(**change))
+
+
+def test_reentering_track_resets_integral():
+    controller = PanTiltController(
+        ControllerConfig(mode="servo", ki=1.0, kp=0.0, feed_forward=False)
+    )
+    unit = IdealUnit()
+    for k in range(10):
+        controller.step(k * DT, unit.pose(), target_at(CX + 100.0, CY))
+    controller.step(1.0, unit.pose(), None)
+    command = controller.step(1.1, unit.pose(), target_at(CX + 100.0, CY))
+    assert math.isclose(command.pan_rate, 0.0, abs_tol=1e-12)
