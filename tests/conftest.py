@@ -7,10 +7,13 @@ import sys
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
-for pkg_dir in ("tracker_msgs", "tracker_detect", "tracker_filter", "tracker_ptz_sim"):
-    path = str(ROOT / "src" / pkg_dir)
-    if path not in sys.path:
-        sys.path.insert(0, path)
+# The cores import from source; shared test helpers (ros_process.py, ...) import from tests/.
+for path in [
+    ROOT / "src" / pkg
+    for pkg in ("tracker_msgs", "tracker_detect", "tracker_filter", "tracker_ptz_sim")
+] + [ROOT / "tests"]:
+    if str(path) not in sys.path:
+        sys.path.insert(0, str(path))
 
 # Every test run gets its own DDS domain on localhost only, so concurrent runs never cross-talk.
 # Child processes started by tests inherit these.

@@ -25,6 +25,8 @@ setup(
     ),
     license="Apache-2.0",
     entry_points={
-        "console_scripts": [],
+        "console_scripts": [
+            "ptz_controller = tracker_ptz_sim.ptz_controller_node:main",
+        ],
     },
 )

@@ -1,0 +1,210 @@
+"""ptz_controller: turns the tracker's target into pan-tilt commands (thin shell over controller.py).
+
+Subscribes `target` (tracker_msgs/Target) and `ptz/state` (tracker_msgs/PtzState); publishes one
+`ptz/command` (tracker_msgs/PtzCommand) per target message, stamped with the image it responds to
+(the lockstep acknowledgement), and optionally the same command as a sensor_msgs/JointState on
+`joint_command_topic` (position or velocity), the form real pan-tilt drivers take. When targets stop
+arriving (a crashed detector or tracker) it sends HOLD, so the camera never acts on stale commands.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import fields
+from typing import Any
+
+from rclpy.node import Node
+from sensor_msgs.msg import JointState
+
+from tracker_msgs.msg import PtzCommand, PtzState, Target
+from tracker_msgs_py.conversions import stamp_to_ns
+from tracker_msgs_py.node_main import run_node
+from tracker_msgs_py.params import ParamSpec, declare_parameters
+from tracker_ptz_sim.controller import (
+    CameraPose,
+    Command,
+    CommandMode,
+    ControllerConfig,
+    PanTiltController,
+    TargetEstimate,
+)
+
+NS_PER_S = 1e9
+STATE_BUFFER = 16  # pan-tilt states kept to pair with targets by stamp
+
+_DEFAULTS = ControllerConfig()
+PARAMS = [
+    ParamSpec(
+        "mode",
+        _DEFAULTS.mode,
+        "direct: jump to the target (seed 000); servo: PI velocity control",
+        choices=("direct", "servo"),
+    ),
+    ParamSpec("kp", _DEFAULTS.kp, "servo proportional gain [1/s]", 0.0, 50.0),
+    ParamSpec("ki", _DEFAULTS.ki, "servo integral gain [1/s^2]", 0.0, 50.0),
+    ParamSpec("dead_zone", _DEFAULTS.dead_zone, "angular error left uncorrected [rad]", 0.0, 0.5),
+    ParamSpec("max_rate", _DEFAULTS.max_rate, "largest commanded rate [rad/s]", 0.01, 10.0),
+    ParamSpec("feed_forward", _DEFAULTS.feed_forward, "add the target's angular velocity"),
+    ParamSpec(
+        "aim_at_prediction",
+        _DEFAULTS.aim_at_prediction,
+        "aim at the target's predicted position (latency compensation)",
+    ),
+    ParamSpec(
+        "search",
+        _DEFAULTS.search,
+        "what to do when nothing is tracked",
+        choices=("sweep", "presets", "none"),
+    ),
+    ParamSpec("sweep_rate", _DEFAULTS.sweep_rate, "horizontal search sweep rate [rad/s]", 0.0, 5.0),
+    ParamSpec("pan_limits", list(_DEFAULTS.pan_limits), "[min, max] pan of the sweep [rad]"),
+    ParamSpec("presets", [0.0, 0.0], "search presets as [pan1, tilt1, pan2, tilt2, ...] [rad]"),
+    ParamSpec(
+        "preset_dwell_time", _DEFAULTS.preset_dwell_time, "time at each preset [s]", 0.1, 600.0
+    ),
+    ParamSpec("home", list(_DEFAULTS.home), "[pan, tilt] home preset [rad]"),
+    ParamSpec(
+        "lost_scan_time", _DEFAULTS.lost_scan_time, "scan the last region this long [s]", 0.0, 600.0
+    ),
+    ParamSpec("scan_amplitude", _DEFAULTS.scan_amplitude, "half-width of the scan [rad]", 0.0, 3.0),
+    ParamSpec("scan_period", _DEFAULTS.scan_period, "period of the scan [s]", 0.1, 60.0),
+    ParamSpec(
+        "home_dwell_time",
+        _DEFAULTS.home_dwell_time,
+        "time at home before searching [s]",
+        0.0,
+        3600.0,
+    ),
+    ParamSpec(
+        "target_timeout", 1.0, "no target for this long (scene time) -> HOLD [s]", 0.05, 60.0
+    ),
+    ParamSpec("joint_command_topic", "", "also publish commands as JointState here ('' = off)"),
+    ParamSpec("joint_names", ["pan_joint", "tilt_joint"], "pan and tilt joint names"),
+    ParamSpec("base_frame_id", "ptz_base", "frame_id of the commands"),
+]
+
+
+def _pairs(flat: list[float], name: str) -> list[tuple[float, float]]:
+    if len(flat) % 2:
+        raise ValueError(f"{name} needs an even number of values, got {len(flat)}")
+    return [(float(flat[i]), float(flat[i + 1])) for i in range(0, len(flat), 2)]
+
+
+def config_from(values: dict[str, Any]) -> ControllerConfig:
+    """The controller configuration the parameters describe (raises ValueError when invalid)."""
+    names = {f.name for f in fields(ControllerConfig)}
+    config = ControllerConfig(**{k: v for k, v in values.items() if k in names})
+    if len(values["pan_limits"]) != 2 or len(values["home"]) != 2:
+        raise ValueError("pan_limits and home need exactly two values")
+    config.pan_limits = (float(values["pan_limits"][0]), float(values["pan_limits"][1]))
+    config.home = (float(values["home"][0]), float(values["home"][1]))
+    config.presets = _pairs(values["presets"], "presets")
+    reason = config.check()
+    if reason:
+        raise ValueError(reason)
+    return config
+
+
+def _check(values: dict[str, Any]) -> str | None:
+    try:
+        config_from(values)
+    except ValueError as error:
+        return str(error)
+    if len(values["joint_names"]) != 2:
+        return "joint_names needs exactly two names (pan, tilt)"
+    return None
+
+
+class PtzControllerNode(Node):
+    def __init__(self) -> None:
+        super().__init__("ptz_controller")
+        self.params = declare_parameters(self, PARAMS, on_change=self._on_change, check_all=_check)
+        self.controller = PanTiltController(config_from(self.params))
+        self.states: dict[int, PtzState] = {}
+        self.last_target_ns: int | None = None
+        self.command_pub = self.create_publisher(PtzCommand, "ptz/command", 10)
+        self.joint_pub = self._joint_publisher()
+        self.create_subscription(Target, "target", self._on_target, 10)
+        self.create_subscription(PtzState, "ptz/state", self._on_state, 10)
+
+    def _joint_publisher(self):  # noqa: ANN202 - Publisher | None
+        topic = self.params["joint_command_topic"]
+        return self.create_publisher(JointState, topic, 10) if topic else None
+
+    def _on_change(self, changed: dict[str, Any]) -> None:
+        self.controller.config = config_from(self.params)
+        if "joint_command_topic" in changed:
+            if self.joint_pub is not None:
+                self.destroy_publisher(self.joint_pub)
+            self.joint_pub = self._joint_publisher()
+
+    def _on_state(self, state: PtzState) -> None:
+        stamp = stamp_to_ns(state.header.stamp)
+        self.states[stamp] = state
+        while len(self.states) > STATE_BUFFER:
+            del self.states[min(self.states)]
+        timeout_ns = self.params["target_timeout"] * NS_PER_S
+        if self.last_target_ns is not None and stamp - self.last_target_ns > timeout_ns:
+            # Targets stopped (detector or tracker down): stop the camera, and acknowledge the image.
+            self.controller.reset()
+            self._publish(Command(CommandMode.HOLD), state.header.stamp)
+
+    def _on_target(self, target: Target) -> None:
+        stamp = stamp_to_ns(target.header.stamp)
+        state = self.states.get(stamp) or (self.states[max(self.states)] if self.states else None)
+        self.last_target_ns = stamp
+        if state is None:  # no pose yet: nothing sensible to command, but acknowledge the image
+            self._publish(Command(CommandMode.HOLD), target.header.stamp)
+            return
+        command = self.controller.step(stamp / NS_PER_S, pose_of(state), estimate_of(target))
+        self._publish(command, target.header.stamp)
+
+    def _publish(self, command: Command, stamp: Any) -> None:
+        msg = PtzCommand()
+        msg.header.stamp = stamp
+        msg.header.frame_id = self.params["base_frame_id"]
+        msg.mode = {
+            CommandMode.POSITION: PtzCommand.MODE_POSITION,
+            CommandMode.VELOCITY: PtzCommand.MODE_VELOCITY,
+            CommandMode.HOLD: PtzCommand.MODE_HOLD,
+        }[command.mode]
+        msg.pan, msg.tilt = command.pan, command.tilt
+        msg.pan_rate, msg.tilt_rate = command.pan_rate, command.tilt_rate
+        msg.zoom = 0.0  # keep the current zoom
+        self.command_pub.publish(msg)
+        if self.joint_pub is not None:
+            self.joint_pub.publish(joint_command(command, msg.header, self.params["joint_names"]))
+
+
+def pose_of(state: PtzState) -> CameraPose:
+    center_x = state.window.x + state.window.width / 2.0
+    center_y = state.window.y + state.window.height / 2.0
+    return CameraPose(state.pan, state.tilt, center_x, center_y, state.focal_length)
+
+
+def estimate_of(target: Target) -> TargetEstimate | None:
+    if not target.locked:
+        return None
+    track = target.track
+    values = (track.x, track.y, track.vx, track.vy, target.predicted_x, target.predicted_y)
+    if not all(math.isfinite(v) for v in values):
+        return None
+    return TargetEstimate(*values)
+
+
+def joint_command(command: Command, header: Any, names: list[str]) -> JointState:
+    """The command as a JointState: positions for POSITION, velocities for VELOCITY and HOLD."""
+    joints = JointState(header=header, name=list(names))
+    if command.mode is CommandMode.POSITION:
+        joints.position = [command.pan, command.tilt]
+    else:
+        joints.velocity = [command.pan_rate, command.tilt_rate]
+    return joints
+
+
+def main(args: list[str] | None = None) -> int:
+    return run_node(PtzControllerNode, args)
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
