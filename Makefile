@@ -4,6 +4,7 @@ SHELL := /bin/bash
 ENV := source scripts/env.sh &&
 PYTEST_ARGS ?=
 VIDEO ?=
+DEMO_ARGS ?=
 
 .PHONY: help setup build test lint format shell sample demo bench evaluate clean freeze
 
@@ -32,7 +33,7 @@ sample: setup  ## Fetch and verify the sample clip vtest.avi (cached outside the
 	@$(ENV) fetch_sample
 
 demo: setup  ## Run the surveillance demo (VIDEO=path/to/video to use your own)
-	@$(ENV) python scripts/demo.py $(if $(VIDEO),--video "$(VIDEO)")
+	@$(ENV) run_demo $(if $(VIDEO),--video "$(VIDEO)") $(DEMO_ARGS)
 
 bench: setup  ## Benchmarks: prints tables, writes out/bench/*.json
 	@$(ENV) for b in bench/bench_*.py; do echo "== $$b"; python "$$b" || exit 1; done

@@ -27,6 +27,7 @@ setup(
     entry_points={
         "console_scripts": [
             "ptz_controller = tracker_ptz_sim.ptz_controller_node:main",
+            "run_demo = tracker_ptz_sim.demo:main",
         ],
     },
 )

@@ -1,0 +1,105 @@
+"""The surveillance graph description (config/graph.yaml + config/surveillance.yaml), no rclpy.
+
+One place defines which nodes run, their names, remappings and parameters; the demo runner turns
+it into processes started from the install space, the launch file into launch_ros Node actions.
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+
+@dataclass(frozen=True)
+class NodeSpec:
+    package: str
+    executable: str
+    name: str
+    remappings: dict[str, str] = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class TopicSpec:
+    name: str
+    type: str  # e.g. "sensor_msgs/msg/Image"
+
+
+@dataclass(frozen=True)
+class Graph:
+    nodes: list[NodeSpec]
+    topics: list[TopicSpec]
+    params_file: Path
+
+    def node(self, name: str) -> NodeSpec:
+        for node in self.nodes:
+            if node.name == name:
+                return node
+        raise KeyError(f"no node '{name}' in the graph")
+
+
+def config_dir() -> Path:
+    """The package's config/ directory: the install share/ when built, else the source tree."""
+    try:
+        from ament_index_python.packages import get_package_share_directory
+
+        share = Path(get_package_share_directory("tracker_ptz_sim")) / "config"
+        if share.is_dir():
+            return share
+    except (ImportError, LookupError, ValueError):
+        pass
+    return Path(__file__).resolve().parents[1] / "config"
+
+
+def load_graph(directory: Path | None = None) -> Graph:
+    directory = directory or config_dir()
+    data = yaml.safe_load((directory / "graph.yaml").read_text())
+    nodes = [
+        NodeSpec(n["package"], n["executable"], n["name"], dict(n.get("remappings") or {}))
+        for n in data["nodes"]
+    ]
+    topics = [TopicSpec(t["name"], t["type"]) for t in data["topics"]]
+    return Graph(nodes, topics, directory / "surveillance.yaml")
+
+
+def node_parameters(params_file: Path, node_name: str) -> dict[str, Any]:
+    """The parameters a ROS params file gives `node_name` (its `/**` section, then its own)."""
+    data = yaml.safe_load(params_file.read_text()) or {}
+    merged: dict[str, Any] = {}
+    for key in ("/**", node_name, "/" + node_name):
+        merged.update((data.get(key) or {}).get("ros__parameters", {}))
+    return merged
+
+
+def ros_args(
+    node: NodeSpec, params_file: Path, overrides: dict[str, Any] | None = None
+) -> list[str]:
+    """The `--ros-args ...` of one node process: name, params file, overrides, remappings."""
+    args = ["--ros-args", "-r", f"__node:={node.name}", "--params-file", str(params_file)]
+    for key, value in (overrides or {}).items():
+        args += ["-p", f"{key}:={format_value(value)}"]
+    for source, target in node.remappings.items():
+        args += ["-r", f"{source}:={target}"]
+    return args
+
+
+def format_value(value: Any) -> str:
+    """A parameter value as the command line's YAML expects it."""
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, list | tuple):
+        return "[" + ",".join(format_value(v) for v in value) + "]"
+    if isinstance(value, str):
+        return yaml.safe_dump(value, default_style='"').strip() if value == "" else value
+    return str(value)
+
+
+def executable_path(install_dir: Path, node: NodeSpec) -> Path:
+    """install/<package>/lib/<package>/<executable>, what `ros2 run` executes."""
+    path = install_dir / node.package / "lib" / node.package / node.executable
+    if not os.access(path, os.X_OK):
+        raise FileNotFoundError(f"{path} is missing: build the workspace first (make setup)")
+    return path

@@ -1,0 +1,79 @@
+"""rosbag2 recording and reading of the suite's topics with `rosbags` (no rclpy).
+
+The bags are ordinary rosbag2 (MCAP by default) with the message definitions embedded, so
+`ros2 bag play`, Foxglove and our video_source read them.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from functools import cache
+from pathlib import Path
+from typing import Any
+
+from rosbags.rosbag2 import Reader, StoragePlugin, Writer
+from rosbags.typesys import Stores, get_types_from_msg, get_typestore
+from rosbags.typesys.store import Typestore
+
+
+def _msg_dir() -> Path:
+    """tracker_msgs' .msg files: the installed share/ when built, else the source tree."""
+    try:
+        from ament_index_python.packages import get_package_share_directory
+
+        installed = Path(get_package_share_directory("tracker_msgs")) / "msg"
+        if installed.is_dir():
+            return installed
+    except (ImportError, LookupError, ValueError):
+        pass
+    return Path(__file__).resolve().parents[2] / "tracker_msgs" / "msg"
+
+
+@cache
+def typestore() -> Typestore:
+    """ROS 2 Jazzy's standard types plus tracker_msgs."""
+    store = get_typestore(Stores.ROS2_JAZZY)
+    types: dict[str, Any] = {}
+    for path in sorted(_msg_dir().glob("*.msg")):
+        types.update(get_types_from_msg(path.read_text(), f"tracker_msgs/msg/{path.stem}"))
+    store.register(types)
+    return store
+
+
+class BagWriter:
+    """Writes serialized (CDR) messages of known topics into a new rosbag2 directory."""
+
+    def __init__(self, path: Path, topics: dict[str, str], storage: str = "mcap") -> None:
+        if path.exists():
+            raise FileExistsError(f"{path} exists: remove it or choose another output")
+        plugin = StoragePlugin.MCAP if storage == "mcap" else StoragePlugin.SQLITE3
+        self.path = path
+        self._writer = Writer(path, version=9, storage_plugin=plugin)
+        self._writer.open()
+        store = typestore()
+        self._connections = {
+            topic: self._writer.add_connection(topic, msgtype, typestore=store)
+            for topic, msgtype in topics.items()
+        }
+        self.counts = dict.fromkeys(topics, 0)
+
+    def write(self, topic: str, stamp_ns: int, data: bytes) -> None:
+        self._writer.write(self._connections[topic], stamp_ns, data)
+        self.counts[topic] += 1
+
+    def close(self) -> None:
+        self._writer.close()
+
+
+def read_bag(path: Path, topics: set[str] | None = None) -> Iterator[tuple[str, int, Any]]:
+    """(topic, receive time ns, deserialized message) for every message, in time order."""
+    store = typestore()
+    with Reader(path) as reader:
+        connections = [c for c in reader.connections if topics is None or c.topic in topics]
+        for connection, timestamp, data in reader.messages(connections=connections):
+            yield connection.topic, timestamp, store.deserialize_cdr(data, connection.msgtype)
+
+
+def topic_counts(path: Path) -> dict[str, int]:
+    with Reader(path) as reader:
+        return {c.topic: c.msgcount for c in reader.connections}

@@ -1,0 +1,314 @@
+"""What a recorded run produced, read back from its bag (no rclpy): the annotated video, the tracks
+in MOTChallenge format, and the summary (frames, throughput, per-hop latency, lock share, centring).
+
+Latencies come from the recorder's receive times of the messages that share one image stamp, so
+they measure the graph as a user sees it (serialization, DDS and each node's processing).
+"""
+
+from __future__ import annotations
+
+import json
+from collections import defaultdict
+from collections.abc import Callable
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Any
+
+import cv2
+import numpy as np
+
+from tracker_ptz_sim.recording import read_bag
+
+SCENE, CAMERA = "/scene/image_raw", "/camera/image_raw"
+STATE, DETECTIONS, TRACKS, TARGET, COMMAND = (
+    "/ptz/state",
+    "/detections",
+    "/tracks",
+    "/target",
+    "/ptz/command",
+)
+# Hops of one frame through the graph, as (name, from topic, to topic).
+HOPS = [
+    ("video_source -> ptz_camera", SCENE, CAMERA),
+    ("ptz_camera -> ssim_detector", CAMERA, DETECTIONS),
+    ("ssim_detector -> tracker", DETECTIONS, TARGET),
+    ("tracker -> ptz_controller", TARGET, COMMAND),
+    ("camera image -> command", CAMERA, COMMAND),
+]
+CONFIRMED_STATUSES = (1, 2)  # Track.STATUS_CONFIRMED, STATUS_COASTING
+
+
+def stamp_ns(msg: Any) -> int:
+    return int(msg.header.stamp.sec) * 1_000_000_000 + int(msg.header.stamp.nanosec)
+
+
+@dataclass
+class FrameRecord:
+    """Everything the graph said about one camera image."""
+
+    stamp: int
+    received: dict[str, int] = field(default_factory=dict)  # topic -> receive time ns
+    state: Any = None
+    detections: Any = None
+    tracks: Any = None
+    target: Any = None
+    command: Any = None
+
+
+@dataclass
+class Summary:
+    frames: int
+    duration_s: float
+    throughput_fps: float
+    latency_ms: dict[str, dict[str, float]]
+    locked_share: float
+    mean_center_distance_px: float | None
+    mean_center_distance_share: float | None  # of the view width
+    tracks_seen: int
+    messages: dict[str, int]
+
+
+def collect(bag: Path) -> dict[int, FrameRecord]:
+    """Per image stamp: the non-image messages, and every topic's receive time."""
+    frames: dict[int, FrameRecord] = {}
+    slots = {
+        STATE: "state",
+        DETECTIONS: "detections",
+        TRACKS: "tracks",
+        TARGET: "target",
+        COMMAND: "command",
+    }
+    for topic, received, msg in read_bag(bag, {SCENE, CAMERA, *slots}):
+        stamp = stamp_ns(msg)
+        record = frames.setdefault(stamp, FrameRecord(stamp))
+        record.received.setdefault(topic, received)
+        if topic in slots:
+            setattr(record, slots[topic], msg)
+    return dict(sorted(frames.items()))
+
+
+def summarize(frames: dict[int, FrameRecord], message_counts: dict[str, int]) -> Summary:
+    scene_times = sorted(r.received[SCENE] for r in frames.values() if SCENE in r.received)
+    count = len(scene_times)
+    duration = (scene_times[-1] - scene_times[0]) / 1e9 if count > 1 else 0.0
+    latency = {}
+    for name, source, sink in HOPS:
+        values = [
+            (r.received[sink] - r.received[source]) / 1e6
+            for r in frames.values()
+            if source in r.received and sink in r.received
+        ]
+        if values:
+            latency[name] = {
+                "p50": float(np.percentile(values, 50)),
+                "p95": float(np.percentile(values, 95)),
+                "max": float(np.max(values)),
+            }
+    locked = [r for r in frames.values() if r.target is not None and r.target.locked]
+    with_state = [r for r in frames.values() if r.target is not None]
+    distances, shares = [], []
+    for record in locked:
+        if record.state is None:
+            continue
+        window = record.state.window
+        cx, cy = window.x + window.width / 2, window.y + window.height / 2
+        distance = float(np.hypot(record.target.track.x - cx, record.target.track.y - cy))
+        distances.append(distance)
+        shares.append(distance / window.width)
+    track_ids = {
+        t.id
+        for r in frames.values()
+        if r.tracks is not None
+        for t in r.tracks.tracks
+        if t.status in CONFIRMED_STATUSES
+    }
+    return Summary(
+        frames=count,
+        duration_s=duration,
+        throughput_fps=(count - 1) / duration if duration > 0 else 0.0,
+        latency_ms=latency,
+        locked_share=len(locked) / len(with_state) if with_state else 0.0,
+        mean_center_distance_px=float(np.mean(distances)) if distances else None,
+        mean_center_distance_share=float(np.mean(shares)) if shares else None,
+        tracks_seen=len(track_ids),
+        messages=message_counts,
+    )
+
+
+def stream_fps(frames: dict[int, FrameRecord], default: float = 10.0) -> float:
+    """The recording's frame rate, from the median spacing of the image stamps."""
+    stamps = list(frames)
+    if len(stamps) < 2:
+        return default
+    spacing = float(np.median(np.diff(stamps))) / 1e9
+    return 1.0 / spacing if spacing > 0 else default
+
+
+def write_mot(frames: dict[int, FrameRecord], path: Path) -> int:
+    """Confirmed and coasting tracks in MOTChallenge format (frame numbers from 1 in stamp order)."""
+    lines = []
+    for number, record in enumerate(frames.values(), start=1):
+        if record.tracks is None:
+            continue
+        for track in record.tracks.tracks:
+            if track.status not in CONFIRMED_STATUSES:
+                continue
+            box = track.bbox
+            lines.append(
+                f"{number},{track.id},{box.x:.2f},{box.y:.2f},{box.width:.2f},{box.height:.2f},"
+                f"{track.existence:.3f},-1,-1,-1"
+            )
+    path.write_text("\n".join(lines) + ("\n" if lines else ""))
+    return len(lines)
+
+
+def render_video(
+    bag: Path,
+    frames: dict[int, FrameRecord],
+    path: Path,
+    fps: float,
+    progress: Callable[[int], None] | None = None,
+) -> int:
+    """The annotated run: the scene with window, blobs, tracks and target; the camera view beside."""
+    writer = None
+    written = 0
+    cameras: dict[int, np.ndarray] = {}
+    try:
+        for topic, _, msg in read_bag(bag, {SCENE, CAMERA}):
+            stamp = stamp_ns(msg)
+            if topic == CAMERA:
+                cameras[stamp] = image_of(msg)
+                continue
+            record = frames.get(stamp)
+            canvas = annotate_scene(image_of(msg), record)
+            canvas = side_by_side(canvas, annotate_view(cameras.pop(stamp, None), canvas.shape[0]))
+            if writer is None:
+                writer = cv2.VideoWriter(
+                    str(path),
+                    cv2.VideoWriter_fourcc(*"mp4v"),
+                    fps,
+                    (canvas.shape[1], canvas.shape[0]),
+                )
+                if not writer.isOpened():
+                    raise OSError(f"OpenCV cannot write {path}")
+            writer.write(canvas)
+            written += 1
+            if progress:
+                progress(written)
+            for old in [s for s in cameras if s < stamp]:
+                del cameras[old]
+    finally:
+        if writer is not None:
+            writer.release()
+    return written
+
+
+def image_of(msg: Any) -> np.ndarray:
+    """A rosbags-deserialized sensor_msgs/Image as BGR."""
+    channels = 1 if msg.encoding == "mono8" else 3
+    rows = np.asarray(msg.data, dtype=np.uint8).reshape(msg.height, msg.step)
+    pixels = rows[:, : msg.width * channels].reshape(msg.height, msg.width, channels)
+    if msg.encoding == "rgb8":
+        return np.ascontiguousarray(pixels[:, :, ::-1])
+    if channels == 1:
+        return cv2.cvtColor(pixels, cv2.COLOR_GRAY2BGR)
+    return pixels.copy()
+
+
+def annotate_scene(image: np.ndarray, record: FrameRecord | None) -> np.ndarray:
+    """Outside the camera window greyed (as the seed shows it); window, blobs, tracks, target drawn."""
+    if record is None or record.state is None:
+        return image
+    window = record.state.window
+    x0, y0 = int(round(window.x)), int(round(window.y))
+    x1, y1 = int(round(window.x + window.width)), int(round(window.y + window.height))
+    grey = cv2.cvtColor(cv2.cvtColor(image, cv2.COLOR_BGR2GRAY), cv2.COLOR_GRAY2BGR)
+    canvas = (grey * 0.6).astype(np.uint8)
+    canvas[y0:y1, x0:x1] = image[y0:y1, x0:x1]
+    cv2.rectangle(canvas, (x0, y0), (x1 - 1, y1 - 1), (0, 200, 0), 2)
+    if record.detections is not None:
+        for blob in record.detections.blobs:
+            b = blob.bbox
+            cv2.rectangle(canvas, _pt(b.x, b.y), _pt(b.x + b.width, b.y + b.height), (0, 0, 255), 1)
+    target_id = (
+        record.target.track.id if record.target is not None and record.target.locked else None
+    )
+    if record.tracks is not None:
+        for track in record.tracks.tracks:
+            color = _track_color(track.id)
+            b = track.bbox
+            thick = 3 if track.id == target_id else 1
+            cv2.rectangle(canvas, _pt(b.x, b.y), _pt(b.x + b.width, b.y + b.height), color, thick)
+            cv2.putText(
+                canvas, f"#{track.id}", _pt(b.x, b.y - 4), cv2.FONT_HERSHEY_SIMPLEX, 0.5, color, 1
+            )
+    if target_id is not None:
+        target = record.target
+        cv2.circle(canvas, _pt(target.track.x, target.track.y), 6, (0, 255, 255), 2)
+        cv2.drawMarker(
+            canvas,
+            _pt(target.predicted_x, target.predicted_y),
+            (255, 255, 0),
+            cv2.MARKER_CROSS,
+            12,
+            2,
+        )
+    return canvas
+
+
+def annotate_view(view: np.ndarray | None, height: int) -> np.ndarray:
+    if view is None:
+        return np.zeros((height, height, 3), np.uint8)
+    scale = height / view.shape[0]
+    return cv2.resize(
+        view, (int(round(view.shape[1] * scale)), height), interpolation=cv2.INTER_NEAREST
+    )
+
+
+def side_by_side(left: np.ndarray, right: np.ndarray) -> np.ndarray:
+    return np.hstack([left, np.full((left.shape[0], 4, 3), 255, np.uint8), right])
+
+
+def _pt(x: float, y: float) -> tuple[int, int]:
+    return (int(round(x)), int(round(y)))
+
+
+def _track_color(track_id: int) -> tuple[int, int, int]:
+    hue = (track_id * 47) % 180
+    color = cv2.cvtColor(np.uint8([[[hue, 220, 255]]]), cv2.COLOR_HSV2BGR)[0, 0]
+    return (int(color[0]), int(color[1]), int(color[2]))
+
+
+def format_summary(summary: Summary) -> str:
+    """The summary as the table the demo prints."""
+    rows = [
+        ("frames", f"{summary.frames}"),
+        ("wall time", f"{summary.duration_s:.1f} s"),
+        ("throughput", f"{summary.throughput_fps:.1f} frames/s"),
+        ("target locked", f"{100 * summary.locked_share:.1f} % of frames"),
+    ]
+    if summary.mean_center_distance_px is not None:
+        rows.append(
+            (
+                "target from view centre",
+                f"{summary.mean_center_distance_px:.1f} px "
+                f"({100 * summary.mean_center_distance_share:.1f} % of view width)",
+            )
+        )
+    rows.append(("confirmed tracks", f"{summary.tracks_seen}"))
+    for hop, stats in summary.latency_ms.items():
+        rows.append((f"latency {hop}", f"p50 {stats['p50']:.1f} ms, p95 {stats['p95']:.1f} ms"))
+    width = max(len(name) for name, _ in rows)
+    return "\n".join(f"  {name:<{width}}  {value}" for name, value in rows)
+
+
+def write_summary(summary: Summary, path: Path) -> None:
+    path.write_text(json.dumps(asdict(summary), indent=2) + "\n")
+
+
+def message_counts(frames: dict[int, FrameRecord]) -> dict[str, int]:
+    counts: dict[str, int] = defaultdict(int)
+    for record in frames.values():
+        for topic in record.received:
+            counts[topic] += 1
+    return dict(counts)
