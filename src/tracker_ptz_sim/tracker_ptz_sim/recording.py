@@ -40,6 +40,24 @@ def typestore() -> Typestore:
     return store
 
 
+IMAGE_TYPES = {"sensor_msgs/msg/Image", "sensor_msgs/msg/CompressedImage"}
+
+
+def exact_cdr(data: bytes, msgtype: str) -> bytes:
+    """`data` cut to the length of the message it encodes.
+
+    Fast CDR (rclpy, Fast DDS) over-allocates some messages with empty strings and ships the
+    unused tail; rosbags, like other strict readers, rejects such a message. Images never need
+    this, and are skipped because decoding them costs time.
+    """
+    store = typestore()
+    msgdef = store.get_msgdef(msgtype)
+    little_endian = len(data) > 1 and bool(data[1])
+    decode = msgdef.deserialize_cdr_le if little_endian else msgdef.deserialize_cdr_be
+    _, end = decode(memoryview(data)[4:], 0, msgdef.cls, store)
+    return bytes(data[: 4 + end])
+
+
 class BagWriter:
     """Writes serialized (CDR) messages of known topics into a new rosbag2 directory."""
 
@@ -58,7 +76,10 @@ class BagWriter:
         self.counts = dict.fromkeys(topics, 0)
 
     def write(self, topic: str, stamp_ns: int, data: bytes) -> None:
-        self._writer.write(self._connections[topic], stamp_ns, data)
+        connection = self._connections[topic]
+        if connection.msgtype not in IMAGE_TYPES:
+            data = exact_cdr(data, connection.msgtype)
+        self._writer.write(connection, stamp_ns, data)
         self.counts[topic] += 1
 
     def close(self) -> None:

@@ -1,0 +1,188 @@
+"""The demo's recording and report: bag round trip, summary figures, MOT file, annotated video."""
+
+from __future__ import annotations
+
+import json
+
+import cv2
+import numpy as np
+import pytest
+
+pytestmark = pytest.mark.ros
+
+FRAMES = 6
+MS = 1_000_000
+
+
+def _messages(k: int):
+    from tracker_msgs.msg import Blob, BlobArray, PtzCommand, PtzState, Target, Track, TrackArray
+    from tracker_msgs_py.conversions import array_to_image, ns_to_stamp, rect_to_msg
+    from tracker_msgs_py.geometry import Rect
+
+    stamp = ns_to_stamp((k + 1) * 100 * MS)
+    scene = np.full((60, 80, 3), 40 + 10 * k, np.uint8)
+    view = scene[10:40, 20:50].copy()
+    state = PtzState(
+        pan=0.0, tilt=0.0, zoom=1.0, focal_length=100.0, window=rect_to_msg(Rect(20, 10, 30, 30))
+    )
+    state.header.stamp = stamp
+    blobs = BlobArray(
+        blobs=[
+            Blob(centroid_x=30.0, centroid_y=20.0, bbox=rect_to_msg(Rect(28, 18, 4, 4)), area=16)
+        ]
+    )
+    blobs.header.stamp = stamp
+    track = Track(
+        id=7,
+        status=Track.STATUS_CONFIRMED if k >= 2 else Track.STATUS_TENTATIVE,
+        x=35.0 + k,
+        y=25.0,
+        bbox=rect_to_msg(Rect(33 + k, 23, 4, 4)),
+        existence=1.0,
+    )
+    tracks = TrackArray(tracks=[track])
+    tracks.header.stamp = stamp
+    target = Target(locked=k >= 2, track=track, predicted_x=36.0 + k, predicted_y=25.0)
+    target.header.stamp = stamp
+    command = PtzCommand(mode=PtzCommand.MODE_HOLD)
+    command.header.stamp = stamp
+    return stamp, [
+        ("/scene/image_raw", 0, array_to_image(scene, "bgr8", stamp, "scene")),
+        ("/camera/image_raw", 2, array_to_image(view, "bgr8", stamp, "cam")),
+        ("/ptz/state", 3, state),
+        ("/detections", 6, blobs),
+        ("/tracks", 8, tracks),
+        ("/target", 8, target),
+        ("/ptz/command", 9, command),
+    ]
+
+
+@pytest.fixture(scope="module")
+def bag(tmp_path_factory):
+    from rclpy.serialization import serialize_message
+
+    from tracker_ptz_sim.graph import load_graph
+    from tracker_ptz_sim.recording import BagWriter
+
+    path = tmp_path_factory.mktemp("run") / "bag"
+    writer = BagWriter(path, {t.name: t.type for t in load_graph().topics})
+    for k in range(FRAMES):
+        _, messages = _messages(k)
+        for topic, offset_ms, msg in messages:
+            writer.write(topic, (k * 50 + offset_ms) * MS, serialize_message(msg))
+    writer.close()
+    return path
+
+
+def test_bag_round_trips_every_type(bag):
+    from tracker_ptz_sim.recording import read_bag, topic_counts
+
+    counts = topic_counts(bag)
+    assert counts["/scene/image_raw"] == FRAMES and counts["/target"] == FRAMES
+    targets = [msg for topic, _, msg in read_bag(bag, {"/target"})]
+    assert [t.locked for t in targets] == [k >= 2 for k in range(FRAMES)]
+    assert targets[3].track.id == 7 and targets[3].predicted_x == 39.0
+
+
+def test_summary_figures(bag):
+    from tracker_ptz_sim import run_report
+
+    frames = run_report.collect(bag)
+    summary = run_report.summarize(frames, run_report.message_counts(frames))
+    assert summary.frames == FRAMES
+    assert summary.throughput_fps == pytest.approx(20.0)  # scene images received every 50 ms
+    assert summary.latency_ms["video_source -> ptz_camera"]["p50"] == pytest.approx(2.0)
+    assert summary.latency_ms["camera image -> command"]["p95"] == pytest.approx(7.0)
+    assert summary.locked_share == pytest.approx(4 / 6)
+    # The target is at x = 35 + k, y = 25 against the view centre (35, 25): distances 2, 3, 4, 5.
+    assert summary.mean_center_distance_px == pytest.approx(3.5)
+    assert summary.mean_center_distance_share == pytest.approx(3.5 / 30)
+    assert summary.tracks_seen == 1
+    assert run_report.stream_fps(frames) == pytest.approx(10.0)
+    assert "throughput" in run_report.format_summary(summary)
+
+
+def test_mot_file_lists_confirmed_tracks(bag, tmp_path):
+    from tracker_ptz_sim import run_report
+
+    frames = run_report.collect(bag)
+    path = tmp_path / "tracks.txt"
+    assert run_report.write_mot(frames, path) == FRAMES - 2
+    rows = [line.split(",") for line in path.read_text().splitlines()]
+    assert [int(r[0]) for r in rows] == [3, 4, 5, 6]
+    assert {int(r[1]) for r in rows} == {7}
+    assert [float(r[2]) for r in rows] == [35.0, 36.0, 37.0, 38.0]
+
+
+def test_annotated_video_has_every_frame(bag, tmp_path):
+    from tracker_ptz_sim import run_report
+
+    frames = run_report.collect(bag)
+    path = tmp_path / "annotated.mp4"
+    assert run_report.render_video(bag, frames, path, 10.0) == FRAMES
+    capture = cv2.VideoCapture(str(path))
+    assert int(capture.get(cv2.CAP_PROP_FRAME_COUNT)) == FRAMES
+    ok, image = capture.read()
+    assert ok and image.shape[1] > 80  # scene plus the camera view beside it
+    summary = run_report.summarize(frames, {})
+    run_report.write_summary(summary, tmp_path / "summary.json")
+    assert json.loads((tmp_path / "summary.json").read_text())["frames"] == FRAMES
+
+
+def test_graph_description_is_consistent():
+    from tracker_ptz_sim.graph import format_value, load_graph, node_parameters, ros_args
+
+    graph = load_graph()
+    names = [n.name for n in graph.nodes]
+    assert names == ["video_source", "ptz_camera", "ssim_detector", "tracker", "ptz_controller"]
+    assert graph.params_file.exists()
+    for name in names:
+        assert node_parameters(graph.params_file, name).get("use_sim_time") is True
+    args = ros_args(
+        graph.node("tracker"), graph.params_file, {"lead_time": 0.2, "flag": False, "topic": ""}
+    )
+    assert args[:3] == ["--ros-args", "-r", "__node:=tracker"]
+    assert "lead_time:=0.2" in args and "flag:=false" in args and 'topic:=""' in args
+    assert format_value([1.0, 2.0]) == "[1.0,2.0]"
+
+
+def test_launch_file_builds_the_same_graph(monkeypatch):
+    """The launch file (for real installs) starts exactly the graph's nodes with its parameters."""
+    import importlib.util
+    import sys
+    import types
+    from pathlib import Path
+
+    created = []
+    launch = types.ModuleType("launch")
+    launch.LaunchDescription = lambda entities: entities
+    actions = types.ModuleType("launch.actions")
+    actions.DeclareLaunchArgument = lambda name, **kw: ("arg", name)
+    substitutions = types.ModuleType("launch.substitutions")
+    substitutions.LaunchConfiguration = lambda name: f"$({name})"
+    launch_ros_actions = types.ModuleType("launch_ros.actions")
+    launch_ros_actions.Node = lambda **kw: created.append(kw) or kw
+    for name, module in {
+        "launch": launch,
+        "launch.actions": actions,
+        "launch.substitutions": substitutions,
+        "launch_ros": types.ModuleType("launch_ros"),
+        "launch_ros.actions": launch_ros_actions,
+    }.items():
+        monkeypatch.setitem(sys.modules, name, module)
+    path = Path(__file__).resolve().parents[2] / "src/tracker_ptz_sim/launch/surveillance.launch.py"
+    spec = importlib.util.spec_from_file_location("surveillance_launch", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    entities = module.generate_launch_description()
+    assert ("arg", "video") in entities
+    assert [n["name"] for n in created] == [
+        "video_source",
+        "ptz_camera",
+        "ssim_detector",
+        "tracker",
+        "ptz_controller",
+    ]
+    source = created[0]
+    assert source["parameters"][1] == {"path": "$(video)"}
+    assert source["parameters"][0].endswith("surveillance.yaml")
