@@ -28,6 +28,7 @@ setup(
         "console_scripts": [
             "ptz_controller = tracker_ptz_sim.ptz_controller_node:main",
             "run_demo = tracker_ptz_sim.demo:main",
+            "evaluate = tracker_ptz_sim.evaluate:main",
         ],
     },
 )

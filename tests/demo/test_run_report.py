@@ -19,7 +19,7 @@ def _messages(k: int):
     from tracker_msgs_py.conversions import array_to_image, ns_to_stamp, rect_to_msg
     from tracker_msgs_py.geometry import Rect
 
-    stamp = ns_to_stamp((k + 1) * 100 * MS)
+    stamp = ns_to_stamp(k * 100 * MS)  # frame k of a 10 fps recording
     scene = np.full((60, 80, 3), 40 + 10 * k, np.uint8)
     view = scene[10:40, 20:50].copy()
     state = PtzState(

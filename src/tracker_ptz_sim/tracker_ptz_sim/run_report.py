@@ -144,10 +144,26 @@ def stream_fps(frames: dict[int, FrameRecord], default: float = 10.0) -> float:
     return 1.0 / spacing if spacing > 0 else default
 
 
+def frame_numbers(frames: dict[int, FrameRecord]) -> dict[int, int]:
+    """MOTChallenge frame number (from 1) of each stamp.
+
+    Replays of video files stamp frame i at i / fps, so the number is recovered from the stamp and
+    frames the graph skipped keep their place; other stamps (bags) are numbered in order.
+    """
+    stamps = list(frames)
+    fps = stream_fps(frames)
+    indices = [s * fps / 1e9 for s in stamps]
+    if all(abs(i - round(i)) < 0.01 for i in indices):
+        return {s: int(round(i)) + 1 for s, i in zip(stamps, indices, strict=True)}
+    return {s: n for n, s in enumerate(stamps, start=1)}
+
+
 def write_mot(frames: dict[int, FrameRecord], path: Path) -> int:
-    """Confirmed and coasting tracks in MOTChallenge format (frame numbers from 1 in stamp order)."""
+    """Confirmed and coasting tracks in MOTChallenge format."""
     lines = []
-    for number, record in enumerate(frames.values(), start=1):
+    numbers = frame_numbers(frames)
+    for stamp, record in frames.items():
+        number = numbers[stamp]
         if record.tracks is None:
             continue
         for track in record.tracks.tracks:

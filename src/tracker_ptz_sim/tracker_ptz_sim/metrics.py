@@ -1,0 +1,154 @@
+"""Accuracy of a run against ground truth (no rclpy): CLEAR MOT and IDF1 through motmetrics, and the
+pan-tilt figures (how often the followed target is inside the view, how well it is centred).
+
+Boxes are MOTChallenge rows: frame (1-based), id, x, y, width, height in scene pixels.
+"""
+
+from __future__ import annotations
+
+from collections import Counter
+from dataclasses import dataclass
+from pathlib import Path
+
+import motmetrics
+import numpy as np
+
+from tracker_msgs_py.geometry import Rect
+
+Boxes = dict[int, dict[int, Rect]]  # frame -> id -> box
+
+
+def load_mot(path: Path) -> Boxes:
+    """A MOTChallenge file (gt.txt or a tracker's output) as boxes per frame; rows with conf 0
+    (MOTChallenge's "ignore") are skipped."""
+    boxes: Boxes = {}
+    text = path.read_text().strip()
+    if not text:
+        return boxes
+    for number, line in enumerate(text.splitlines(), start=1):
+        fields = line.split(",")
+        if len(fields) < 6:
+            raise ValueError(f"{path}:{number}: expected at least 6 comma-separated fields")
+        frame, object_id = int(float(fields[0])), int(float(fields[1]))
+        if len(fields) > 6 and float(fields[6]) == 0.0 and path.name == "gt.txt":
+            continue
+        x, y, w, h = (float(v) for v in fields[2:6])
+        boxes.setdefault(frame, {})[object_id] = Rect(x, y, w, h)
+    return boxes
+
+
+def in_view(boxes: Boxes, windows: dict[int, Rect]) -> Boxes:
+    """The boxes whose centre lies inside that frame's camera window (what the camera could see)."""
+    return {
+        frame: {i: b for i, b in frame_boxes.items() if windows[frame].contains(*b.center)}
+        for frame, frame_boxes in boxes.items()
+        if frame in windows
+    }
+
+
+@dataclass(frozen=True)
+class MotScores:
+    mota: float
+    motp: float  # mean IoU distance (1 - IoU) of matches, as motmetrics reports it
+    idf1: float
+    id_switches: int
+    recall: float
+    precision: float
+    frames: int
+
+
+def clear_mot(
+    truth: Boxes, hypotheses: Boxes, frames: list[int], max_iou_distance: float = 0.5
+) -> MotScores:
+    """CLEAR MOT and IDF1 of `hypotheses` against `truth` over `frames`."""
+    accumulator = motmetrics.MOTAccumulator(auto_id=False)
+    for frame in frames:
+        truth_ids, truth_boxes = _columns(truth.get(frame, {}))
+        hyp_ids, hyp_boxes = _columns(hypotheses.get(frame, {}))
+        distances = iou_distances(truth_boxes, hyp_boxes, max_iou_distance)
+        accumulator.update(truth_ids, hyp_ids, distances, frameid=frame)
+    names = ["mota", "motp", "idf1", "num_switches", "recall", "precision", "num_frames"]
+    row = motmetrics.metrics.create().compute(accumulator, metrics=names).iloc[0]
+    return MotScores(
+        mota=float(row["mota"]),
+        motp=float(row["motp"]) if np.isfinite(row["motp"]) else float("nan"),
+        idf1=float(row["idf1"]),
+        id_switches=int(row["num_switches"]),
+        recall=float(row["recall"]),
+        precision=float(row["precision"]),
+        frames=int(row["num_frames"]),
+    )
+
+
+def iou_distances(truth: np.ndarray, hypotheses: np.ndarray, max_distance: float) -> np.ndarray:
+    """1 - IoU between (N, 4) and (M, 4) x, y, w, h boxes; NaN (no match) beyond `max_distance`.
+
+    motmetrics' own iou_matrix calls np.asfarray, which NumPy 2 removed.
+    """
+    t = np.asarray(truth, dtype=float)[:, None, :]
+    h = np.asarray(hypotheses, dtype=float)[None, :, :]
+    width = np.minimum(t[..., 0] + t[..., 2], h[..., 0] + h[..., 2]) - np.maximum(
+        t[..., 0], h[..., 0]
+    )
+    height = np.minimum(t[..., 1] + t[..., 3], h[..., 1] + h[..., 3]) - np.maximum(
+        t[..., 1], h[..., 1]
+    )
+    inter = np.clip(width, 0, None) * np.clip(height, 0, None)
+    union = t[..., 2] * t[..., 3] + h[..., 2] * h[..., 3] - inter
+    distance = 1.0 - np.divide(inter, union, out=np.zeros_like(inter), where=union > 0)
+    distance[distance > max_distance] = np.nan
+    return distance
+
+
+def _columns(boxes: dict[int, Rect]) -> tuple[list[int], np.ndarray]:
+    ids = sorted(boxes)
+    array = np.array([[b.x, b.y, b.width, b.height] for b in (boxes[i] for i in ids)], dtype=float)
+    return ids, array.reshape(-1, 4)
+
+
+@dataclass(frozen=True)
+class FollowScores:
+    followed_id: int | None  # the ground-truth object the camera followed most
+    frames_after_lock: int
+    inside_share: float  # frames after first lock with that object's centre inside the view
+    mean_center_error_px: float  # its distance from the view centre, frames inside the view
+    mean_center_error_share: float  # the same, as a share of the view width
+    first_lock_frame: int | None
+
+
+def follow_scores(
+    truth: Boxes, windows: dict[int, Rect], targets: dict[int, tuple[float, float]]
+) -> FollowScores:
+    """How well the camera kept the followed object in view.
+
+    `targets` holds the locked target's position per frame. The followed object is the one whose
+    box contains the target position most often; figures count every frame from the first lock on.
+    """
+    votes = Counter(
+        object_id
+        for frame, (x, y) in targets.items()
+        for object_id, box in truth.get(frame, {}).items()
+        if box.contains(x, y)
+    )
+    if not votes:
+        return FollowScores(None, 0, 0.0, float("nan"), float("nan"), None)
+    followed = votes.most_common(1)[0][0]
+    first_lock = min(targets)
+    frames = [f for f in sorted(windows) if f >= first_lock and followed in truth.get(f, {})]
+    inside, errors, shares = 0, [], []
+    for frame in frames:
+        window = windows[frame]
+        cx, cy = truth[frame][followed].center
+        if window.contains(cx, cy):
+            inside += 1
+            wx, wy = window.center
+            errors.append(float(np.hypot(cx - wx, cy - wy)))
+            shares.append(errors[-1] / window.width)
+    return FollowScores(
+        followed_id=followed,
+        frames_after_lock=len(frames),
+        inside_share=inside / len(frames) if frames else 0.0,
+        mean_center_error_px=float(np.mean(errors)) if errors else float("nan"),
+        mean_center_error_share=float(np.mean(shares)) if shares else float("nan"),
+        first_lock_frame=first_lock,
+    )

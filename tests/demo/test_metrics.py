@@ -1,0 +1,103 @@
+"""Evaluation metrics against hand-computed ground truth."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from tracker_msgs_py.geometry import Rect
+from tracker_ptz_sim.metrics import clear_mot, follow_scores, in_view, load_mot
+
+
+def _two_walkers(frames: int = 10):
+    return {
+        f: {1: Rect(10 + 5 * f, 20, 10, 20), 2: Rect(200 - 5 * f, 80, 10, 20)}
+        for f in range(1, frames + 1)
+    }
+
+
+def test_perfect_tracks_score_one():
+    truth = _two_walkers()
+    hypotheses = {f: {11: boxes[1], 12: boxes[2]} for f, boxes in truth.items()}
+    scores = clear_mot(truth, hypotheses, list(truth))
+    assert scores.mota == pytest.approx(1.0) and scores.idf1 == pytest.approx(1.0)
+    assert scores.id_switches == 0 and scores.motp == pytest.approx(0.0)
+    assert scores.frames == 10
+
+
+def test_an_identity_swap_counts_two_switches():
+    truth = _two_walkers()
+    hypotheses = {
+        f: ({11: b[1], 12: b[2]} if f <= 5 else {11: b[2], 12: b[1]}) for f, b in truth.items()
+    }
+    scores = clear_mot(truth, hypotheses, list(truth))
+    assert scores.id_switches == 2
+    assert scores.mota == pytest.approx(1.0 - 2 / 20)
+    assert scores.idf1 == pytest.approx(0.5)
+
+
+def test_misses_and_false_positives():
+    truth = _two_walkers()
+    hypotheses = {f: {11: b[1], 99: Rect(400, 400, 5, 5)} for f, b in truth.items()}
+    scores = clear_mot(truth, hypotheses, list(truth))
+    assert scores.recall == pytest.approx(0.5) and scores.precision == pytest.approx(0.5)
+    assert scores.mota == pytest.approx(1.0 - (10 + 10) / 20)
+
+
+def test_in_view_keeps_boxes_centred_in_the_window():
+    truth = _two_walkers(2)
+    windows = {1: Rect(0, 0, 100, 100), 2: Rect(150, 50, 100, 100)}
+    visible = in_view(truth, windows)
+    assert list(visible[1]) == [1] and list(visible[2]) == [2]
+
+
+def test_follow_scores():
+    truth = _two_walkers()
+    # The camera locks onto object 1 at frame 3 and keeps it 4 px off centre, loses it at frame 9.
+    windows = {f: Rect.from_center(*truth[f][1].center, 60, 60) for f in truth}
+    for f in windows:
+        windows[f] = Rect(windows[f].x + 4, windows[f].y, 60, 60)
+    windows[9] = windows[10] = Rect(300, 300, 60, 60)
+    targets = {f: truth[f][1].center for f in range(3, 9)}
+    scores = follow_scores(truth, windows, targets)
+    assert scores.followed_id == 1 and scores.first_lock_frame == 3
+    assert scores.frames_after_lock == 8
+    assert scores.inside_share == pytest.approx(6 / 8)
+    assert scores.mean_center_error_px == pytest.approx(4.0)
+    assert scores.mean_center_error_share == pytest.approx(4.0 / 60)
+
+
+def test_follow_scores_without_lock():
+    scores = follow_scores(_two_walkers(), {1: Rect(0, 0, 10, 10)}, {})
+    assert scores.followed_id is None and math.isnan(scores.mean_center_error_px)
+
+
+def test_load_mot_reads_gt_and_tracker_files(tmp_path):
+    gt = tmp_path / "gt.txt"
+    gt.write_text("1,1,10,20,30,40,1,1,1\n1,2,0,0,5,5,0,1,1\n2,1,11,20,30,40,1,1,0.5\n")
+    boxes = load_mot(gt)
+    assert boxes == {1: {1: Rect(10, 20, 30, 40)}, 2: {1: Rect(11, 20, 30, 40)}}  # conf 0 = ignore
+    tracks = tmp_path / "tracks.txt"
+    tracks.write_text("3,7,1.5,2.5,3,4,1.000,-1,-1,-1\n")
+    assert load_mot(tracks) == {3: {7: Rect(1.5, 2.5, 3, 4)}}
+    bad = tmp_path / "bad.txt"
+    bad.write_text("1,2,3\n")
+    with pytest.raises(ValueError, match="bad.txt:1"):
+        load_mot(bad)
+
+
+def test_iou_distances_match_rect_iou():
+    import numpy as np
+
+    from tracker_ptz_sim.metrics import iou_distances
+
+    a = [Rect(0, 0, 10, 10), Rect(50, 50, 4, 4)]
+    b = [Rect(5, 5, 10, 10), Rect(0, 0, 10, 10), Rect(100, 0, 1, 1)]
+    d = iou_distances(
+        np.array([[r.x, r.y, r.width, r.height] for r in a]),
+        np.array([[r.x, r.y, r.width, r.height] for r in b]),
+        max_distance=0.9,
+    )
+    assert d[0, 0] == pytest.approx(1 - a[0].iou(b[0])) and d[0, 1] == 0.0
+    assert np.isnan(d[0, 2]) and np.isnan(d[1]).all()
