@@ -21,6 +21,7 @@ import signal
 import subprocess
 import sys
 import time
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -130,6 +131,18 @@ class GraphProcesses:
                 codes[name] = process.wait()
         return codes
 
+    def cpu_seconds(self) -> dict[str, float]:
+        """CPU time (user + system) each running node has used so far, from /proc."""
+        ticks = os.sysconf("SC_CLK_TCK")
+        used = {}
+        for name, process in self.processes.items():
+            try:
+                fields = Path(f"/proc/{process.pid}/stat").read_text().rsplit(")", 1)[1].split()
+            except OSError:
+                continue
+            used[name] = (int(fields[11]) + int(fields[12])) / ticks  # utime, stime
+        return used
+
     def crashed(self) -> dict[str, int]:
         """Nodes that exited with an error (video_source exits 0 at the end of the stream)."""
         return {
@@ -164,6 +177,14 @@ class Progress:
             print(flush=True)
 
 
+@dataclass
+class RunResult:
+    bag: Path
+    exit_codes: dict[str, int]  # by node
+    cpu_seconds: dict[str, float]  # by node, plus "recorder" for this process
+    wall_seconds: float  # from the first frame published to the end of the stream
+
+
 def run_graph(
     graph: Graph,
     video: Path,
@@ -172,8 +193,8 @@ def run_graph(
     install_dir: Path,
     timeout: float,
     storage: str = "mcap",
-) -> tuple[Path, dict[str, int]]:
-    """Replay `video` through the graph, recording into out/bag; the bag path and exit codes."""
+) -> RunResult:
+    """Replay `video` through the graph, recording every topic into out/bag."""
     bag_path = out / "bag"
     if bag_path.exists():
         shutil.rmtree(bag_path)
@@ -182,7 +203,8 @@ def run_graph(
     recorder = Recorder(graph, bag)
     nodes = GraphProcesses(graph, install_dir, out / "logs")
     progress = Progress(f"replaying {video.name}")
-    codes: dict[str, int] = {}
+    cpu: dict[str, float] = {}
+    started = time.monotonic()
     try:
         source_overrides = {"path": str(video), **overrides.get("video_source", {})}
         for node in graph.nodes:
@@ -190,6 +212,8 @@ def run_graph(
                 nodes.start(node.name, overrides.get(node.name))
         _wait_for_graph(recorder, graph, nodes)
         source = nodes.start("video_source", source_overrides)
+        started = time.monotonic()
+        recorder_cpu = time.process_time()
         deadline = time.monotonic() + timeout
         while source.poll() is None and time.monotonic() < deadline:
             rclpy.spin_once(recorder, timeout_sec=0.05)
@@ -200,14 +224,16 @@ def run_graph(
                 raise RuntimeError(f"nodes crashed: {crashed}; see {out / 'logs'}")
         if source.poll() is None:
             raise TimeoutError(f"the replay did not finish within {timeout:.0f} s")
+        wall = time.monotonic() - started
         _drain(recorder, seconds=1.0)
         progress.done()
+        cpu = {**nodes.cpu_seconds(), "recorder": time.process_time() - recorder_cpu}
     finally:
         codes = nodes.stop_all()
         recorder.destroy_node()
         rclpy.try_shutdown()
         bag.close()
-    return bag_path, codes
+    return RunResult(bag_path, codes, cpu, wall)
 
 
 def _wait_for_graph(
@@ -288,13 +314,13 @@ def main(argv: list[str] | None = None) -> int:
         overrides.setdefault("ptz_controller", {})["mode"] = args.mode
     args.out.mkdir(parents=True, exist_ok=True)
     graph = load_graph()
-    bag, codes = run_graph(
-        graph, video, args.out, overrides, install_space(), args.timeout, args.storage
-    )
-    failed = {name: code for name, code in codes.items() if code != 0}
-    summary = report(bag, args.out, render=not args.no_video)
+    run = run_graph(graph, video, args.out, overrides, install_space(), args.timeout, args.storage)
+    failed = {name: code for name, code in run.exit_codes.items() if code != 0}
+    summary = report(run.bag, args.out, render=not args.no_video)
     print(f"\nRun summary ({video}):\n{run_report.format_summary(summary)}")
-    products = "bag/, tracks.txt, summary.json, logs/" + ("" if args.no_video else ", annotated.mp4")
+    products = "bag/, tracks.txt, summary.json, logs/" + (
+        "" if args.no_video else ", annotated.mp4"
+    )
     print(f"\nWrote {args.out}/: {products}")
     if failed:
         print(f"nodes exited with errors: {failed} (see {args.out}/logs)", file=sys.stderr)

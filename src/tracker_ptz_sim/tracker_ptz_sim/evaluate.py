@@ -130,10 +130,11 @@ def main(argv: list[str] | None = None) -> int:
         overrides = demo.parse_overrides(args.set)
         if args.mode:
             overrides.setdefault("ptz_controller", {})["mode"] = args.mode
-        bag, codes = demo.run_graph(
+        run = demo.run_graph(
             load_graph(), video, args.out, overrides, demo.install_space(), args.timeout
         )
-        failed = {name: code for name, code in codes.items() if code != 0}
+        bag = run.bag
+        failed = {name: code for name, code in run.exit_codes.items() if code != 0}
         if failed:
             print(f"nodes exited with errors: {failed} (see {args.out}/logs)")
             return 1
