@@ -1,0 +1,221 @@
+"""Benchmark of tracker_filter (area `filter`): the tracker's per-frame update cost.
+
+Run: python bench/bench_filter.py [--quick]   (or `make bench`). Prints a table and writes
+out/bench/filter.json. NumPy's BLAS is limited to one thread.
+
+- multi: TrackManager.step (predict, gate, Hungarian assignment, update, confirm, delete,
+  initiate, snapshot) with 50 targets + 10 clutter detections per frame in a 1920x1080 scene, after
+  a warm-up that confirms the 50 tracks; one row per filter; target <= 1 ms per frame (median).
+  The same step with one filterpy object per track (ObjectBank, the plug-in path for filters
+  without a vectorised bank) shows why the vectorised bank exists.
+- messages: converting that frame's TrackSet to a tracker_msgs/TrackArray (node side).
+- single: the seed's single-target mode (preset seed000 / seed000_kalman, largest of 3 blobs) per
+  frame, and one filter's predict + update alone.
+"""
+
+from __future__ import annotations
+
+import os
+
+for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_var, "1")
+
+import argparse  # noqa: E402
+import json  # noqa: E402
+import platform  # noqa: E402
+import statistics  # noqa: E402
+import sys  # noqa: E402
+import time  # noqa: E402
+from pathlib import Path  # noqa: E402
+
+import numpy as np  # noqa: E402
+
+ROOT = Path(__file__).resolve().parents[1]
+for _pkg in ("tracker_msgs", "tracker_filter"):
+    sys.path.insert(0, str(ROOT / "src" / _pkg))
+
+from tracker_filter.banks import ObjectBank  # noqa: E402
+from tracker_filter.config import TrackerConfig  # noqa: E402
+from tracker_filter.management import Detections, TrackManager, TrackStatus  # noqa: E402
+from tracker_filter.synthetic import bouncing_scene  # noqa: E402
+
+OUT = ROOT / "out" / "bench" / "filter.json"
+TARGET_MS = 1.0
+FILTERS = ("kalman_cv", "kalman_ca", "alpha_beta", "alpha_beta_gamma")
+
+
+class _PerTrackFactory:
+    """The filter config, but making an ObjectBank (one filterpy filter object per track)."""
+
+    def __init__(self, config):
+        self.config = config
+        self.state_layout = config.state_layout
+
+    def new_filter(self, z, t):
+        return self.config.new_filter(z, t)
+
+    def new_bank(self):
+        return ObjectBank(self.config.new_filter, self.state_layout)
+
+
+def timed_steps(tracker, frames, warmup: int) -> tuple[list[float], list]:
+    """Milliseconds per step after `warmup` frames, and the TrackSets of the timed frames."""
+    times, outputs = [], []
+    for k, frame in enumerate(frames):
+        start = time.perf_counter()
+        tracks = tracker.step(frame.time, frame.detections)
+        elapsed = time.perf_counter() - start
+        if k >= warmup:
+            times.append(1e3 * elapsed)
+            outputs.append(tracks)
+    return times, outputs
+
+
+def summary(times: list[float]) -> dict:
+    ordered = sorted(times)
+    return {
+        "median_ms": statistics.median(ordered),
+        "p95_ms": ordered[int(0.95 * (len(ordered) - 1))],
+        "mean_ms": statistics.fmean(ordered),
+    }
+
+
+def bench_multi(quick: bool) -> tuple[dict, list]:
+    warmup, measured = 30, (60 if quick else 400)
+    frames = bouncing_scene(
+        np.random.default_rng(0), targets=50, clutter=10, frames=warmup + measured
+    )
+    rows = {}
+    last_outputs = []
+    for kind in FILTERS:
+        tracker = TrackerConfig.preset("multi", filter=kind).build_tracker()
+        times, outputs = timed_steps(tracker, frames, warmup)
+        confirmed = [
+            int(np.isin(o.status, (TrackStatus.CONFIRMED, TrackStatus.COASTING)).sum())
+            for o in outputs
+        ]
+        rows[kind] = summary(times) | {
+            "tracks_per_frame": statistics.fmean(len(o) for o in outputs),
+            "confirmed_per_frame": statistics.fmean(confirmed),
+            "meets_target": statistics.median(times) <= TARGET_MS,
+        }
+        if kind == "kalman_cv":
+            last_outputs = outputs
+    config = TrackerConfig.preset("multi")
+    reference = config.build_tracker()
+    per_track = TrackManager(
+        _PerTrackFactory(config.filter),
+        reference.associator,
+        reference.initiator,
+        reference.confirmation,
+        reference.deleter,
+    )
+    short = frames[: warmup + min(measured, 60)]
+    times, outputs = timed_steps(per_track, short, warmup)
+    rows["kalman_cv_per_track_filterpy"] = summary(times) | {
+        "tracks_per_frame": statistics.fmean(len(o) for o in outputs)
+    }
+    return rows, last_outputs
+
+
+def bench_messages(outputs: list, quick: bool) -> dict:
+    try:
+        from std_msgs.msg import Header
+
+        from tracker_filter.tracker_node import tracks_to_msg
+    except ImportError as error:  # no ROS in this environment
+        return {"skipped": str(error)}
+    header = Header(frame_id="scene")
+    sample = outputs[: 20 if quick else 100]
+    times = []
+    for tracks in sample:
+        start = time.perf_counter()
+        tracks_to_msg(tracks, header)
+        times.append(1e3 * (time.perf_counter() - start))
+    return summary(times) | {"tracks_per_frame": statistics.fmean(len(t) for t in sample)}
+
+
+def bench_single(quick: bool) -> dict:
+    rng = np.random.default_rng(1)
+    count = 200 if quick else 2000
+    rows = {}
+    for preset in ("seed000", "seed000_kalman"):
+        tracker = TrackerConfig.preset(preset).build_tracker()
+        times = []
+        for k in range(count):
+            centre = np.array([160.0 + 40.0 * np.sin(k / 30.0), 120.0]) + rng.normal(size=2)
+            blobs = np.array([centre, rng.uniform(0, 320, 2), rng.uniform(0, 240, 2)])
+            detections = Detections(
+                blobs,
+                [400.0, 30.0, 20.0],
+                np.column_stack([blobs - 5, np.full((3, 2), 10.0)]),
+                np.zeros(3),
+            )
+            start = time.perf_counter()
+            tracker.step(k * 0.12, detections)
+            times.append(1e3 * (time.perf_counter() - start))
+        rows[f"{preset}_tracker_step"] = summary(times[10:])
+    for kind in FILTERS:
+        f = TrackerConfig.preset("multi", filter=kind).filter.new_filter(
+            np.array([160.0, 120.0]), 0.0
+        )
+        z = np.array([161.0, 120.5])
+        times = []
+        for k in range(1, count):
+            start = time.perf_counter()
+            f.predict(k * 0.12)
+            f.update(z + k)
+            times.append(1e3 * (time.perf_counter() - start))
+        rows[f"{kind}_filter_predict_update"] = summary(times)
+    return rows
+
+
+def print_table(title: str, rows: dict) -> None:
+    print(f"\n{title}")
+    print(f"  {'case':40s} {'median ms':>10s} {'p95 ms':>8s} {'tracks':>7s}")
+    for name, row in rows.items():
+        if "median_ms" not in row:
+            print(f"  {name:40s} {row}")
+            continue
+        tracks = f"{row['tracks_per_frame']:.1f}" if "tracks_per_frame" in row else ""
+        flag = (
+            ""
+            if "meets_target" not in row
+            else ("  ok" if row["meets_target"] else "  OVER TARGET")
+        )
+        print(f"  {name:40s} {row['median_ms']:10.3f} {row['p95_ms']:8.3f} {tracks:>7s}{flag}")
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--quick", action="store_true", help="fewer repetitions (smoke run)")
+    args = parser.parse_args()
+    multi, outputs = bench_multi(args.quick)
+    results = {
+        "area": "filter",
+        "machine": {
+            "python": platform.python_version(),
+            "processor": platform.processor() or platform.machine(),
+            "cpus": os.cpu_count(),
+        },
+        "target_ms": TARGET_MS,
+        "multi_50_targets_10_clutter": multi,
+        "track_array_message": bench_messages(outputs, args.quick),
+        "single_target": bench_single(args.quick),
+    }
+    print_table(
+        f"multi-target step, 50 targets + 10 clutter per frame (target <= {TARGET_MS} ms)", multi
+    )
+    print_table(
+        "TrackSet -> TrackArray message (node side)",
+        {"tracks_to_msg": results["track_array_message"]},
+    )
+    print_table("single target", results["single_target"])
+    OUT.parent.mkdir(parents=True, exist_ok=True)
+    OUT.write_text(json.dumps(results, indent=2) + "\n")
+    print(f"\nwrote {OUT.relative_to(ROOT)}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,243 @@
+"""The tracker's configuration: flat parameters (the node's ROS parameters), named presets, and
+validation into the objects of the core (no rclpy).
+
+Presets:
+- ``multi``: multi-target tracking with a constant-velocity Kalman filter (the default);
+- ``seed000``: seed 000's single-target tracker with its alpha-beta filter (alpha 0.6, Kalata beta):
+  largest detection only, one track, no gate, tracking from the first detection, reset after
+  4 consecutive misses, window on the current estimate (lead 0);
+- ``seed000_kalman``: the same with seed 000's Kalman filter. The seed used dt = 1.1 per processed
+  frame, sigma_a = 0.3, R = I, P0 = Q; processed frames are 3/25 s apart, so in seconds sigma_a =
+  0.3 (1.1 / 0.12)^2 px/s^2 and P0 = Q(0.12 s) give exactly the seed's positions.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any
+
+from tracker_filter.association import GatedHungarianAssociator
+from tracker_filter.filters import FilterConfig, FilterKind
+from tracker_filter.gains import GainRule, resolve_gains
+from tracker_filter.management import (
+    AllDetections,
+    CappedInitiator,
+    LargestDetection,
+    MissCountDeleter,
+    MofNConfirmation,
+    TrackManager,
+)
+from tracker_filter.selection import AUTOMATIC_POLICIES, SelectionPolicy, TargetSelector
+
+SEED_CYCLE = 3.0 / 25.0  # s between processed frames in seed 000 (every 3rd frame at 25 fps)
+SEED_DT = 1.1  # the prototype's dt per processed frame (digest section 3)
+SEED_SIGMA_A = 0.3  # the prototype's acceleration noise in px per (prototype time unit)^2
+
+
+def seed_process_noise(cycle: float = SEED_CYCLE) -> float:
+    """The seed's sigma_a expressed in px/s^2 for frames `cycle` seconds apart."""
+    return SEED_SIGMA_A * (SEED_DT / cycle) ** 2
+
+
+@dataclass(frozen=True)
+class ParamInfo:
+    """Documentation and constraints of one tracker parameter (the node turns these into ROS
+    parameter descriptors)."""
+
+    name: str
+    description: str
+    min: float | None = None
+    max: float | None = None
+    choices: tuple[str, ...] | None = None
+
+
+PARAMETERS: tuple[ParamInfo, ...] = (
+    ParamInfo("filter", "filter of every track", choices=tuple(k.value for k in FilterKind)),
+    ParamInfo("alpha", "alpha-beta(-gamma) position gain", 0.0, 2.0),
+    ParamInfo(
+        "gain_rule",
+        "how beta (and gamma) follow from alpha",
+        choices=tuple(r.value for r in GainRule),
+    ),
+    ParamInfo("beta", "velocity gain for gain_rule free", 0.0, 4.0),
+    ParamInfo("gamma", "acceleration gain for gain_rule free (a += 2 gamma r / dt^2)", 0.0, 4.0),
+    ParamInfo(
+        "startup_gains", "alpha-beta(-gamma): least-squares gains for a track's first measurements"
+    ),
+    ParamInfo("process_noise", "px/s^2 white acceleration (cv) or px/s^3 jerk (ca) std", 1e-6, 1e6),
+    ParamInfo("measurement_noise", "px, std of a detection centroid per axis", 1e-6, 1e4),
+    ParamInfo("initial_velocity_std", "px/s, velocity std of a new track", 1e-6, 1e6),
+    ParamInfo(
+        "initial_acceleration_std", "px/s^2, acceleration std of a new track (ca)", 1e-6, 1e6
+    ),
+    ParamInfo(
+        "initial_covariance",
+        "new-track covariance: from the stds, or Q(nominal_dt) (seed 000)",
+        choices=("stds", "process_noise"),
+    ),
+    ParamInfo("nominal_dt", "s, frame interval for initial_covariance process_noise", 1e-4, 10.0),
+    ParamInfo("gate_probability", "chi-square gate probability; 1 = no gate", 0.5, 1.0),
+    ParamInfo(
+        "measurements",
+        "detections used: all, or the largest only (seed 000)",
+        choices=("all", "largest"),
+    ),
+    ParamInfo("max_tracks", "most tracks at once", 1, 10000),
+    ParamInfo("confirm_hits", "M: hits needed to confirm a track", 1, 100),
+    ParamInfo("confirm_window", "N: frames from initiation in which to collect M hits", 1, 100),
+    ParamInfo("max_misses", "consecutive missed frames before a track is lost", 1, 10000),
+    ParamInfo("selection_policy", "automatic target selection", choices=tuple(AUTOMATIC_POLICIES)),
+    ParamInfo(
+        "min_lock_time", "s, shortest time on a target before switching to another", 0.0, 3600.0
+    ),
+    ParamInfo("switch_margin", "relative score advantage needed to switch targets", 0.0, 100.0),
+    ParamInfo("lead_time", "s, horizon of the target's predicted position", 0.0, 10.0),
+)
+
+#: Parameters that take effect without rebuilding the tracker (the others clear its tracks).
+LIVE_PARAMETERS = frozenset({"selection_policy", "min_lock_time", "switch_margin", "lead_time"})
+
+_MULTI: dict[str, Any] = {
+    "filter": "kalman_cv",
+    "alpha": 0.6,
+    "gain_rule": "kalata",
+    "beta": 0.27,
+    "gamma": 0.02,
+    "startup_gains": True,
+    "process_noise": 100.0,
+    "measurement_noise": 2.0,
+    "initial_velocity_std": 100.0,
+    "initial_acceleration_std": 100.0,
+    "initial_covariance": "stds",
+    "nominal_dt": SEED_CYCLE,
+    "gate_probability": 0.99,
+    "measurements": "all",
+    "max_tracks": 100,
+    "confirm_hits": 3,
+    "confirm_window": 4,
+    "max_misses": 12,
+    "selection_policy": "longest_lived",
+    "min_lock_time": 2.0,
+    "switch_margin": 0.2,
+    "lead_time": SEED_CYCLE,
+}
+
+_SEED000 = _MULTI | {
+    "filter": "alpha_beta",
+    "startup_gains": False,
+    "process_noise": seed_process_noise(),
+    "measurement_noise": 1.0,
+    "gate_probability": 1.0,
+    "measurements": "largest",
+    "max_tracks": 1,
+    "confirm_hits": 1,
+    "confirm_window": 1,
+    "max_misses": 4,
+    "selection_policy": "largest_blob",
+    "min_lock_time": 0.0,
+    "lead_time": 0.0,
+}
+
+PRESETS: dict[str, dict[str, Any]] = {
+    "multi": _MULTI,
+    "seed000": _SEED000,
+    "seed000_kalman": _SEED000 | {"filter": "kalman_cv", "initial_covariance": "process_noise"},
+}
+
+
+@dataclass(frozen=True, eq=False)
+class TrackerConfig:
+    """Everything the tracker node builds its core from."""
+
+    filter: FilterConfig
+    gate_probability: float
+    measurements: str
+    max_tracks: int
+    confirm_hits: int
+    confirm_window: int
+    max_misses: int
+    selection_policy: SelectionPolicy
+    min_lock_time: float
+    switch_margin: float
+    lead_time: float
+
+    @classmethod
+    def from_params(cls, params: Mapping[str, Any]) -> TrackerConfig:
+        """Validate a full set of parameters; raises ValueError naming the first problem."""
+        missing = [info.name for info in PARAMETERS if info.name not in params]
+        if missing:
+            raise ValueError(f"missing parameters: {', '.join(missing)}")
+        for info in PARAMETERS:
+            _check(info, params[info.name])
+        kind = FilterKind(params["filter"])
+        # the gains are checked whatever the filter, so a later switch to alpha-beta cannot fail
+        order = kind.model.order if kind.fixed_gain else 1
+        gains = resolve_gains(
+            params["alpha"], params["gain_rule"], order, params["beta"], params["gamma"]
+        )
+        initial_covariance = None
+        if params["initial_covariance"] == "process_noise":
+            initial_covariance = kind.model.process_noise(
+                params["nominal_dt"], params["process_noise"]
+            )
+        if params["confirm_hits"] > params["confirm_window"]:
+            hits, window = params["confirm_hits"], params["confirm_window"]
+            raise ValueError(f"confirm_hits ({hits}) must not exceed confirm_window ({window})")
+        return cls(
+            filter=FilterConfig(
+                kind=kind,
+                measurement_noise=params["measurement_noise"],
+                process_noise=params["process_noise"],
+                initial_velocity_std=params["initial_velocity_std"],
+                initial_acceleration_std=params["initial_acceleration_std"],
+                gains=gains if kind.fixed_gain else None,
+                startup=params["startup_gains"],
+                initial_covariance=initial_covariance,
+            ),
+            gate_probability=params["gate_probability"],
+            measurements=params["measurements"],
+            max_tracks=params["max_tracks"],
+            confirm_hits=params["confirm_hits"],
+            confirm_window=params["confirm_window"],
+            max_misses=params["max_misses"],
+            selection_policy=AUTOMATIC_POLICIES[params["selection_policy"]],
+            min_lock_time=params["min_lock_time"],
+            switch_margin=params["switch_margin"],
+            lead_time=params["lead_time"],
+        )
+
+    @classmethod
+    def preset(cls, name: str, **overrides: Any) -> TrackerConfig:
+        if name not in PRESETS:
+            raise ValueError(f"unknown preset '{name}' (one of {', '.join(PRESETS)})")
+        return cls.from_params(PRESETS[name] | overrides)
+
+    def build_tracker(self, first_id: int = 1) -> TrackManager:
+        """A new tracker; `first_id` lets a rebuilt tracker continue its predecessor's ids."""
+        return TrackManager(
+            self.filter,
+            GatedHungarianAssociator(self.gate_probability),
+            CappedInitiator(self.max_tracks),
+            MofNConfirmation(self.confirm_hits, self.confirm_window),
+            MissCountDeleter(self.max_misses),
+            LargestDetection() if self.measurements == "largest" else AllDetections(),
+            first_id=first_id,
+        )
+
+    def build_selector(self) -> TargetSelector:
+        return TargetSelector(self.selection_policy, self.min_lock_time, self.switch_margin)
+
+
+def _check(info: ParamInfo, value: Any) -> None:
+    if info.choices is not None:
+        if value not in info.choices:
+            raise ValueError(f"{info.name} must be one of {', '.join(info.choices)}; got '{value}'")
+        return
+    if isinstance(value, bool) or info.min is None:
+        return
+    if not isinstance(value, int | float) or not math.isfinite(value):
+        raise ValueError(f"{info.name} must be a finite number, got {value!r}")
+    if not info.min <= value <= info.max:
+        raise ValueError(f"{info.name} must be in [{info.min}, {info.max}], got {value}")

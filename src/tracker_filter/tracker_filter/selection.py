@@ -1,0 +1,215 @@
+"""Choosing the one track the pan-tilt camera follows, with hysteresis (no rclpy).
+
+Policies match tracker_msgs/Target SELECT_*. Automatic ones score the confirmed tracks (CONFIRMED or
+COASTING) every frame:
+
+- LARGEST_BLOB (seed 000): area of the track's last associated detection;
+- LONGEST_LIVED: track age;
+- NEAREST_CENTRE: minus the distance to the camera view centre (PtzState.window's centre);
+  without a known view centre it falls back to LONGEST_LIVED.
+
+Hysteresis: once locked, the selector keeps its track for at least `min_lock_time` seconds (scene
+time) and afterwards switches only to a track scoring better by `switch_margin` x |current score|;
+it re-selects at once when its track is lost. The manual modes come from the select_target service:
+a track id (kept until that track is deleted, then back to the automatic policy) or a rectangle
+(the track whose box overlaps it best, or else the next track initiated inside it).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from enum import IntEnum
+
+import numpy as np
+
+from tracker_filter.management import TrackSet, TrackStatus
+from tracker_msgs_py.geometry import Rect
+
+
+class SelectionPolicy(IntEnum):
+    LARGEST_BLOB = 0
+    LONGEST_LIVED = 1
+    NEAREST_CENTRE = 2
+    MANUAL_ID = 3
+    MANUAL_RECT = 4
+
+
+AUTOMATIC_POLICIES = {
+    "largest_blob": SelectionPolicy.LARGEST_BLOB,
+    "longest_lived": SelectionPolicy.LONGEST_LIVED,
+    "nearest_centre": SelectionPolicy.NEAREST_CENTRE,
+}
+
+
+@dataclass(frozen=True)
+class Selection:
+    """The locked track and how it was chosen."""
+
+    track_id: int
+    mode: SelectionPolicy
+    since: float  # s, scene time the lock started
+
+
+@dataclass(frozen=True)
+class SelectResult:
+    success: bool
+    message: str
+    track_id: int | None = None
+
+
+def _box(bbox: np.ndarray) -> Rect:
+    return Rect(*(float(v) for v in bbox))
+
+
+class TargetSelector:
+    """Keeps the current selection across frames; call `update` once per `TrackSet`."""
+
+    def __init__(
+        self,
+        policy: SelectionPolicy = SelectionPolicy.LONGEST_LIVED,
+        min_lock_time: float = 2.0,
+        switch_margin: float = 0.2,
+    ) -> None:
+        self.configure(policy, min_lock_time, switch_margin)
+        self.reset()
+
+    def configure(
+        self, policy: SelectionPolicy, min_lock_time: float, switch_margin: float
+    ) -> None:
+        policy = SelectionPolicy(policy)
+        if policy not in AUTOMATIC_POLICIES.values():
+            raise ValueError(
+                f"{policy.name} is chosen through the select_target service, not configured"
+            )
+        if not (math.isfinite(min_lock_time) and min_lock_time >= 0.0):
+            raise ValueError(f"min_lock_time must be >= 0 s, got {min_lock_time}")
+        if not (math.isfinite(switch_margin) and switch_margin >= 0.0):
+            raise ValueError(f"switch_margin must be >= 0, got {switch_margin}")
+        self.policy, self.min_lock_time, self.switch_margin = policy, min_lock_time, switch_margin
+
+    def reset(self) -> None:
+        """Back to the automatic policy with nothing locked."""
+        self.selection: Selection | None = None
+        self._manual: SelectionPolicy | None = None
+        self._pending_rect: Rect | None = None
+        self._pending_after_id = 0  # a pending rectangle takes tracks with ids above this one
+        self._last_tracks: TrackSet | None = None
+
+    @property
+    def mode(self) -> SelectionPolicy:
+        return self._manual if self._manual is not None else self.policy
+
+    # --- service requests ---------------------------------------------------------------------
+
+    def select_auto(self) -> SelectResult:
+        self._unlock()
+        if self._last_tracks is not None:
+            self.update(self._last_tracks)
+        chosen = self.selection.track_id if self.selection else None
+        return SelectResult(True, f"automatic selection ({self.policy.name.lower()})", chosen)
+
+    def _unlock(self) -> None:
+        last = self._last_tracks
+        self.reset()
+        self._last_tracks = last
+
+    def select_id(self, track_id: int) -> SelectResult:
+        tracks = self._last_tracks
+        index = tracks.index_of(track_id) if tracks is not None else None
+        if index is None or tracks.status[index] == TrackStatus.LOST:
+            return SelectResult(False, f"no live track with id {track_id}")
+        self._unlock()
+        self._manual = SelectionPolicy.MANUAL_ID
+        self.selection = Selection(int(track_id), SelectionPolicy.MANUAL_ID, tracks.time)
+        return SelectResult(True, f"following track {track_id}", int(track_id))
+
+    def select_rectangle(self, rect: Rect) -> SelectResult:
+        if not (rect.width > 0.0 and rect.height > 0.0):
+            return SelectResult(False, f"the rectangle must have a positive size, got {rect}")
+        self._unlock()
+        self._manual = SelectionPolicy.MANUAL_RECT
+        tracks = self._last_tracks
+        if tracks is not None:
+            live = tracks.status != TrackStatus.LOST
+            overlaps = np.array(
+                [
+                    rect.iou(_box(b)) if ok else 0.0
+                    for b, ok in zip(tracks.bboxes, live, strict=True)
+                ]
+            )
+            inside = np.array(
+                [rect.contains(*p) and ok for p, ok in zip(tracks.positions, live, strict=True)],
+                dtype=bool,
+            )
+            score = (
+                overlaps + inside
+            )  # a centre inside the rectangle counts even for a point-sized box
+            if score.size and score.max() > 0.0:
+                track_id = int(tracks.ids[int(np.argmax(score))])
+                self.selection = Selection(track_id, SelectionPolicy.MANUAL_RECT, tracks.time)
+                return SelectResult(True, f"following track {track_id}", track_id)
+            self._pending_after_id = int(tracks.ids.max()) if len(tracks) else 0
+        self._pending_rect = rect
+        return SelectResult(True, "no track in the rectangle yet: waiting for one to start there")
+
+    # --- per frame ----------------------------------------------------------------------------
+
+    def update(
+        self, tracks: TrackSet, view_centre: tuple[float, float] | None = None
+    ) -> Selection | None:
+        """The selection after this frame's tracks (None: nothing to follow)."""
+        self._last_tracks = tracks
+        if self._pending_rect is not None:
+            self._take_track_started_in_rect(tracks)
+            return self.selection
+        if self._manual is not None:
+            if self.selection is not None and self._alive(tracks, self.selection.track_id):
+                return self.selection
+            self._unlock()  # the chosen track is gone: back to the automatic policy
+        return self._update_automatic(tracks, view_centre)
+
+    def _take_track_started_in_rect(self, tracks: TrackSet) -> None:
+        rect = self._pending_rect
+        for i in np.flatnonzero(tracks.ids > self._pending_after_id):
+            if tracks.status[i] != TrackStatus.LOST and rect.contains(*tracks.positions[i]):
+                self.selection = Selection(
+                    int(tracks.ids[i]), SelectionPolicy.MANUAL_RECT, tracks.time
+                )
+                self._pending_rect = None
+                return
+        if len(tracks):
+            self._pending_after_id = max(self._pending_after_id, int(tracks.ids.max()))
+
+    @staticmethod
+    def _alive(tracks: TrackSet, track_id: int) -> bool:
+        index = tracks.index_of(track_id)
+        return index is not None and tracks.status[index] != TrackStatus.LOST
+
+    def _scores(self, tracks: TrackSet, view_centre: tuple[float, float] | None) -> np.ndarray:
+        if self.policy is SelectionPolicy.LARGEST_BLOB:
+            return tracks.areas.astype(float)
+        if self.policy is SelectionPolicy.NEAREST_CENTRE and view_centre is not None:
+            return -np.hypot(*(tracks.positions - np.asarray(view_centre, dtype=float)).T)
+        return tracks.ages.astype(float)
+
+    def _update_automatic(
+        self, tracks: TrackSet, view_centre: tuple[float, float] | None
+    ) -> Selection | None:
+        candidates = np.flatnonzero(
+            (tracks.status == TrackStatus.CONFIRMED) | (tracks.status == TrackStatus.COASTING)
+        )
+        if candidates.size == 0:
+            self.selection = None
+            return None
+        scores = self._scores(tracks, view_centre)
+        best = int(candidates[np.argmax(scores[candidates])])  # ties: the oldest (lowest) row
+        current = self.selection
+        incumbent = tracks.index_of(current.track_id) if current is not None else None
+        if incumbent is None or incumbent not in candidates:
+            self.selection = Selection(int(tracks.ids[best]), self.policy, tracks.time)
+        elif best != incumbent and tracks.time - current.since >= self.min_lock_time:
+            threshold = scores[incumbent] + self.switch_margin * abs(scores[incumbent])
+            if scores[best] > threshold:
+                self.selection = Selection(int(tracks.ids[best]), self.policy, tracks.time)
+        return self.selection

@@ -1,0 +1,263 @@
+"""Track management: ids through gaps and crossings (motmetrics), confirmation, deletion, the
+seed's single-target configuration, and bad input."""
+
+import motmetrics as mm
+import numpy as np
+import pytest
+
+from tracker_filter.banks import ObjectBank
+from tracker_filter.config import TrackerConfig
+from tracker_filter.management import Detections, OutOfOrderError, TrackManager, TrackStatus
+from tracker_filter.synthetic import bouncing_scene, piecewise_constant_velocity
+from tracker_msgs.msg import Track
+
+DT = 0.12
+FILTERS = ["kalman_cv", "alpha_beta", "kalman_ca", "alpha_beta_gamma"]
+
+
+def multi(**overrides):
+    return TrackerConfig.preset("multi", **overrides).build_tracker()
+
+
+def test_statuses_match_the_message_constants():
+    for status in TrackStatus:
+        assert getattr(Track, f"STATUS_{status.name}") == status.value
+
+
+def count_id_switches(frames, tracker, gate=25.0):
+    """Run the tracker and let motmetrics count identity switches against the truth."""
+    accumulator = mm.MOTAccumulator(auto_id=True)
+    for truth_ids, truth_positions, detections, t in frames:
+        tracks = tracker.step(t, detections)
+        shown = (tracks.status == TrackStatus.CONFIRMED) | (tracks.status == TrackStatus.COASTING)
+        distances = mm.distances.norm2squared_matrix(
+            truth_positions, tracks.positions[shown], max_d2=gate**2
+        )
+        accumulator.update(truth_ids, tracks.ids[shown], distances)
+    summary = mm.metrics.create().compute(
+        accumulator, metrics=["num_switches", "num_misses", "num_false_positives"]
+    )
+    return summary.iloc[0]
+
+
+@pytest.mark.parametrize("kind", FILTERS)
+def test_two_crossing_targets_keep_their_ids(kind):
+    rng = np.random.default_rng(0)
+    a = piecewise_constant_velocity((100.0, 100.0), [(6.0, (60.0, 40.0))], DT)
+    b = piecewise_constant_velocity(
+        (100.0, 340.0), [(6.0, (60.0, -40.0))], DT
+    )  # crosses a at t = 3 s
+    frames = []
+    for k, t in enumerate(a.times):
+        truth = np.array([a.positions[k], b.positions[k]])
+        frames.append(
+            (
+                [1, 2],
+                truth,
+                Detections.from_positions(truth + rng.normal(scale=1.5, size=(2, 2)), size=20),
+                t,
+            )
+        )
+    result = count_id_switches(frames, multi(filter=kind))
+    assert result["num_switches"] == 0
+    assert result["num_false_positives"] == 0
+    assert result["num_misses"] <= 2 * 3  # only while tentative (M = 3)
+
+
+@pytest.mark.parametrize("kind", FILTERS)
+def test_coasting_through_a_10_frame_gap_keeps_the_id(kind):
+    trajectory = piecewise_constant_velocity((50.0, 200.0), [(6.0, (50.0, 10.0))], DT)
+    z = trajectory.measurements(1.0, np.random.default_rng(1))
+    tracker = multi(filter=kind, max_misses=12)
+    ids, statuses = set(), []
+    for k, t in enumerate(trajectory.times):
+        detections = (
+            Detections.empty() if 20 <= k < 30 else Detections.from_positions(z[k : k + 1], size=10)
+        )
+        tracks = tracker.step(t, detections)
+        assert len(tracks) == 1
+        ids.add(int(tracks.ids[0]))
+        statuses.append(TrackStatus(int(tracks.status[0])))
+        if 20 <= k < 30:
+            assert tracks.misses[0] == k - 19
+            predicted_error = np.linalg.norm(tracks.positions[0] - trajectory.positions[k])
+            assert predicted_error < 6.0 + 1.0 * (k - 19)  # coasting at the estimated velocity
+    assert ids == {1}
+    assert statuses[19] == TrackStatus.CONFIRMED and statuses[25] == TrackStatus.COASTING
+    assert statuses[30] == TrackStatus.CONFIRMED
+
+
+def test_a_target_that_leaves_is_deleted_after_max_misses():
+    tracker = multi(max_misses=5)
+    trajectory = piecewise_constant_velocity((50.0, 50.0), [(1.2, (40.0, 0.0))], DT)
+    for t, z in zip(trajectory.times, trajectory.positions, strict=True):
+        tracks = tracker.step(t, Detections.from_positions(z[None], size=10))
+    assert tracks.status[0] == TrackStatus.CONFIRMED
+    t = trajectory.times[-1]
+    history = []
+    for k in range(1, 8):
+        tracks = tracker.step(t + k * DT, Detections.empty())
+        history.append(
+            [(int(i), TrackStatus(int(s))) for i, s in zip(tracks.ids, tracks.status, strict=True)]
+        )
+    assert history[:4] == [[(1, TrackStatus.COASTING)]] * 4
+    assert history[4] == [(1, TrackStatus.LOST)]  # reported once, at the 5th miss
+    assert history[5:] == [[], []]
+    assert len(tracker) == 0
+
+
+def test_m_of_n_confirmation_and_clutter():
+    tracker = multi(confirm_hits=3, confirm_window=5)
+    z = np.array([[100.0, 100.0]])
+    pattern = [True, False, True, False, True]  # 3 hits in 5 frames: confirmed on the 5th
+    for k, hit in enumerate(pattern):
+        tracks = tracker.step(
+            k * DT,
+            Detections.from_positions(z + [5.0 * k, 0.0], size=10) if hit else Detections.empty(),
+        )
+    assert tracks.status.tolist() == [TrackStatus.CONFIRMED]
+    failing = multi(confirm_hits=3, confirm_window=4)
+    for k, hit in enumerate([True, False, False]):
+        tracks = failing.step(
+            k * DT, Detections.from_positions(z, size=10) if hit else Detections.empty()
+        )
+    assert tracks.status.tolist() == [TrackStatus.LOST]  # 1 hit + 1 frame left < 3: given up early
+    # one-frame clutter anywhere never confirms
+    rng = np.random.default_rng(2)
+    clutter_tracker = multi()
+    for k in range(40):
+        tracks = clutter_tracker.step(
+            k * DT, Detections.from_positions(rng.uniform(0, 2000, size=(5, 2)), size=10)
+        )
+        assert not np.any(tracks.status == TrackStatus.CONFIRMED)
+
+
+def test_many_targets_with_clutter_keep_their_ids():
+    # paths that stay clear of the borders: a bounce reverses a target within one frame, which a
+    # constant-velocity gate cannot follow (the track is lost and restarted under a new id)
+    scene = bouncing_scene(
+        np.random.default_rng(3),
+        targets=20,
+        clutter=10,
+        frames=40,
+        speed=(20.0, 50.0),
+        start_region=(0.25, 0.75),
+    )
+    frames = [(f.truth_ids, f.truth_positions, f.detections, f.time) for f in scene]
+    result = count_id_switches(frames, multi())
+    assert result["num_switches"] == 0
+    assert result["num_misses"] <= 20 * 3
+    assert result["num_false_positives"] <= 2  # clutter rarely gets 3 hits in 4 frames
+
+
+def test_seed_single_target_mode():
+    config = TrackerConfig.preset("seed000")
+    tracker = config.build_tracker()
+    small, large = [300.0, 100.0], [100.0, 100.0]
+    frames = []
+    for k in range(6):  # two blobs: only the largest is a measurement, tracked from its first hit
+        frames.append(
+            Detections(
+                np.array([small, [large[0] + 5 * k, large[1]]]),
+                [50, 400],
+                [[0, 0, 5, 10], [0, 0, 20, 20]],
+                [0.3, 0.2],
+            )
+        )
+    for k, detections in enumerate(frames):
+        tracks = tracker.step(k * DT, detections)
+        assert len(tracks) == 1 and tracks.status[0] == TrackStatus.CONFIRMED and tracks.ids[0] == 1
+        assert tracks.detections[0] == 0  # index among the selected detections
+    assert abs(tracks.positions[0, 0] - 125.0) < 3.0
+    t = 5 * DT
+    for k in range(1, 5):  # search -> track -> reset after 4 consecutive misses
+        tracks = tracker.step(t + k * DT, Detections.empty())
+        expected = TrackStatus.LOST if k == 4 else TrackStatus.COASTING
+        assert tracks.status.tolist() == [expected]
+    tracks = tracker.step(t + 5 * DT, Detections.from_positions([[400.0, 200.0]], size=10))
+    assert tracks.ids.tolist() == [2] and tracks.status[0] == TrackStatus.CONFIRMED
+    # no gate: even a far jump of the single blob updates the one track
+    tracks = tracker.step(t + 6 * DT, Detections.from_positions([[10.0, 10.0]], size=10))
+    assert tracks.ids.tolist() == [2] and tracks.hits[0] == 2
+
+
+def test_bad_input_leaves_the_state_untouched():
+    tracker = multi()
+    tracker.step(1.0, Detections.from_positions([[10.0, 10.0]], size=4))
+    tracks = tracker.step(
+        1.1, Detections.from_positions([[np.nan, 10.0], [11.0, 10.0], [np.inf, 0.0]], size=4)
+    )
+    assert tracks.rejected_measurements == 2 and tracker.rejected_measurements == 2
+    assert len(tracks) == 1 and tracks.hits[0] == 2
+    means = tracker.bank.means.copy()
+    for bad_time in (1.1, 0.5, float("nan")):
+        with pytest.raises(OutOfOrderError):
+            tracker.step(bad_time, Detections.from_positions([[12.0, 10.0]], size=4))
+    np.testing.assert_array_equal(tracker.bank.means, means)
+    assert tracker.time == 1.1
+    with pytest.raises(ValueError, match="positions"):
+        Detections(np.zeros((2, 2)), np.zeros(3), np.zeros((2, 4)), np.zeros(2))
+
+
+def test_reset_and_ids():
+    tracker = multi()
+    tracker.step(5.0, Detections.from_positions([[10.0, 10.0], [50.0, 50.0]], size=4))
+    assert tracker.reset() == 2 and len(tracker) == 0 and tracker.time is None
+    tracks = tracker.step(
+        1.0, Detections.from_positions([[10.0, 10.0]], size=4)
+    )  # earlier stamp accepted
+    assert tracks.ids.tolist() == [3]
+    tracker.reset(reset_ids=True)
+    assert tracker.step(2.0, Detections.from_positions([[10.0, 10.0]], size=4)).ids.tolist() == [1]
+
+
+def test_report_fields_and_boxes_follow_coasting_tracks():
+    tracker = multi(confirm_hits=1, confirm_window=1)
+    for k in range(5):
+        detections = Detections(
+            np.array([[100.0 + 10 * k, 50.0]]), [300.0], [[90.0 + 10 * k, 40.0, 20.0, 20.0]], [0.1]
+        )
+        tracks = tracker.step(k * 0.1, detections)
+    report = next(iter(tracks))
+    assert report.bbox == (130.0, 40.0, 20.0, 20.0) and report.area == 300.0
+    assert report.age == pytest.approx(0.4) and report.hits == 5 and report.existence == 1.0
+    np.testing.assert_allclose(report.position_covariance, report.covariance[:2, :2])
+    coasting = tracker.step(0.5, Detections.empty()).report(0)
+    shift = coasting.position - report.position
+    assert coasting.bbox[:2] == pytest.approx((130.0 + shift[0], 40.0 + shift[1]))
+    assert coasting.status == TrackStatus.COASTING and coasting.detection == -1
+    np.testing.assert_allclose(
+        tracks.predicted_positions(0.5)[0], report.position + 0.5 * report.velocity
+    )
+
+
+def test_object_bank_plugs_in_and_gives_the_same_tracks():
+    config = TrackerConfig.preset("multi")
+    components = config.build_tracker()
+    fast = config.build_tracker()
+    plug = TrackManager(
+        _ObjectFactory(config.filter),
+        components.associator,
+        components.initiator,
+        components.confirmation,
+        components.deleter,
+    )
+    for frame in bouncing_scene(np.random.default_rng(4), targets=6, clutter=3, frames=25):
+        a, b = fast.step(frame.time, frame.detections), plug.step(frame.time, frame.detections)
+        np.testing.assert_array_equal(a.ids, b.ids)
+        np.testing.assert_array_equal(a.status, b.status)
+        np.testing.assert_allclose(a.means, b.means, rtol=1e-9, atol=1e-8)
+
+
+class _ObjectFactory:
+    """A factory without a vectorised bank, as the particle filters will be."""
+
+    def __init__(self, config):
+        self.config = config
+        self.state_layout = config.state_layout
+
+    def new_filter(self, z, t):
+        return self.config.new_filter(z, t)
+
+    def new_bank(self):
+        return ObjectBank(self.new_filter, self.state_layout)

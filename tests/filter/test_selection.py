@@ -1,0 +1,124 @@
+"""Target selection: the policies, hysteresis, and the manual modes of the select_target service."""
+
+import numpy as np
+import pytest
+
+from tracker_filter.management import TrackSet, TrackStatus
+from tracker_filter.selection import SelectionPolicy, TargetSelector
+from tracker_msgs.msg import Target
+from tracker_msgs_py.geometry import Rect
+
+C, K, T, L = TrackStatus.CONFIRMED, TrackStatus.COASTING, TrackStatus.TENTATIVE, TrackStatus.LOST
+
+
+def track_set(time, ids, positions, status=None, ages=None, areas=None, box=10.0):
+    n = len(ids)
+    positions = np.asarray(positions, dtype=float).reshape(n, 2)
+    means = np.column_stack([positions, np.zeros((n, 2))])
+    return TrackSet(
+        time=time,
+        state_layout=("x", "y", "vx", "vy"),
+        ids=np.asarray(ids),
+        status=np.asarray(status if status is not None else [C] * n, dtype=np.uint8),
+        means=means,
+        covariances=np.tile(np.eye(4), (n, 1, 1)),
+        bboxes=np.column_stack([positions - box / 2, np.full((n, 2), box)]),
+        ages=np.asarray(ages if ages is not None else [1.0] * n, dtype=float),
+        hits=np.ones(n, dtype=int),
+        misses=np.zeros(n, dtype=int),
+        existence=np.ones(n),
+        areas=np.asarray(areas if areas is not None else [100.0] * n, dtype=float),
+        detections=np.arange(n),
+    )
+
+
+def test_policies_match_the_message_constants():
+    for policy in SelectionPolicy:
+        assert getattr(Target, f"SELECT_{policy.name}") == policy.value
+
+
+def test_each_automatic_policy_picks_its_best_confirmed_track():
+    tracks = track_set(
+        5.0,
+        [1, 2, 3, 4],
+        [[0, 0], [100, 0], [40, 40], [50, 50]],
+        status=[C, K, C, T],
+        ages=[3, 9, 1, 20],
+        areas=[50, 80, 900, 999],
+    )
+    assert (
+        TargetSelector(SelectionPolicy.LARGEST_BLOB).update(tracks).track_id == 3
+    )  # 4 is tentative
+    assert TargetSelector(SelectionPolicy.LONGEST_LIVED).update(tracks).track_id == 2
+    nearest = TargetSelector(SelectionPolicy.NEAREST_CENTRE).update(tracks, view_centre=(95.0, 5.0))
+    assert nearest.track_id == 2 and nearest.mode == SelectionPolicy.NEAREST_CENTRE
+    assert (
+        TargetSelector(SelectionPolicy.NEAREST_CENTRE).update(tracks).track_id == 2
+    )  # no centre: oldest
+    assert TargetSelector().update(track_set(5.0, [7], [[0, 0]], status=[T])) is None
+
+
+def test_hysteresis_keeps_the_target_for_the_minimum_lock_time_then_needs_a_margin():
+    selector = TargetSelector(SelectionPolicy.LARGEST_BLOB, min_lock_time=2.0, switch_margin=0.2)
+    positions = [[0, 0], [100, 100]]
+    assert selector.update(track_set(0.0, [1, 2], positions, areas=[100, 50])).track_id == 1
+    # a bigger blob appears, but the lock is younger than 2 s
+    for t in (0.5, 1.0, 1.9):
+        assert selector.update(track_set(t, [1, 2], positions, areas=[100, 300])).track_id == 1
+    # after 2 s: 110 is not 20 % better than 100, 300 is
+    assert selector.update(track_set(2.1, [1, 2], positions, areas=[100, 110])).track_id == 1
+    switched = selector.update(track_set(2.2, [1, 2], positions, areas=[100, 300]))
+    assert switched.track_id == 2 and switched.since == 2.2
+    # losing the target re-selects at once, whatever the lock time
+    assert (
+        selector.update(track_set(2.3, [1, 2], positions, status=[C, L], areas=[100, 300])).track_id
+        == 1
+    )
+
+
+def test_manual_id_until_the_track_is_lost():
+    selector = TargetSelector(SelectionPolicy.LONGEST_LIVED, min_lock_time=10.0)
+    tracks = track_set(1.0, [1, 2], [[0, 0], [50, 50]], ages=[5, 1])
+    assert selector.update(tracks).track_id == 1
+    assert not selector.select_id(9).success
+    assert selector.select_id(2).success  # a live track can be chosen despite the lock
+    assert selector.mode == SelectionPolicy.MANUAL_ID
+    assert selector.update(track_set(1.1, [1, 2], [[0, 0], [50, 50]], ages=[5, 1])).track_id == 2
+    after = selector.update(track_set(1.2, [1, 2], [[0, 0], [50, 50]], status=[C, L], ages=[5, 1]))
+    assert after.track_id == 1 and after.mode == SelectionPolicy.LONGEST_LIVED
+    assert selector.mode == SelectionPolicy.LONGEST_LIVED
+
+
+def test_manual_rectangle_takes_the_overlapping_track_or_the_next_one_started_inside():
+    selector = TargetSelector(SelectionPolicy.LONGEST_LIVED)
+    selector.update(track_set(1.0, [1, 2], [[0, 0], [100, 100]], ages=[5, 1]))
+    result = selector.select_rectangle(Rect(90, 90, 30, 30))
+    assert result.success and result.track_id == 2
+    assert (
+        selector.update(track_set(1.1, [1, 2], [[0, 0], [101, 100]])).mode
+        == SelectionPolicy.MANUAL_RECT
+    )
+    pending = selector.select_rectangle(Rect(300, 300, 50, 50))
+    assert pending.success and pending.track_id is None and "waiting" in pending.message
+    # nothing inside yet: unlocked; an old track walking in does not count, a new one started inside does
+    assert selector.update(track_set(1.2, [1, 2], [[0, 0], [310, 310]])) is None
+    chosen = selector.update(
+        track_set(1.3, [1, 2, 3], [[0, 0], [310, 310], [320, 330]], status=[C, C, T])
+    )
+    assert chosen.track_id == 3 and chosen.mode == SelectionPolicy.MANUAL_RECT
+    assert not selector.select_rectangle(Rect(0, 0, 0, 10)).success
+
+
+def test_auto_request_and_configuration():
+    selector = TargetSelector(SelectionPolicy.LONGEST_LIVED)
+    tracks = track_set(1.0, [1, 2], [[0, 0], [50, 50]], ages=[5, 1])
+    selector.update(tracks)
+    selector.select_id(2)
+    result = selector.select_auto()
+    assert (
+        result.success and result.track_id == 1 and selector.mode == SelectionPolicy.LONGEST_LIVED
+    )
+    with pytest.raises(ValueError, match="service"):
+        selector.configure(SelectionPolicy.MANUAL_ID, 1.0, 0.2)
+    with pytest.raises(ValueError, match="min_lock_time"):
+        selector.configure(SelectionPolicy.LONGEST_LIVED, -1.0, 0.2)

@@ -1,0 +1,275 @@
+"""The tracker node: one TrackArray and one Target per BlobArray, stamps, services, parameters,
+bad input, and the executable's start-up / shutdown behaviour."""
+
+import os
+import signal
+import subprocess
+import time
+from pathlib import Path
+
+import pytest
+
+rclpy = pytest.importorskip("rclpy")
+
+from rcl_interfaces.srv import SetParameters, SetParametersAtomically  # noqa: E402
+from rclpy.executors import SingleThreadedExecutor  # noqa: E402
+from rclpy.parameter import Parameter  # noqa: E402
+
+from tracker_filter.tracker_node import TrackerNode  # noqa: E402
+from tracker_msgs.msg import Blob, BlobArray, PtzState, Target, TrackArray  # noqa: E402
+from tracker_msgs.srv import ResetTracker, SelectTarget  # noqa: E402
+
+pytestmark = pytest.mark.ros
+ROOT = Path(__file__).resolve().parents[2]
+EXECUTABLE = ROOT / "install" / "tracker_filter" / "lib" / "tracker_filter" / "tracker"
+
+
+class Harness:
+    """The tracker node and a test node on a private context, spun by hand."""
+
+    def __init__(self, overrides=()):
+        self.context = rclpy.Context()
+        rclpy.init(context=self.context)
+        self.tracker = TrackerNode(context=self.context, parameter_overrides=list(overrides))
+        self.node = rclpy.create_node("tracker_test", context=self.context)
+        self.executor = SingleThreadedExecutor(context=self.context)
+        self.executor.add_node(self.tracker)
+        self.executor.add_node(self.node)
+        self.tracks, self.targets = [], []
+        self.node.create_subscription(TrackArray, "tracks", self.tracks.append, 50)
+        self.node.create_subscription(Target, "target", self.targets.append, 50)
+        self.detections = self.node.create_publisher(BlobArray, "detections", 50)
+        self.ptz = self.node.create_publisher(PtzState, "ptz/state", 10)
+        self.wait(
+            lambda: (
+                self.detections.get_subscription_count() > 0
+                and self.tracker.count_subscribers("target") > 0
+            )
+        )
+
+    def wait(self, condition, timeout=10.0):
+        deadline = time.monotonic() + timeout
+        while not condition():
+            assert time.monotonic() < deadline, "timed out"
+            self.executor.spin_once(timeout_sec=0.05)
+
+    def send(self, stamp_s, positions, present=True, frame_id="scene"):
+        msg = BlobArray(target_present=present)
+        msg.header.stamp.sec, msg.header.stamp.nanosec = int(stamp_s), round((stamp_s % 1) * 1e9)
+        msg.header.frame_id = frame_id
+        for x, y in positions:
+            blob = Blob(centroid_x=float(x), centroid_y=float(y), area=100)
+            blob.bbox.x, blob.bbox.y, blob.bbox.width, blob.bbox.height = (
+                x - 5.0,
+                y - 5.0,
+                10.0,
+                10.0,
+            )
+            msg.blobs.append(blob)
+        expected = len(self.targets) + 1
+        self.detections.publish(msg)
+        self.wait(lambda: len(self.tracks) >= expected and len(self.targets) >= expected)
+        return self.tracks[-1], self.targets[-1]
+
+    def call(self, service_type, name, request):
+        client = self.node.create_client(service_type, name)
+        assert client.wait_for_service(timeout_sec=5.0)
+        future = client.call_async(request)
+        self.wait(future.done)
+        return future.result()
+
+    def set_parameters(self, **values):
+        request = SetParameters.Request(
+            parameters=[Parameter(k, value=v).to_parameter_msg() for k, v in values.items()]
+        )
+        return self.call(SetParameters, "tracker/set_parameters", request).results
+
+    def set_parameters_atomically(self, **values):
+        parameters = [Parameter(k, value=v).to_parameter_msg() for k, v in values.items()]
+        request = SetParametersAtomically.Request(parameters=parameters)
+        return self.call(
+            SetParametersAtomically, "tracker/set_parameters_atomically", request
+        ).result
+
+    def close(self):
+        self.executor.shutdown()
+        self.tracker.destroy_node()
+        self.node.destroy_node()
+        rclpy.shutdown(context=self.context)
+
+
+@pytest.fixture
+def harness():
+    h = Harness()
+    yield h
+    h.close()
+
+
+def stamp_s(header):
+    return header.stamp.sec + header.stamp.nanosec * 1e-9
+
+
+def test_one_output_of_each_per_frame_with_the_frame_stamp(harness):
+    outputs = []
+    frames = [
+        (10.0, [(100, 100)], True),
+        (10.12, [], True),  # empty
+        (10.24, [(110, 100), (float("nan"), 5.0)], True),  # the NaN blob is rejected
+        (10.36, [(115, 100)], True),  # 3 hits in 4 frames: confirmed
+        (10.48, [(120, 100)], False),  # presence test failed: no measurement
+        (10.60, [(125, 100)], True),
+    ]
+    for t, blobs, present in frames:
+        outputs.append(harness.send(t, blobs, present))
+    for (t, _, _), (tracks, target) in zip(frames, outputs, strict=True):
+        assert stamp_s(tracks.header) == pytest.approx(t) and stamp_s(
+            target.header
+        ) == pytest.approx(t)
+        assert tracks.header.frame_id == target.header.frame_id == "scene"
+    assert [[t.id for t in tracks.tracks] for tracks, _ in outputs] == [[1]] * 6
+    assert [tracks.tracks[0].hits for tracks, _ in outputs] == [1, 1, 2, 3, 3, 4]
+    assert [target.locked for _, target in outputs] == [False, False, False, True, True, True]
+    assert outputs[4][1].track.status == outputs[4][1].track.STATUS_COASTING
+    track = outputs[-1][1].track
+    assert (
+        track.id == 1
+        and track.status == track.STATUS_CONFIRMED
+        and track.state_layout == "x y vx vy"
+    )
+    assert len(track.state) == 4 and len(track.covariance) == 16
+    target = outputs[-1][1]
+    assert target.selection == Target.SELECT_LONGEST_LIVED and target.lead_time == pytest.approx(
+        0.12
+    )
+    assert target.predicted_x == pytest.approx(track.x + track.vx * 0.12)
+    assert harness.tracker._tracker.rejected_measurements == 1
+
+
+def test_out_of_order_frames_are_answered_but_change_nothing(harness):
+    for k in range(4):
+        harness.send(5.0 + 0.1 * k, [(100 + 5 * k, 50)])
+    tracks, target = harness.send(5.05, [(500, 500)])
+    assert stamp_s(tracks.header) == pytest.approx(5.05)
+    assert tracks.tracks == [] and not target.locked
+    tracks, target = harness.send(5.4, [(120, 50)])
+    assert [t.id for t in tracks.tracks] == [1] and tracks.tracks[0].hits == 5 and target.locked
+
+
+def test_services_select_and_reset(harness):
+    for k in range(4):
+        tracks, target = harness.send(1.0 + 0.1 * k, [(100 + 5 * k, 50), (400, 300 + 5 * k)])
+    assert target.locked and target.track.id == 1
+    response = harness.call(
+        SelectTarget,
+        "select_target",
+        SelectTarget.Request(mode=SelectTarget.Request.MODE_TRACK_ID, track_id=2),
+    )
+    assert response.success and response.selected_track_id == 2
+    _, target = harness.send(1.4, [(120, 50), (400, 320)])
+    assert target.track.id == 2 and target.selection == Target.SELECT_MANUAL_ID
+    bad = harness.call(
+        SelectTarget,
+        "select_target",
+        SelectTarget.Request(mode=SelectTarget.Request.MODE_TRACK_ID, track_id=77),
+    )
+    assert not bad.success and "77" in bad.message
+    rect_request = SelectTarget.Request(mode=SelectTarget.Request.MODE_RECTANGLE)
+    (
+        rect_request.rectangle.x,
+        rect_request.rectangle.y,
+        rect_request.rectangle.width,
+        rect_request.rectangle.height,
+    ) = 110.0, 40.0, 30.0, 20.0
+    response = harness.call(SelectTarget, "select_target", rect_request)
+    assert response.success and response.selected_track_id == 1
+    rect_request.rectangle.width = float("nan")
+    assert not harness.call(SelectTarget, "select_target", rect_request).success
+    reset = harness.call(ResetTracker, "reset_tracker", ResetTracker.Request(reset_ids=True))
+    assert reset.success and reset.tracks_cleared == 2
+    tracks, target = harness.send(0.5, [(10, 10)])  # an earlier stamp is fine after a reset
+    assert [t.id for t in tracks.tracks] == [1] and not target.locked
+
+
+def test_nearest_centre_uses_the_ptz_window(harness):
+    assert all(
+        r.successful
+        for r in harness.set_parameters(selection_policy="nearest_centre", min_lock_time=0.0)
+    )
+    state = PtzState()
+    state.window.x, state.window.y, state.window.width, state.window.height = (
+        350.0,
+        250.0,
+        110.0,
+        110.0,
+    )
+    harness.ptz.publish(state)
+    harness.wait(lambda: harness.tracker._view_centre is not None)
+    for k in range(4):
+        _, target = harness.send(2.0 + 0.1 * k, [(100, 100), (400, 300)])
+    assert target.locked and (target.track.x, target.track.y) == pytest.approx((400, 300), abs=1.0)
+    assert target.selection == Target.SELECT_NEAREST_CENTRE
+
+
+def test_parameter_changes_are_validated(harness):
+    for k in range(4):
+        harness.send(3.0 + 0.1 * k, [(100, 100)])
+    rejected = harness.set_parameters(confirm_hits=9)
+    assert not rejected[0].successful and "confirm_window" in rejected[0].reason
+    rejected = harness.set_parameters_atomically(filter="alpha_beta", gain_rule="free", beta=3.0)
+    assert not rejected.successful and "unstable" in rejected.reason
+    rejected = harness.set_parameters(alpha=1.7)  # checked even while the Kalman filter runs
+    assert not rejected[0].successful and "alpha" in rejected[0].reason
+    assert harness.tracker.get_parameter("filter").value == "kalman_cv"
+    tracks, _ = harness.send(3.4, [(100, 100)])
+    assert tracks.tracks[0].hits == 5  # rejected changes left the tracks alone
+    assert all(r.successful for r in harness.set_parameters(lead_time=0.5))
+    tracks, target = harness.send(3.5, [(100, 100)])
+    assert target.lead_time == 0.5 and tracks.tracks[0].hits == 6  # live change: tracks kept
+    assert all(r.successful for r in harness.set_parameters(filter="alpha_beta_gamma", alpha=0.5))
+    tracks, _ = harness.send(3.6, [(100, 100)])
+    track = tracks.tracks[0]
+    assert track.id == 2 and track.state_layout == "x y vx vy ax ay"  # rebuilt, ids continue
+
+
+def test_seed_preset_tracks_the_largest_blob_from_the_first_frame():
+    h = Harness([Parameter("preset", value="seed000")])
+    try:
+        tracks, target = h.send(1.0, [(50, 50), (200, 100)])
+        assert (
+            len(tracks.tracks) == 1
+            and target.locked
+            and target.selection == Target.SELECT_LARGEST_BLOB
+        )
+        assert target.lead_time == 0.0 and h.tracker.get_parameter("max_misses").value == 4
+    finally:
+        h.close()
+
+
+@pytest.mark.skipif(not EXECUTABLE.exists(), reason="workspace not built")
+def test_executable_exits_cleanly_on_sigint_and_with_2_on_bad_parameters():
+    env = dict(os.environ)
+    process = subprocess.Popen(
+        [str(EXECUTABLE)], env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True
+    )
+    try:
+        deadline = time.monotonic() + 20.0
+        lines = []
+        while time.monotonic() < deadline:
+            line = process.stdout.readline()
+            lines.append(line)
+            if "tracker ready" in line:
+                break
+        assert "tracker ready" in lines[-1], lines
+        process.send_signal(signal.SIGINT)
+        assert process.wait(timeout=2.0) == 0
+    finally:
+        if process.poll() is None:
+            process.kill()
+    bad = subprocess.run(
+        [str(EXECUTABLE), "--ros-args", "-p", "filter:=alpha_beta", "-p", "alpha:=1.5"],
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=20,
+    )
+    assert bad.returncode == 2 and "alpha" in bad.stderr
