@@ -24,6 +24,8 @@ setup(
     ),
     license="Apache-2.0",
     entry_points={
-        "console_scripts": [],
+        "console_scripts": [
+            "ssim_detector = tracker_detect.ssim_detector_node:main",
+        ],
     },
 )

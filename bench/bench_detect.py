@@ -1,0 +1,214 @@
+"""Benchmark of tracker_detect (area `detect`): SSIM map speed and the per-frame detector cost.
+
+Run: python bench/bench_detect.py [--quick]   (or `make bench`). Prints a table and writes
+out/bench/detect.json. Everything runs on ONE core (OpenCV and BLAS limited to one thread).
+
+- ssim_map: two 768x576 grey frames of a synthetic scene, our map vs scikit-image's
+  structural_similarity(gaussian_weights=True, sigma=1.5, use_sample_covariance=False,
+  data_range=255, full=True), timed in the same run; targets <= 4 ms and >= 20x.
+- detector: MotionDetector per frame on a 256x256 camera window sweeping over a 640x480 scene
+  (frame k vs k-3), everything included (alignment, SSIM, mask, blobs); target <= 3 ms for the
+  known shift, the estimated-shift modes reported.
+- registration: the shift estimators alone, at the seed's 110x110 window and at 256x256.
+"""
+
+from __future__ import annotations
+
+import os
+
+for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_var, "1")
+
+import argparse  # noqa: E402
+import json  # noqa: E402
+import platform  # noqa: E402
+import statistics  # noqa: E402
+import sys  # noqa: E402
+import time  # noqa: E402
+from pathlib import Path  # noqa: E402
+
+import cv2  # noqa: E402
+import numpy as np  # noqa: E402
+
+ROOT = Path(__file__).resolve().parents[1]
+for _pkg in ("tracker_msgs", "tracker_detect", "tracker_ptz_sim"):
+    sys.path.insert(0, str(ROOT / "src" / _pkg))
+
+from skimage.metrics import structural_similarity  # noqa: E402
+
+from tracker_detect.motion import DetectorConfig, MotionDetector  # noqa: E402
+from tracker_detect.registration import (  # noqa: E402
+    View,
+    phase_correlation_shift,
+    ssim_shift_search,
+)
+from tracker_detect.ssim import ssim_map  # noqa: E402
+from tracker_msgs_py.geometry import Rect  # noqa: E402
+from tracker_ptz_sim.scenes import SceneConfig, generate_scene  # noqa: E402
+
+OUT = ROOT / "out" / "bench" / "detect.json"
+
+
+def median_ms(fn, repeats: int, warmup: int = 2) -> float:
+    for _ in range(warmup):
+        fn()
+    times = []
+    for _ in range(repeats):
+        start = time.perf_counter()
+        fn()
+        times.append(time.perf_counter() - start)
+    return 1e3 * statistics.median(times)
+
+
+def grey_frames(config: SceneConfig) -> np.ndarray:
+    scene = generate_scene(config)
+    return scene, np.stack([cv2.cvtColor(f, cv2.COLOR_BGR2GRAY) for f in scene.frames])
+
+
+def bench_ssim(quick: bool) -> dict:
+    _, frames = grey_frames(SceneConfig(width=768, height=576, num_frames=4, num_objects=4, seed=1))
+    x, y = frames[0], frames[3]
+    ours = median_ms(lambda: ssim_map(x, y), 20 if quick else 200)
+    reference = median_ms(
+        lambda: structural_similarity(
+            x,
+            y,
+            gaussian_weights=True,
+            sigma=1.5,
+            use_sample_covariance=False,
+            data_range=255,
+            full=True,
+        ),
+        3 if quick else 15,
+        warmup=1,
+    )
+    _, full = structural_similarity(
+        x,
+        y,
+        gaussian_weights=True,
+        sigma=1.5,
+        use_sample_covariance=False,
+        data_range=255,
+        full=True,
+    )
+    error = float(np.max(np.abs(ssim_map(x, y)[5:-5, 5:-5] - full[5:-5, 5:-5])))
+    return {
+        "size": "768x576",
+        "ours_ms": ours,
+        "skimage_ms": reference,
+        "speedup": reference / ours,
+        "max_abs_error_vs_skimage": error,
+        "target_ms": 4.0,
+        "target_speedup": 20.0,
+    }
+
+
+def sweep_windows(n: int, scene_w: int, scene_h: int, size: int, speed: int = 7) -> list:
+    span = scene_w - size
+    xs = np.abs((np.arange(n) * speed) % (2 * span) - span)
+    ys = (scene_h - size) / 2 + 15 * np.sin(np.arange(n) / 4.0)
+    return [(int(x), int(round(v))) for x, v in zip(xs, ys, strict=True)]
+
+
+def bench_detector(quick: bool) -> dict:
+    n = 20 if quick else 60
+    _, frames = grey_frames(
+        SceneConfig(width=640, height=480, num_frames=n, num_objects=6, noise_sigma=3.0, seed=2)
+    )
+    size = 256
+    windows = sweep_windows(n, 640, 480, size)
+    crops = [
+        np.ascontiguousarray(frames[k, y : y + size, x : x + size])
+        for k, (x, y) in enumerate(windows)
+    ]
+    views = [View(Rect(x, y, size, size), size, size) for x, y in windows]
+    modes = {
+        "known": (DetectorConfig(compensation="known"), True),
+        "off": (DetectorConfig(compensation="off"), True),
+        "phase_correlation": (DetectorConfig(compensation="phase_correlation"), False),
+        "ssim_search (pyramid 2)": (DetectorConfig(compensation="ssim_search"), False),
+        "ssim_search (exhaustive, seed)": (
+            DetectorConfig(compensation="ssim_search", search_pyramid_levels=0),
+            False,
+        ),
+        "known + double detection": (DetectorConfig(double_detection=True), True),
+    }
+    results = {}
+    for name, (config, pose_known) in modes.items():
+        limit = 8 if "exhaustive" in name else n
+        times = []
+        detector = MotionDetector(config)
+        for k in range(limit):
+            start = time.perf_counter()
+            result = detector.process(crops[k], k * 100_000_000, views[k] if pose_known else None)
+            elapsed = time.perf_counter() - start
+            if result.compared:
+                times.append(elapsed)
+        results[name] = {"median_ms": 1e3 * statistics.median(times), "frames": len(times)}
+    results["window"] = f"{size}x{size}"
+    results["target_known_ms"] = 3.0
+    return results
+
+
+def bench_registration(quick: bool) -> dict:
+    _, frames = grey_frames(SceneConfig(width=400, height=400, num_frames=4, num_objects=3, seed=3))
+    results = {}
+    for size in (110, 256):
+        prev = frames[0, 60 : 60 + size, 60 : 60 + size]
+        curr = frames[3, 80 : 80 + size, 47 : 47 + size]  # true shift (-13, 20)
+        cases = {
+            "ssim_search exhaustive +-30 (seed)": lambda p=prev, c=curr: ssim_shift_search(p, c),
+            "ssim_search pyramid 2": lambda p=prev, c=curr: ssim_shift_search(
+                p, c, pyramid_levels=2
+            ),
+            "phase_correlation": lambda p=prev, c=curr: phase_correlation_shift(p, c),
+        }
+        for name, fn in cases.items():
+            estimate = fn()
+            repeats = 2 if "exhaustive" in name else (5 if quick else 30)
+            results[f"{name} @ {size}"] = {
+                "median_ms": median_ms(fn, repeats, warmup=1),
+                "estimate": [round(estimate.dx, 3), round(estimate.dy, 3)],
+                "truth": [-13, 20],
+            }
+    return results
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--quick", action="store_true", help="fewer repetitions (smoke run)")
+    args = parser.parse_args()
+    cv2.setNumThreads(1)
+    report = {
+        "machine": {
+            "python": platform.python_version(),
+            "opencv": cv2.__version__,
+            "cpu": platform.processor() or platform.machine(),
+            "threads": 1,
+        },
+        "ssim_map": bench_ssim(args.quick),
+        "detector": bench_detector(args.quick),
+        "registration": bench_registration(args.quick),
+    }
+    s = report["ssim_map"]
+    print("tracker_detect benchmark (one core)")
+    print(
+        f"\nSSIM map {s['size']}:  ours {s['ours_ms']:.2f} ms   scikit-image "
+        f"{s['skimage_ms']:.1f} ms   speed-up {s['speedup']:.1f}x   "
+        f"(max |diff| {s['max_abs_error_vs_skimage']:.1e}; targets <= 4 ms, >= 20x)"
+    )
+    print(f"\nDetector per frame, {report['detector']['window']} window (target known <= 3 ms):")
+    for name, value in report["detector"].items():
+        if isinstance(value, dict):
+            print(f"  {name:34s} {value['median_ms']:8.2f} ms  ({value['frames']} frames)")
+    print("\nShift estimators alone (true shift (-13, 20)):")
+    for name, value in report["registration"].items():
+        print(f"  {name:44s} {value['median_ms']:8.2f} ms  -> {value['estimate']}")
+    OUT.parent.mkdir(parents=True, exist_ok=True)
+    OUT.write_text(json.dumps(report, indent=1))
+    print(f"\nwrote {OUT.relative_to(ROOT)}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,458 @@
+"""SSIM motion detection for a moving camera window (seed 000 §1 steps 2-7; no rclpy).
+
+Frame k is compared with frame k - gap after ego-motion compensation (`registration`): the SSIM
+map of the two aligned images is thresholded (SSIM <= 0.5 is motion), cleaned by the seed's
+morphology (fill holes -> dilate -> fill holes -> dilate with a 7x7 diamond), and split into
+4-connected blobs, reported in scene coordinates. The presence test says whether the blobs are
+a measurement at all (total area >= 0.08 % of the compared area). Optionally the seed's double
+detection also compares with an older reference frame, to keep slow or stopped objects.
+
+`MotionDetector` keeps the last `gap` frames with their views and does all of this per frame.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import deque
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import cv2
+import numpy as np
+
+from tracker_detect.registration import (
+    Alignment,
+    PixelMap,
+    ShiftEstimate,
+    View,
+    align,
+    phase_correlation_shift,
+    relative_map,
+    ssim_shift_search,
+)
+from tracker_detect.ssim import SsimParams, auto_downsample_factor, ssim_map
+from tracker_msgs_py.geometry import Rect
+
+#: The seed's dilation element H (Principal.m), a 7x7 "diamond".
+SEED_KERNEL = np.array(
+    [
+        [0, 0, 0, 1, 0, 0, 0],
+        [0, 1, 1, 1, 1, 1, 0],
+        [0, 1, 1, 1, 1, 1, 0],
+        [1, 1, 1, 1, 1, 1, 1],
+        [0, 1, 1, 1, 1, 1, 0],
+        [0, 1, 1, 1, 1, 1, 0],
+        [0, 0, 0, 1, 0, 0, 0],
+    ],
+    np.uint8,
+)
+KERNEL_SHAPES = ("seed", "ellipse", "rect", "cross")
+MORPHOLOGY_STEPS = ("fill", "dilate", "erode", "open", "close")
+SEED_MORPHOLOGY = ("fill", "dilate", "fill", "dilate")
+COMPENSATION_MODES = ("known", "ssim_search", "phase_correlation", "off")
+ESTIMATORS = ("ssim_search", "phase_correlation")
+
+
+# --- mask and blobs ----------------------------------------------------------------------------
+
+
+def structuring_element(shape: str = "seed", size: int = 7) -> np.ndarray:
+    """Dilation element: the seed's 7x7 H ('seed', size ignored) or an OpenCV shape of size x size."""
+    if shape == "seed":
+        return SEED_KERNEL.copy()
+    shapes = {"ellipse": cv2.MORPH_ELLIPSE, "rect": cv2.MORPH_RECT, "cross": cv2.MORPH_CROSS}
+    if shape not in shapes:
+        raise ValueError(f"kernel shape must be one of {', '.join(KERNEL_SHAPES)}; got '{shape}'")
+    if size < 1 or size % 2 == 0:
+        raise ValueError(f"kernel size must be odd and >= 1, got {size}")
+    return cv2.getStructuringElement(shapes[shape], (size, size))
+
+
+def fill_holes(mask: np.ndarray) -> np.ndarray:
+    """Set the background regions not 4-connected to the border (MATLAB imfill(bw, 'holes'))."""
+    h, w = mask.shape
+    padded = cv2.copyMakeBorder(mask, 1, 1, 1, 1, cv2.BORDER_CONSTANT, value=0)
+    cv2.floodFill(padded, None, (0, 0), 1, flags=4)
+    # padded is now 1 on the mask and on the background reached from outside; 0 only in holes.
+    return cv2.bitwise_or(mask, 1 - padded[1 : h + 1, 1 : w + 1])
+
+
+def motion_mask(
+    similarity: np.ndarray,
+    threshold: float = 0.5,
+    steps: Sequence[str] = SEED_MORPHOLOGY,
+    kernel: np.ndarray | None = None,
+) -> np.ndarray:
+    """Binary (0/1 uint8) mask of SSIM <= threshold, then `steps` in order (seed: fill, dilate x2)."""
+    mask = (similarity <= threshold).astype(np.uint8)
+    element = SEED_KERNEL if kernel is None else kernel
+    for step in steps:
+        if step == "fill":
+            mask = fill_holes(mask)
+        elif step == "dilate":
+            mask = cv2.dilate(mask, element)
+        elif step == "erode":
+            mask = cv2.erode(mask, element)
+        elif step == "open":
+            mask = cv2.morphologyEx(mask, cv2.MORPH_OPEN, element)
+        elif step == "close":
+            mask = cv2.morphologyEx(mask, cv2.MORPH_CLOSE, element)
+        else:
+            raise ValueError(
+                f"unknown morphology step '{step}' (known: {', '.join(MORPHOLOGY_STEPS)})"
+            )
+    return mask
+
+
+@dataclass(frozen=True)
+class Blob:
+    """A connected component of the motion mask, in scene coordinates (tracker_msgs/Blob)."""
+
+    centroid_x: float  # scene px, mean of the pixel centres
+    centroid_y: float
+    bbox: Rect  # scene px, tight box of the pixels
+    area: float  # scene px^2 (pixel count x scene px per image px squared)
+    pixel_count: int  # image pixels
+    score: float  # mean SSIM over the blob's pixels (lower = stronger motion)
+
+
+def find_blobs(
+    mask: np.ndarray, similarity: np.ndarray, view: View, connectivity: int = 4
+) -> list[Blob]:
+    """Connected components of `mask`, largest first (blobs[0] is the seed's target)."""
+    count, labels, stats, centroids = cv2.connectedComponentsWithStats(
+        mask, connectivity=connectivity, ltype=cv2.CV_32S
+    )
+    if count <= 1:
+        return []
+    ssim_sums = np.bincount(labels.ravel(), weights=similarity.ravel(), minlength=count)
+    blobs = []
+    for i in range(1, count):
+        x, y, w, h, n = (int(v) for v in stats[i])
+        cx, cy = view.to_scene(centroids[i][0] + 0.5, centroids[i][1] + 0.5)
+        blobs.append(
+            Blob(
+                cx,
+                cy,
+                view.rect_to_scene(x, y, w, h),
+                n * view.scale_x * view.scale_y,
+                n,
+                float(ssim_sums[i] / n),
+            )
+        )
+    blobs.sort(key=lambda b: (-b.pixel_count, b.centroid_y, b.centroid_x))
+    return blobs
+
+
+def largest_blob(blobs: Sequence[Blob]) -> Blob | None:
+    """The seed's target rule: the blob with the largest area."""
+    return max(blobs, key=lambda b: b.pixel_count, default=None)
+
+
+def presence_test(blob_pixels: int, compared_pixels: int, min_fraction: float = 0.0008) -> bool:
+    """The seed's presence test: total blob area >= min_fraction (0.08 %) of the compared area."""
+    return compared_pixels > 0 and blob_pixels > 0 and blob_pixels >= min_fraction * compared_pixels
+
+
+# --- the detector ------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class DetectorConfig:
+    """Parameters of `MotionDetector` (defaults: the seed's recommended values, §7)."""
+
+    gap: int = 3  # frames between the compared images
+    threshold: float = 0.5  # SSIM at or below which a pixel is motion
+    morphology: tuple[str, ...] = SEED_MORPHOLOGY
+    kernel_shape: str = "seed"
+    kernel_size: int = 7  # px, for kernel shapes other than 'seed'
+    connectivity: int = 4
+    presence_fraction: float = 0.0008  # 0.08 % of the compared area
+    min_blob_area: float = 0.0  # scene px^2; smaller blobs are dropped (0: keep all, the seed)
+    compensation: str = "known"  # one of COMPENSATION_MODES
+    search_radius: int = 30  # px, estimators search prior +- radius
+    search_window: int = 5  # px, uniform window of the simplified SSIM
+    search_pyramid_levels: int = 2  # 0 = the seed's exhaustive search at full resolution
+    phase_candidates: int = 5  # phase-correlation peaks verified by the simplified SSIM
+    subpixel_alignment: bool = True  # resample fractional shifts (else round them)
+    auto_downsample: bool = True  # Wang's automatic downsampling for large images
+    min_overlap_fraction: float = 0.1  # of the image; less and the frames are not compared
+    double_detection: bool = False
+    reference_max_age: int = 50  # frames a double-detection reference is kept at most
+    ssim: SsimParams = field(default_factory=SsimParams)
+
+    def __post_init__(self) -> None:
+        problems = config_problems(self)
+        if problems:
+            raise ValueError("invalid DetectorConfig: " + "; ".join(problems))
+
+
+def config_problems(c: DetectorConfig) -> list[str]:
+    """Why `c` is unusable (empty when it is fine)."""
+    problems = []
+    if c.gap < 1:
+        problems.append(f"gap must be >= 1, got {c.gap}")
+    if not -1.0 <= c.threshold <= 1.0:
+        problems.append(f"threshold must be in [-1, 1], got {c.threshold}")
+    unknown = [s for s in c.morphology if s not in MORPHOLOGY_STEPS]
+    if unknown:
+        problems.append(
+            f"unknown morphology steps {unknown} (known: {', '.join(MORPHOLOGY_STEPS)})"
+        )
+    if c.kernel_shape not in KERNEL_SHAPES:
+        problems.append(f"kernel_shape must be one of {', '.join(KERNEL_SHAPES)}")
+    if c.kernel_size < 1 or c.kernel_size % 2 == 0:
+        problems.append(f"kernel_size must be odd and >= 1, got {c.kernel_size}")
+    if c.connectivity not in (4, 8):
+        problems.append(f"connectivity must be 4 or 8, got {c.connectivity}")
+    if not 0.0 <= c.presence_fraction <= 1.0:
+        problems.append(f"presence_fraction must be in [0, 1], got {c.presence_fraction}")
+    if not (math.isfinite(c.min_blob_area) and c.min_blob_area >= 0):
+        problems.append(f"min_blob_area must be >= 0, got {c.min_blob_area}")
+    if c.compensation not in COMPENSATION_MODES:
+        problems.append(f"compensation must be one of {', '.join(COMPENSATION_MODES)}")
+    if c.search_radius < 0 or c.search_window < 1 or c.search_pyramid_levels < 0:
+        problems.append("search_radius and search_pyramid_levels must be >= 0, search_window >= 1")
+    if c.phase_candidates < 1:
+        problems.append(f"phase_candidates must be >= 1, got {c.phase_candidates}")
+    if not 0.0 < c.min_overlap_fraction <= 1.0:
+        problems.append(f"min_overlap_fraction must be in (0, 1], got {c.min_overlap_fraction}")
+    if c.reference_max_age < 1:
+        problems.append(f"reference_max_age must be >= 1, got {c.reference_max_age}")
+    return problems
+
+
+class StaleFrameError(ValueError):
+    """A frame whose stamp is not newer than the last accepted one (out of order or duplicate)."""
+
+
+@dataclass
+class Detection:
+    """Everything the detector found in one frame."""
+
+    stamp_ns: int
+    view: View  # where the current image lies in the scene
+    blobs: list[Blob]  # largest first
+    target_present: bool  # the presence test
+    compared: bool  # False while fewer than `gap` frames of history exist or without overlap
+    compared_area: float = 0.0  # scene px^2, overlap of the compared images
+    ego_shift: tuple[float, float] = (0.0, 0.0)  # scene px, camera shift from frame k - gap to k
+    shift_estimate: ShiftEstimate | None = None  # the estimator's raw result, when one ran
+    registration_fallback: bool = False  # estimate rejected (beyond the radius): known map used
+    similarity: np.ndarray | None = None  # (H, W) float32 SSIM in image px, 1 where not compared
+    mask: np.ndarray | None = None  # (H, W) uint8 0/1 motion mask
+    history_reset: bool = False  # the image size changed: the history was cleared first
+
+
+@dataclass
+class _Frame:
+    image: np.ndarray
+    view: View  # given, or assumed / dead-reckoned when the pose is unknown
+    pose_known: bool
+    stamp_ns: int
+
+
+@dataclass
+class _Comparison:
+    similarity: np.ndarray  # full-image map, ones outside the compared part
+    alignment: Alignment
+    pixel_map: PixelMap
+    estimate: ShiftEstimate | None
+    fallback: bool
+
+
+class MotionDetector:
+    """Per-frame SSIM motion detection against the frame `gap` frames earlier (see module doc).
+
+    `process(image, stamp_ns, view)` takes a grey (H, W) image, its stamp and where it lies in
+    the scene. view=None means the pose is unknown: with an estimator selected the view is dead
+    reckoned (the view of frame k - gap moved by the estimated shift; the first `gap` frames are
+    taken to be at the origin), otherwise the camera is taken to be static at the origin. Stamps
+    must increase; a change of image size clears the history.
+    """
+
+    def __init__(self, config: DetectorConfig | None = None) -> None:
+        self.config = config or DetectorConfig()
+        self._history: deque[_Frame] = deque()
+        self._reference: _Frame | None = None
+        self._reference_age = 0
+        self._last_stamp: int | None = None
+        self._kernel = structuring_element(self.config.kernel_shape, self.config.kernel_size)
+
+    def reconfigure(self, config: DetectorConfig) -> None:
+        """Use `config` from the next frame on; a different gap keeps the history it can."""
+        self.config = config
+        self._kernel = structuring_element(config.kernel_shape, config.kernel_size)
+        while len(self._history) > config.gap:
+            self._history.popleft()
+        if not config.double_detection:
+            self._reference = None
+
+    def reset(self) -> None:
+        """Forget all frames (the next `gap` frames are not compared)."""
+        self._history.clear()
+        self._reference = None
+        self._last_stamp = None
+
+    @property
+    def history_length(self) -> int:
+        return len(self._history)
+
+    def process(self, image: np.ndarray, stamp_ns: int, view: View | None = None) -> Detection:
+        """Detect motion in `image`; raises ValueError (state untouched) for unusable input."""
+        gray = _check_image(image)
+        if view is not None and (view.width, view.height) != (gray.shape[1], gray.shape[0]):
+            raise ValueError(
+                f"view is for {view.width}x{view.height} px, image is "
+                f"{gray.shape[1]}x{gray.shape[0]}"
+            )
+        if self._last_stamp is not None and stamp_ns <= self._last_stamp:
+            raise StaleFrameError(
+                f"stamp {stamp_ns} ns is not newer than the last frame's {self._last_stamp} ns"
+            )
+        self._last_stamp = stamp_ns
+        reset = bool(self._history) and self._history[-1].image.shape != gray.shape
+        if reset:
+            self._history.clear()
+            self._reference = None
+        identity = View.identity(gray.shape[1], gray.shape[0])
+        frame = _Frame(gray.copy(), view or identity, view is not None, stamp_ns)
+        if len(self._history) < self.config.gap:
+            self._history.append(frame)
+            return Detection(stamp_ns, frame.view, [], False, False, history_reset=reset)
+        previous = self._history.popleft()
+        comparison = self._compare(previous, frame)
+        if not frame.pose_known and self.config.compensation in ESTIMATORS:
+            # Dead reckoning: the unknown view is the earlier one moved by the estimated shift.
+            m = comparison.pixel_map if comparison else PixelMap()
+            frame.view = previous.view.translated(m.tx, m.ty)
+        self._history.append(frame)
+        if comparison is None:
+            return Detection(stamp_ns, frame.view, [], False, False, history_reset=reset)
+        return self._detect(frame, previous, comparison, reset)
+
+    def _detect(
+        self, frame: _Frame, previous: _Frame, comparison: _Comparison, reset: bool
+    ) -> Detection:
+        c = self.config
+        similarity = comparison.similarity
+        if c.double_detection and self._reference is not None:
+            self._reference_age += 1
+            reference = self._compare(self._reference, frame)
+            if reference is None or self._reference_age > c.reference_max_age:
+                self._reference = None
+            else:
+                np.minimum(similarity, reference.similarity, out=similarity)
+        view = frame.view
+        mask = motion_mask(similarity, c.threshold, c.morphology, self._kernel)
+        blobs = [
+            b
+            for b in find_blobs(mask, similarity, view, c.connectivity)
+            if b.area >= c.min_blob_area
+        ]
+        compared_pixels = comparison.alignment.area
+        present = presence_test(
+            sum(b.pixel_count for b in blobs), compared_pixels, c.presence_fraction
+        )
+        if c.double_detection:
+            if not present:
+                self._reference = None
+            elif self._reference is None:
+                self._reference, self._reference_age = previous, 0
+        prev_view = previous.view
+        m = comparison.pixel_map
+        return Detection(
+            frame.stamp_ns,
+            view,
+            blobs,
+            present,
+            True,
+            compared_area=compared_pixels * view.scale_x * view.scale_y,
+            ego_shift=(m.tx * prev_view.scale_x, m.ty * prev_view.scale_y),
+            shift_estimate=comparison.estimate,
+            registration_fallback=comparison.fallback,
+            similarity=similarity,
+            mask=mask,
+            history_reset=reset,
+        )
+
+    def _compare(self, previous: _Frame, frame: _Frame) -> _Comparison | None:
+        """Align `previous` to `frame` and compute their SSIM map; None without enough overlap."""
+        c = self.config
+        pixel_map, estimate, fallback = self._pixel_map(previous, frame)
+        alignment = align(previous.image, frame.image, pixel_map, c.subpixel_alignment)
+        min_area = c.min_overlap_fraction * frame.image.size
+        if alignment is None or alignment.area < max(min_area, 1):
+            return None
+        x0, y0, x1, y1 = alignment.roi
+        factor = auto_downsample_factor((y1 - y0, x1 - x0)) if c.auto_downsample else 1
+        if min(y1 - y0, x1 - x0) // factor < c.ssim.win_size + 1:
+            return None
+        local = ssim_map(
+            alignment.prev, alignment.curr, c.ssim, valid=True, downsample_factor=factor
+        )
+        similarity = np.ones(frame.image.shape, np.float32)
+        _paste_map(similarity, local, alignment.roi, c.ssim.border, factor)
+        return _Comparison(similarity, alignment, pixel_map, estimate, fallback)
+
+    def _pixel_map(
+        self, previous: _Frame, frame: _Frame
+    ) -> tuple[PixelMap, ShiftEstimate | None, bool]:
+        c = self.config
+        if c.compensation == "off":
+            return PixelMap(), None, False
+        both_known = previous.pose_known and frame.pose_known
+        known = relative_map(previous.view, frame.view) if both_known else PixelMap()
+        if c.compensation == "known":
+            return known, None, False
+        # Estimators look for the residual shift after the known alignment (jitter), or for the
+        # whole shift when the pose is unknown (the known map is then the identity).
+        coarse = align(previous.image, frame.image, known, subpixel=True)
+        if coarse is None or min(coarse.prev.shape) < 4 * c.search_window:
+            return known, None, True
+        try:
+            estimate = self._estimate(coarse.prev, coarse.curr)
+        except ValueError:
+            return known, None, True
+        if max(abs(estimate.dx), abs(estimate.dy)) > c.search_radius:
+            return known, estimate, True
+        return known.shifted(estimate.dx, estimate.dy), estimate, False
+
+    def _estimate(self, prev: np.ndarray, curr: np.ndarray) -> ShiftEstimate:
+        c = self.config
+        if c.compensation == "phase_correlation":
+            return phase_correlation_shift(
+                prev, curr, candidates=c.phase_candidates, window=c.search_window, params=c.ssim
+            )
+        return ssim_shift_search(
+            prev,
+            curr,
+            radius=c.search_radius,
+            window=c.search_window,
+            pyramid_levels=c.search_pyramid_levels,
+            params=c.ssim,
+        )
+
+
+def _check_image(image: np.ndarray) -> np.ndarray:
+    array = np.asarray(image)
+    if array.ndim != 2 or array.size == 0:
+        raise ValueError(f"expected a grey (H, W) image, got shape {array.shape}")
+    if array.dtype != np.uint8:
+        if not np.issubdtype(array.dtype, np.number) or not np.all(np.isfinite(array)):
+            raise ValueError(f"image must be finite numbers, got dtype {array.dtype}")
+        array = array.astype(np.float32)
+    return array
+
+
+def _paste_map(
+    full: np.ndarray, local: np.ndarray, roi: tuple[int, int, int, int], border: int, factor: int
+) -> None:
+    """Write a 'valid' (possibly downsampled) SSIM map back into full-image pixels."""
+    x0, y0, x1, y1 = roi
+    if factor > 1:
+        local = np.repeat(np.repeat(local, factor, axis=0), factor, axis=1)
+    top, left = y0 + border * factor, x0 + border * factor
+    rows = min(local.shape[0], y1 - top)
+    cols = min(local.shape[1], x1 - left)
+    full[top : top + rows, left : left + cols] = local[:rows, :cols]

@@ -1,0 +1,262 @@
+"""The ssim_detector node in-process: pairing by stamp, one BlobArray per frame, bad input."""
+
+from __future__ import annotations
+
+import itertools
+import time
+
+import cv2
+import numpy as np
+import pytest
+import rclpy
+from rclpy.executors import SingleThreadedExecutor
+from rclpy.parameter import Parameter
+from sensor_msgs.msg import CameraInfo, Image, JointState
+
+from tracker_detect.ssim_detector_node import SsimDetectorNode
+from tracker_msgs.msg import BlobArray, PtzState
+from tracker_msgs_py.conversions import array_to_image, camera_info, ns_to_stamp
+from tracker_msgs_py.params import ParameterError
+
+pytestmark = pytest.mark.ros
+
+NS = 100_000_000
+_namespaces = itertools.count()
+
+
+@pytest.fixture(scope="module")
+def context():
+    """A context of our own, so other test modules' rclpy.init() cannot collide with ours."""
+    ctx = rclpy.Context()
+    rclpy.init(context=ctx)
+    yield ctx
+    rclpy.shutdown(context=ctx)
+
+
+class Harness:
+    """The detector plus a peer node that feeds it and records what it publishes."""
+
+    def __init__(self, context, **params):
+        self.namespace = f"/detect_test_{next(_namespaces)}"
+        overrides = [Parameter("reliable_images", value=True)]
+        overrides += [Parameter(k, value=v) for k, v in params.items()]
+        self.node = SsimDetectorNode(
+            namespace=self.namespace, parameter_overrides=overrides, context=context
+        )
+        self.peer = rclpy.create_node("peer", namespace=self.namespace, context=context)
+        self.images = self.peer.create_publisher(Image, "camera/image_raw", 50)
+        self.states = self.peer.create_publisher(PtzState, "ptz/state", 50)
+        self.joints = self.peer.create_publisher(JointState, "ptz/joint_states", 50)
+        self.infos = self.peer.create_publisher(CameraInfo, "camera/camera_info", 50)
+        self.detections: list[BlobArray] = []
+        self.masks: list[Image] = []
+        self.peer.create_subscription(BlobArray, "detections", self.detections.append, 50)
+        self.executor = SingleThreadedExecutor(context=context)
+        self.executor.add_node(self.node)
+        self.executor.add_node(self.peer)
+        source = params.get("pose_source", "ptz_state")
+        wanted = {"ptz_state": [self.states], "joint_states": [self.joints, self.infos]}
+        publishers = [self.images, *wanted.get(source, [])]
+        assert self.spin_until(lambda: all(p.get_subscription_count() for p in publishers))
+
+    def subscribe_mask(self):
+        self.peer.create_subscription(Image, "detector/motion_mask", self.masks.append, 50)
+        self.spin_until(lambda: self.node.mask_pub.get_subscription_count() > 0, 5.0)
+
+    def spin_until(self, condition, timeout=5.0):
+        deadline = time.monotonic() + timeout
+        while not condition() and time.monotonic() < deadline:
+            self.executor.spin_once(timeout_sec=0.02)
+        return condition()
+
+    def settle(self, count):
+        assert self.spin_until(lambda: len(self.detections) >= count), (
+            f"{len(self.detections)} detections, {count} expected; counters {self.node.counters}, "
+            f"{len(self.node.pending)} images waiting for a pose"
+        )
+        self.spin_until(lambda: len(self.detections) > count, 0.1)  # and nothing more arrives
+
+    def close(self):
+        self.executor.shutdown()
+        self.node.destroy_node()
+        self.peer.destroy_node()
+
+
+@pytest.fixture
+def harness_factory(context):
+    made = []
+
+    def make(**params):
+        made.append(Harness(context, **params))
+        return made[-1]
+
+    yield make
+    for h in made:
+        h.close()
+
+
+def scene_and_windows(n=8, w=120, h=90):
+    """A static texture crossed by a square; the camera window pans right 5 px a frame."""
+    rng = np.random.default_rng(0)
+    noise = cv2.GaussianBlur(rng.standard_normal((200, 300)).astype(np.float32), (0, 0), 1.5)
+    background = np.clip(128 + 60 * noise / noise.std(), 0, 255).astype(np.uint8)
+    frames, windows = [], []
+    for k in range(n):
+        frame = background.copy()
+        frame[80:96, 100 + 6 * k : 116 + 6 * k] = 30
+        frames.append(frame)
+        windows.append((40 + 5 * k, 50, w, h))
+    return frames, windows
+
+
+def image_msg(pixels, stamp_ns, encoding="mono8"):
+    if encoding == "bgr8":
+        pixels = cv2.cvtColor(pixels, cv2.COLOR_GRAY2BGR)
+    return array_to_image(pixels, encoding, ns_to_stamp(stamp_ns), "ptz_camera_optical")
+
+
+def state_msg(window, stamp_ns):
+    msg = PtzState()
+    msg.header.stamp = ns_to_stamp(stamp_ns)
+    msg.header.frame_id = "scene"
+    msg.window.x, msg.window.y, msg.window.width, msg.window.height = (float(v) for v in window)
+    msg.zoom = 1.0
+    return msg
+
+
+def test_one_blob_array_per_frame_with_poses_in_any_order(harness_factory):
+    h = harness_factory(pose_source="ptz_state")
+    frames, windows = scene_and_windows()
+    for k, (frame, (x, y, w, hh)) in enumerate(zip(frames, windows, strict=True)):
+        crop = frame[y : y + hh, x : x + w]
+        if k % 2:  # the state before the image, or after it
+            h.states.publish(state_msg(windows[k], k * NS))
+            h.images.publish(image_msg(crop, k * NS, "bgr8"))
+        else:
+            h.images.publish(image_msg(crop, k * NS))
+            h.spin_until(lambda: len(h.node.pending) == 1)
+            h.states.publish(state_msg(windows[k], k * NS))
+        h.settle(k + 1)  # a lockstep source waits for each answer
+    assert len(h.detections) == len(frames)
+    stamps = [d.header.stamp.sec * 10**9 + d.header.stamp.nanosec for d in h.detections]
+    assert stamps == [k * NS for k in range(len(frames))]
+    assert all(d.header.frame_id == "scene" for d in h.detections)
+    assert all(not d.target_present and not d.blobs for d in h.detections[:3])
+    for k, d in enumerate(h.detections[3:], start=3):
+        assert d.target_present
+        assert (d.ego_shift_x, d.ego_shift_y) == (15.0, 0.0)
+        target = d.blobs[0]
+        # scene coordinates: the square's current position lies in the largest blob
+        assert target.bbox.x <= 100 + 6 * k and target.bbox.x + target.bbox.width >= 116 + 6 * k
+        assert target.bbox.y <= 80 and target.bbox.y + target.bbox.height >= 96
+        assert -1.0 <= target.score < 0.8  # mean SSIM over the dilated blob
+    assert h.node.counters.frames == len(frames)
+
+
+def test_bad_encodings_and_stale_stamps(harness_factory):
+    h = harness_factory(pose_source="none")
+    frames, _ = scene_and_windows()
+    h.images.publish(image_msg(frames[0][:90, :120], 0))
+    h.settle(1)
+    depth = Image(height=2, width=2, encoding="16UC1", step=4, data=bytes(8))
+    depth.header.stamp = ns_to_stamp(NS)
+    h.images.publish(depth)
+    h.settle(2)
+    assert h.node.counters.unsupported_encoding == 1
+    assert not h.detections[1].target_present and not h.detections[1].blobs  # acknowledged
+    h.images.publish(image_msg(frames[1][:90, :120], NS))  # duplicate stamp
+    h.images.publish(image_msg(frames[1][:90, :120], NS // 2))  # out of order
+    h.spin_until(lambda: h.node.counters.stale_stamp >= 2)
+    h.spin_until(lambda: len(h.detections) > 2, 0.2)
+    assert h.node.counters.stale_stamp == 2
+    assert len(h.detections) == 2  # stale frames are dropped, not answered
+
+
+def test_size_change_resets_the_history(harness_factory):
+    h = harness_factory(pose_source="none", gap=1)
+    frames, _ = scene_and_windows()
+    for k, size in enumerate([(90, 120), (90, 120), (80, 100), (80, 100)]):
+        h.images.publish(image_msg(frames[k][: size[0], : size[1]], k * NS))
+        h.settle(k + 1)
+    assert h.node.counters.size_changes == 1
+    assert [d.compared_area > 0 for d in h.detections] == [False, True, False, True]
+
+
+def test_debug_images_only_while_subscribed(harness_factory):
+    h = harness_factory(pose_source="none", gap=1)
+    frames, _ = scene_and_windows()
+    for k in range(2):
+        h.images.publish(image_msg(frames[k][:90, :120], k * NS))
+        h.settle(k + 1)
+    h.subscribe_mask()
+    assert h.masks == []
+    h.images.publish(image_msg(frames[2][:90, :120], 2 * NS))
+    h.settle(3)
+    assert h.spin_until(lambda: len(h.masks) == 1)
+    mask = h.masks[0]
+    assert (mask.encoding, mask.width, mask.height) == ("mono8", 120, 90)
+    assert mask.header.frame_id == "ptz_camera_optical"
+    assert set(np.frombuffer(bytes(mask.data), np.uint8)) == {0, 255}
+
+
+def test_joint_states_and_camera_info_give_the_shift(harness_factory):
+    """A real pan-tilt unit: the window shift comes from the pan angle and the focal length."""
+    fx = 200.0
+    h = harness_factory(pose_source="joint_states", scene_focal_length=fx, gap=1)
+    frames, windows = scene_and_windows(n=3)
+    info = camera_info(120, 90, fx, fx, 60.0, 45.0, ns_to_stamp(0), "ptz_camera_optical")
+    h.infos.publish(info)
+    h.spin_until(lambda: h.node.camera is not None)
+    for k, (x, y, w, hh) in enumerate(windows):
+        joints = JointState(name=["tilt_joint", "pan_joint"], position=[0.0, -0.025 * k])
+        joints.header.stamp = ns_to_stamp(k * NS)
+        h.joints.publish(joints)
+        h.images.publish(image_msg(frames[k][y : y + hh, x : x + w], k * NS))
+        h.settle(k + 1)
+    # pan decreasing by 0.025 rad moves the view right by 200 * 0.025 = 5 scene px
+    assert h.detections[1].ego_shift_x == pytest.approx(5.0, abs=1e-6)
+    assert h.detections[2].ego_shift_y == pytest.approx(0.0, abs=1e-9)
+    assert h.detections[2].target_present
+
+
+def test_images_without_a_pose_are_answered_empty(harness_factory):
+    h = harness_factory(pose_source="ptz_state", gap=1)
+    frames, windows = scene_and_windows(n=3)
+    x, y, w, hh = windows[0]
+    h.images.publish(image_msg(frames[0][y : y + hh, x : x + w], 0))
+    h.states.publish(state_msg(windows[1], NS))  # the pose for stamp 0 never comes
+    h.settle(1)
+    assert h.node.counters.without_pose == 1
+    assert not h.detections[0].target_present
+
+
+def test_parameters_are_validated_on_change(harness_factory):
+    h = harness_factory(pose_source="none")
+    node = h.node
+
+    def set_param(name, value):
+        return node.set_parameters([Parameter(name, value=value)])[0]
+
+    assert not set_param("threshold", 1.5).successful
+    assert not set_param("kernel_size", 4).successful
+    assert not set_param("morphology", ["fill", "blur"]).successful
+    assert not set_param("compensation", "guess").successful
+    assert not set_param("pose_source", "joint_states").successful  # read-only
+    assert node.detector.config.threshold == 0.5
+    result = set_param("threshold", 0.6)
+    assert result.successful
+    assert node.detector.config.threshold == 0.6
+    assert set_param("compensation", "phase_correlation").successful
+    assert node.detector.config.compensation == "phase_correlation"
+
+
+def test_estimate_needs_an_estimator(context):
+    with pytest.raises(ParameterError, match="estimate"):
+        SsimDetectorNode(
+            context=context,
+            namespace="/detect_test_bad",
+            parameter_overrides=[
+                Parameter("pose_source", value="estimate"),
+                Parameter("compensation", value="known"),
+            ],
+        )
