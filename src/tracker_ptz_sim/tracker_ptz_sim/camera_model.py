@@ -1,0 +1,314 @@
+"""Simulated pan-tilt-zoom camera: a window moving over the recorded scene (no rclpy).
+
+Seed 000 §4: the whole recorded frame is the surveillance area; the camera sees a window of it.
+Pan/tilt map to the window centre through the focal length (`tracker_msgs_py.geometry`, REP-103
+signs: pan positive = left, tilt positive = down). The window always stays inside the scene, as the
+seed clamps it: the reachable pan/tilt range shrinks as the window grows (zoom out).
+
+Servo dynamics per axis: rate and acceleration limits, a command latency, position commands with a
+deceleration profile that stops on target, velocity commands with a watchdog (no command for
+`velocity_timeout` -> stop, as real pan-tilt units do). `servo="instant"` reproduces the seed's
+jumping window. Zoom shrinks the window by 1/zoom; the output image keeps its size.
+
+Everything advances on the recording's stamps, so a replay is deterministic. At zoom 1 the window
+snaps to whole scene pixels and the reported angles are those of the window shown, so every view is
+an exact slice of its scene frame and the angles map to its rectangle exactly.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import deque
+from dataclasses import dataclass, replace
+
+import cv2
+import numpy as np
+
+from tracker_msgs_py.geometry import Rect, SceneGeometry
+
+INTEGRATION_STEP_S = 0.005  # servo dynamics are integrated in steps of at most this
+
+
+@dataclass(frozen=True)
+class PtzConfig:
+    view_height_fraction: float = 110 / 240  # window height / scene height at zoom 1 (the seed's)
+    view_aspect: float = 1.0  # window width / height (the seed's window is square)
+    focal_length: float = 0.0  # scene px per rad; 0 = window width / view_fov
+    view_fov: float = 0.6  # rad, horizontal field of view at zoom 1 (used when focal_length = 0)
+    servo: str = "dynamic"  # "dynamic" or "instant" (the seed's jumping window)
+    max_speed: float = 1.5  # rad/s per axis
+    max_acceleration: float = 8.0  # rad/s^2 per axis
+    command_latency: float = 0.0  # s from a command's stamp until the servos act on it
+    velocity_timeout: float = 0.5  # s without a new velocity command before the unit stops
+    max_zoom: float = 4.0
+    initial_pan: float = 0.0  # rad
+    initial_tilt: float = 0.0  # rad
+
+    def problems(self) -> list[str]:
+        found = []
+        if not 0.05 <= self.view_height_fraction <= 1.0:
+            found.append("view_height_fraction must be in [0.05, 1]")
+        if not 0.1 <= self.view_aspect <= 10.0:
+            found.append("view_aspect must be in [0.1, 10]")
+        if self.servo not in ("dynamic", "instant"):
+            found.append(f"servo must be dynamic or instant, got '{self.servo}'")
+        for name in ("max_speed", "max_acceleration", "view_fov"):
+            if not getattr(self, name) > 0:
+                found.append(f"{name} must be > 0")
+        for name in ("focal_length", "command_latency", "velocity_timeout"):
+            if not getattr(self, name) >= 0:
+                found.append(f"{name} must be >= 0")
+        if not self.max_zoom >= 1.0:
+            found.append("max_zoom must be >= 1")
+        return found
+
+
+@dataclass(frozen=True)
+class PtzCommand:
+    """A command as the model sees it: `stamp` is the scene time it was issued at [s]."""
+
+    stamp: float
+    mode: str  # "position", "velocity" or "hold"
+    pan: float = 0.0
+    tilt: float = 0.0
+    pan_rate: float = 0.0
+    tilt_rate: float = 0.0
+    zoom: float = 0.0  # 0 or NaN: keep
+
+
+@dataclass(frozen=True)
+class PtzSnapshot:
+    """The camera at one instant: what the PtzState/JointState messages report."""
+
+    time: float
+    pan: float
+    tilt: float
+    pan_rate: float
+    tilt_rate: float
+    zoom: float
+    window: Rect  # scene px, the part of the scene the view shows
+    moving: bool
+
+
+@dataclass
+class _Axis:
+    position: float
+    rate: float = 0.0
+
+
+class PtzCameraModel:
+    """The camera over a scene of `width` x `height` px; `advance(t)` then `render(frame)`."""
+
+    def __init__(self, config: PtzConfig, width: int, height: int) -> None:
+        problems = config.problems()
+        if problems:
+            raise ValueError("; ".join(problems))
+        self.config = config
+        self.width, self.height = width, height
+        base_h = min(height, max(2, int(round(config.view_height_fraction * height))))
+        base_w = min(width, max(2, int(round(base_h * config.view_aspect))))
+        self.base_size = (base_w, base_h)
+        focal = config.focal_length or base_w / config.view_fov
+        self.geometry = SceneGeometry(width, height, focal)
+        self.zoom = 1.0
+        self.time: float | None = None
+        self.pan = _Axis(config.initial_pan)
+        self.tilt = _Axis(config.initial_tilt)
+        self._pending: deque[PtzCommand] = deque()
+        self._active: PtzCommand | None = None
+        self._clamp_axes()
+
+    # --- commands -------------------------------------------------------------------------------
+
+    def command(self, command: PtzCommand) -> None:
+        """Queue a command; it acts from `command.stamp + command_latency` on."""
+        values = (command.pan, command.tilt, command.pan_rate, command.tilt_rate)
+        if not all(math.isfinite(v) for v in values):
+            raise ValueError(f"non-finite pan-tilt command {values}")
+        if command.mode not in ("position", "velocity", "hold"):
+            raise ValueError(f"unknown command mode '{command.mode}'")
+        self._pending.append(command)
+
+    # --- time -----------------------------------------------------------------------------------
+
+    def advance(self, t: float) -> PtzSnapshot:
+        """Move the servos to scene time `t` [s] (never backwards) and return the camera's state."""
+        if self.time is None:
+            self.time = t
+        while self.time < t:
+            due = self._next_activation()
+            step_end = min(t, self.time + INTEGRATION_STEP_S, due if due > self.time else t)
+            self._activate_due(self.time)
+            self._integrate(step_end - self.time)
+            self.time = step_end
+        self._activate_due(self.time)
+        if self.config.servo == "instant":
+            self._integrate(0.0)
+        return self.snapshot()
+
+    def _next_activation(self) -> float:
+        if not self._pending:
+            return math.inf
+        return self._pending[0].stamp + self.config.command_latency
+
+    def _activate_due(self, now: float) -> None:
+        while self._pending and self._pending[0].stamp + self.config.command_latency <= now + 1e-12:
+            command = self._pending.popleft()
+            if command.zoom and math.isfinite(command.zoom):
+                self.zoom = min(max(command.zoom, 1.0), self.config.max_zoom)
+            self._active = command if command.mode != "hold" else None
+            if command.mode == "hold" or self.config.servo == "instant":
+                self.pan.rate = self.tilt.rate = 0.0
+
+    def _integrate(self, dt: float) -> None:
+        command = self._active
+        if command is not None and command.mode == "velocity" and self.time is not None:
+            if (
+                self.time - (command.stamp + self.config.command_latency)
+                >= self.config.velocity_timeout
+            ):
+                command = self._active = None  # watchdog: no fresh velocity command -> stop
+        if self.config.servo == "instant":
+            self._integrate_instant(command, dt)
+        else:
+            for axis, target, rate in self._axis_goals(command):
+                _servo_step(
+                    axis, target, rate, self.config.max_speed, self.config.max_acceleration, dt
+                )
+        self._clamp_axes()
+
+    def _integrate_instant(self, command: PtzCommand | None, dt: float) -> None:
+        if command is None:
+            return
+        if command.mode == "position":
+            self.pan.position, self.tilt.position = command.pan, command.tilt
+        else:
+            self.pan.rate, self.tilt.rate = command.pan_rate, command.tilt_rate
+            self.pan.position += command.pan_rate * dt
+            self.tilt.position += command.tilt_rate * dt
+
+    def _axis_goals(self, command: PtzCommand | None) -> list[tuple[_Axis, float | None, float]]:
+        """Per axis: the position to reach (None in velocity mode) and the rate to hold."""
+        if command is None:
+            return [(self.pan, None, 0.0), (self.tilt, None, 0.0)]
+        if command.mode == "position":
+            return [(self.pan, command.pan, 0.0), (self.tilt, command.tilt, 0.0)]
+        return [(self.pan, None, command.pan_rate), (self.tilt, None, command.tilt_rate)]
+
+    # --- geometry -------------------------------------------------------------------------------
+
+    def window_size(self) -> tuple[int, int]:
+        base_w, base_h = self.base_size
+        return (max(2, int(round(base_w / self.zoom))), max(2, int(round(base_h / self.zoom))))
+
+    def limits(self) -> tuple[tuple[float, float], tuple[float, float]]:
+        """(pan_min, pan_max), (tilt_min, tilt_max) keeping the window inside the scene [rad]."""
+        w, h = self.window_size()
+        f = self.geometry.focal_length
+        cx, cy = self.geometry.center
+        pan_span = (cx - w / 2.0) / f
+        tilt_span = (cy - h / 2.0) / f
+        return (-pan_span, pan_span), (-tilt_span, tilt_span)
+
+    def _clamp_axes(self) -> None:
+        (pan_lo, pan_hi), (tilt_lo, tilt_hi) = self.limits()
+        for axis, lo, hi in ((self.pan, pan_lo, pan_hi), (self.tilt, tilt_lo, tilt_hi)):
+            if axis.position < lo or axis.position > hi:
+                axis.position = min(max(axis.position, lo), hi)
+                axis.rate = 0.0
+
+    def window(self) -> Rect:
+        """The scene rectangle shown: centred on the line of sight, snapped to whole pixels."""
+        w, h = self.window_size()
+        cx, cy = self.geometry.angles_to_pixel(self.pan.position, self.tilt.position)
+        x0 = min(max(int(round(cx - w / 2.0)), 0), self.width - w)
+        y0 = min(max(int(round(cy - h / 2.0)), 0), self.height - h)
+        return Rect(float(x0), float(y0), float(w), float(h))
+
+    def snapshot(self) -> PtzSnapshot:
+        window = self.window()
+        pan, tilt = self.geometry.pixel_to_angles(*window.center)
+        moving = abs(self.pan.rate) > 1e-9 or abs(self.tilt.rate) > 1e-9
+        return PtzSnapshot(
+            self.time or 0.0, pan, tilt, self.pan.rate, self.tilt.rate, self.zoom, window, moving
+        )
+
+    def output_size(self) -> tuple[int, int]:
+        """(width, height) of the camera image: the window's size at zoom 1, whatever the zoom."""
+        return self.base_size
+
+    def intrinsics(self) -> tuple[float, float, float, float]:
+        """fx, fy, cx, cy of the camera image (px per rad at the image centre, principal point)."""
+        out_w, out_h = self.output_size()
+        w, _ = self.window_size()
+        focal = self.geometry.focal_length * out_w / w
+        return focal, focal, out_w / 2.0, out_h / 2.0
+
+    def render(self, scene: np.ndarray, window: Rect | None = None) -> np.ndarray:
+        """The camera image of `scene` for `window` (default: the current one)."""
+        if scene.shape[0] != self.height or scene.shape[1] != self.width:
+            raise ValueError(
+                f"scene frame is {scene.shape[1]}x{scene.shape[0]}, the camera was set up for "
+                f"{self.width}x{self.height}"
+            )
+        window = window or self.window()
+        x0, y0 = int(window.x), int(window.y)
+        view = scene[y0 : y0 + int(window.height), x0 : x0 + int(window.width)]
+        out_w, out_h = self.output_size()
+        if view.shape[1] == out_w and view.shape[0] == out_h:
+            return np.ascontiguousarray(view)
+        return cv2.resize(view, (out_w, out_h), interpolation=cv2.INTER_LINEAR)
+
+    def reconfigure(self, config: PtzConfig) -> None:
+        """Apply new limits/dynamics; the pose is kept (then clamped to the new window)."""
+        problems = config.problems()
+        if problems:
+            raise ValueError("; ".join(problems))
+        geometry_changed = (
+            config.view_height_fraction != self.config.view_height_fraction
+            or config.view_aspect != self.config.view_aspect
+            or config.focal_length != self.config.focal_length
+            or config.view_fov != self.config.view_fov
+        )
+        if geometry_changed:
+            rebuilt = PtzCameraModel(
+                replace(config, initial_pan=self.pan.position, initial_tilt=self.tilt.position),
+                self.width,
+                self.height,
+            )
+            self.base_size, self.geometry = rebuilt.base_size, rebuilt.geometry
+        self.config = config
+        self.zoom = min(self.zoom, config.max_zoom)
+        self._clamp_axes()
+
+
+def _servo_step(
+    axis: _Axis,
+    target: float | None,
+    hold_rate: float,
+    max_speed: float,
+    max_accel: float,
+    dt: float,
+) -> None:
+    """One integration step of an axis with rate and acceleration limits.
+
+    Position goal: the fastest rate that can still stop on target (v = sqrt(2 a d)), capped at the
+    speed limit. Rate goal: `hold_rate`, capped. The rate then moves toward the wanted rate by at
+    most a * dt, and the position integrates the mean rate over the step.
+    """
+    if dt <= 0:
+        return
+    if target is not None:
+        error = target - axis.position
+        wanted = math.copysign(min(max_speed, math.sqrt(2.0 * max_accel * abs(error))), error)
+        if abs(error) <= max_accel * dt * dt and abs(axis.rate) <= max_accel * dt:
+            axis.position, axis.rate = target, 0.0  # arrived: settle exactly
+            return
+        # Do not overshoot within the step.
+        wanted = math.copysign(min(abs(wanted), abs(error) / dt), error)
+    else:
+        wanted = max(-max_speed, min(max_speed, hold_rate))
+    change = max(-max_accel * dt, min(max_accel * dt, wanted - axis.rate))
+    new_rate = axis.rate + change
+    axis.position += 0.5 * (axis.rate + new_rate) * dt
+    axis.rate = new_rate
