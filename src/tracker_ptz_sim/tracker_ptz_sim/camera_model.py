@@ -162,12 +162,8 @@ class PtzCameraModel:
 
     def _integrate(self, dt: float) -> None:
         command = self._active
-        if command is not None and command.mode == "velocity" and self.time is not None:
-            if (
-                self.time - (command.stamp + self.config.command_latency)
-                >= self.config.velocity_timeout
-            ):
-                command = self._active = None  # watchdog: no fresh velocity command -> stop
+        if command is not None and self._velocity_expired(command):
+            command = self._active = None  # watchdog: no fresh velocity command -> stop
         if self.config.servo == "instant":
             self._integrate_instant(command, dt)
         else:
@@ -176,6 +172,14 @@ class PtzCameraModel:
                     axis, target, rate, self.config.max_speed, self.config.max_acceleration, dt
                 )
         self._clamp_axes()
+
+    def _velocity_expired(self, command: PtzCommand) -> bool:
+        acting_since = command.stamp + self.config.command_latency
+        return (
+            command.mode == "velocity"
+            and self.time is not None
+            and self.time - acting_since >= self.config.velocity_timeout
+        )
 
     def _integrate_instant(self, command: PtzCommand | None, dt: float) -> None:
         if command is None:
