@@ -2,6 +2,7 @@
 SHELL := /bin/bash
 .DEFAULT_GOAL := help
 ENV := source scripts/env.sh &&
+SIM := install/tracker_ptz_sim/lib/tracker_ptz_sim
 PYTEST_ARGS ?=
 VIDEO ?=
 DEMO_ARGS ?=
@@ -30,10 +31,10 @@ shell: setup  ## A bash shell with ROS 2, the venv and this workspace sourced
 	@bash --rcfile scripts/shell-rc.sh -i
 
 sample: setup  ## Fetch and verify the sample clip vtest.avi (cached outside the repository)
-	@$(ENV) fetch_sample
+	@$(ENV) $(SIM)/fetch_sample
 
 demo: setup  ## Run the surveillance demo (VIDEO=path/to/video to use your own)
-	@$(ENV) run_demo $(if $(VIDEO),--video "$(VIDEO)") $(DEMO_ARGS)
+	@$(ENV) $(SIM)/run_demo $(if $(VIDEO),--video "$(VIDEO)") $(DEMO_ARGS)
 
 bench: setup  ## Benchmarks: prints tables, writes out/bench/*.json
 	@$(ENV) for b in bench/bench_*.py; do echo "== $$b"; python "$$b" || exit 1; done

@@ -26,6 +26,8 @@ setup(
     license="Apache-2.0",
     entry_points={
         "console_scripts": [
+            "video_source = tracker_ptz_sim.video_source_node:main",
+            "ptz_camera = tracker_ptz_sim.ptz_camera_node:main",
             "ptz_controller = tracker_ptz_sim.ptz_controller_node:main",
             "run_demo = tracker_ptz_sim.demo:main",
             "evaluate = tracker_ptz_sim.evaluate:main",

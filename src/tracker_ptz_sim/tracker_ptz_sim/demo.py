@@ -206,7 +206,12 @@ def run_graph(
     cpu: dict[str, float] = {}
     started = time.monotonic()
     try:
-        source_overrides = {"path": str(video), **overrides.get("video_source", {})}
+        # The first frame goes out once ptz_camera and this recorder both listen.
+        source_overrides = {
+            "path": str(video),
+            "wait_for_subscribers": 2,
+            **overrides.get("video_source", {}),
+        }
         for node in graph.nodes:
             if node.name != "video_source":
                 nodes.start(node.name, overrides.get(node.name))

@@ -1,0 +1,261 @@
+"""ptz_camera: a simulated pan-tilt-zoom camera looking at the replayed scene (thin shell over
+camera_model.py).
+
+Subscribes `scene/image_raw` and `ptz/command` (tracker_msgs/PtzCommand: position, velocity or
+hold); for every scene image publishes the camera view `camera/image_raw` + `camera/camera_info`
+(the window's intrinsics), `ptz/state` (tracker_msgs/PtzState) and `ptz/joint_states`
+(sensor_msgs/JointState, pan and tilt in radians, REP-103 signs), all stamped with the scene image.
+In lockstep mode it processes scene image n+1 only once a command stamped >= image n has arrived
+(or after `lockstep_timeout`), because commands and images travel on different topics: this makes
+a lockstep replay deterministic.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import fields
+from typing import Any
+
+from rclpy.node import Node
+from sensor_msgs.msg import CameraInfo, Image, JointState
+
+from tracker_msgs.msg import PtzCommand as PtzCommandMsg
+from tracker_msgs.msg import PtzState
+from tracker_msgs_py.conversions import (
+    UnsupportedEncodingError,
+    array_to_image,
+    camera_info,
+    image_qos,
+    image_to_array,
+    rect_to_msg,
+    stamp_to_ns,
+)
+from tracker_msgs_py.node_main import run_node
+from tracker_msgs_py.params import ParamSpec, declare_parameters
+from tracker_ptz_sim.camera_model import PtzCameraModel, PtzCommand, PtzConfig, PtzSnapshot
+
+_D = PtzConfig()
+MODES = {
+    PtzCommandMsg.MODE_POSITION: "position",
+    PtzCommandMsg.MODE_VELOCITY: "velocity",
+    PtzCommandMsg.MODE_HOLD: "hold",
+}
+PARAMS = [
+    ParamSpec(
+        "view_height_fraction",
+        _D.view_height_fraction,
+        "window height / scene height at zoom 1 (seed: 110/240)",
+        0.05,
+        1.0,
+    ),
+    ParamSpec("view_aspect", _D.view_aspect, "window width / height (seed: square)", 0.1, 10.0),
+    ParamSpec(
+        "focal_length", _D.focal_length, "scene px per rad (0 = window width / view_fov)", 0.0, 1e6
+    ),
+    ParamSpec("view_fov", _D.view_fov, "horizontal field of view at zoom 1 [rad]", 0.01, 3.0),
+    ParamSpec(
+        "servo",
+        _D.servo,
+        "dynamic: rate/acceleration-limited servos; instant: the seed's jumps",
+        choices=("dynamic", "instant"),
+    ),
+    ParamSpec("max_speed", _D.max_speed, "servo rate limit per axis [rad/s]", 0.001, 100.0),
+    ParamSpec(
+        "max_acceleration", _D.max_acceleration, "servo acceleration limit [rad/s^2]", 0.001, 1e4
+    ),
+    ParamSpec("command_latency", _D.command_latency, "delay before a command acts [s]", 0.0, 10.0),
+    ParamSpec("velocity_timeout", _D.velocity_timeout, "velocity command watchdog [s]", 0.01, 60.0),
+    ParamSpec("max_zoom", _D.max_zoom, "largest zoom factor", 1.0, 100.0),
+    ParamSpec(
+        "initial_pan", _D.initial_pan, "pan at start [rad]", -math.pi, math.pi, read_only=True
+    ),
+    ParamSpec(
+        "initial_tilt", _D.initial_tilt, "tilt at start [rad]", -math.pi, math.pi, read_only=True
+    ),
+    ParamSpec("camera_frame_id", "ptz_camera_optical", "frame_id of the camera images"),
+    ParamSpec("scene_frame_id", "scene", "frame_id of ptz/state (its window is in scene px)"),
+    ParamSpec("joint_names", ["pan_joint", "tilt_joint"], "names of the pan and tilt joints"),
+    ParamSpec(
+        "lockstep",
+        False,
+        "process image n+1 only after a command acknowledging image n",
+        read_only=True,
+    ),
+    ParamSpec(
+        "lockstep_timeout", 2.0, "stop waiting for that command after this [s]", 0.01, 3600.0
+    ),
+    ParamSpec(
+        "reliable_images", False, "reliable instead of sensor-data image QoS", read_only=True
+    ),
+]
+MODEL_FIELDS = {f.name for f in fields(PtzConfig)}
+
+
+def config_from(values: dict[str, Any]) -> PtzConfig:
+    return PtzConfig(**{k: v for k, v in values.items() if k in MODEL_FIELDS})
+
+
+def _check(values: dict[str, Any]) -> str | None:
+    problems = config_from(values).problems()
+    if len(values["joint_names"]) != 2:
+        problems.append("joint_names needs two names (pan, tilt)")
+    return "; ".join(problems) or None
+
+
+class PtzCameraNode(Node):
+    def __init__(self) -> None:
+        super().__init__("ptz_camera")
+        self.params = declare_parameters(self, PARAMS, on_change=self._on_change, check_all=_check)
+        self.model: PtzCameraModel | None = None
+        self.last_image_ns: int | None = None
+        self.last_command_ns = -1
+        self.pending: Image | None = None
+        self.pending_since = 0.0
+        self.early_commands: list[PtzCommand] = []
+        self.dropped = {"stale": 0, "encoding": 0, "size": 0, "bad_command": 0}
+        qos = image_qos(self.params["reliable_images"])
+        self.view_pub = self.create_publisher(Image, "camera/image_raw", qos)
+        self.info_pub = self.create_publisher(CameraInfo, "camera/camera_info", qos)
+        self.state_pub = self.create_publisher(PtzState, "ptz/state", 10)
+        self.joint_pub = self.create_publisher(JointState, "ptz/joint_states", 10)
+        self.create_subscription(Image, "scene/image_raw", self._on_scene, qos)
+        self.create_subscription(PtzCommandMsg, "ptz/command", self._on_command, 10)
+        if self.params["lockstep"]:
+            self.create_timer(0.05, self._on_lockstep_timer)
+
+    def _on_change(self, changed: dict[str, Any]) -> None:
+        if self.model is not None and MODEL_FIELDS & changed.keys():
+            self.model.reconfigure(config_from(self.params))
+
+    # --- commands -------------------------------------------------------------------------------
+
+    def _on_command(self, msg: PtzCommandMsg) -> None:
+        stamp = stamp_to_ns(msg.header.stamp)
+        mode = MODES.get(msg.mode)
+        command = None
+        if mode is not None:
+            command = PtzCommand(
+                stamp / 1e9, mode, msg.pan, msg.tilt, msg.pan_rate, msg.tilt_rate, msg.zoom
+            )
+        try:
+            if command is None:
+                raise ValueError(f"unknown command mode {msg.mode}")
+            if self.model is not None:
+                self.model.command(command)
+            else:
+                self.early_commands.append(command)  # before the first image: applied at start
+        except ValueError as error:
+            self.dropped["bad_command"] += 1
+            self.get_logger().warning(
+                f"ignored pan-tilt command: {error}", throttle_duration_sec=5.0
+            )
+        self.last_command_ns = max(self.last_command_ns, stamp)
+        self._process_pending()
+
+    # --- images ---------------------------------------------------------------------------------
+
+    def _on_scene(self, msg: Image) -> None:
+        stamp = stamp_to_ns(msg.header.stamp)
+        if self.last_image_ns is not None and stamp <= self.last_image_ns:
+            self.dropped["stale"] += 1
+            self.get_logger().warning(
+                f"dropped a scene image stamped {stamp} ns, not after the previous one "
+                f"({self.dropped['stale']} so far)",
+                throttle_duration_sec=5.0,
+            )
+            return
+        if self.pending is not None:  # lockstep overrun: the newer image replaces the waiting one
+            self._process(self.pending)
+        self.pending, self.pending_since = msg, time.monotonic()
+        self._process_pending()
+
+    def _acknowledged(self) -> bool:
+        return (
+            not self.params["lockstep"]
+            or self.last_image_ns is None
+            or self.last_command_ns >= self.last_image_ns
+        )
+
+    def _process_pending(self) -> None:
+        if self.pending is not None and self._acknowledged():
+            msg, self.pending = self.pending, None
+            self._process(msg)
+
+    def _on_lockstep_timer(self) -> None:
+        if self.pending is None:
+            return
+        if time.monotonic() - self.pending_since >= self.params["lockstep_timeout"]:
+            self.get_logger().warning(
+                "no pan-tilt command acknowledged the previous image within "
+                f"{self.params['lockstep_timeout']} s; going on without it",
+                throttle_duration_sec=5.0,
+            )
+            msg, self.pending = self.pending, None
+            self._process(msg)
+
+    def _process(self, msg: Image) -> None:
+        stamp = stamp_to_ns(msg.header.stamp)
+        try:
+            scene = image_to_array(msg)
+        except UnsupportedEncodingError as error:
+            self.dropped["encoding"] += 1
+            self.get_logger().warning(f"dropped scene image: {error}", throttle_duration_sec=5.0)
+            return
+        if self.model is None or (self.model.width, self.model.height) != (msg.width, msg.height):
+            self._start_model(msg.width, msg.height)
+        self.last_image_ns = stamp
+        snapshot = self.model.advance(stamp / 1e9)
+        view = self.model.render(scene, snapshot.window)
+        self._publish(msg, view, snapshot)
+
+    def _start_model(self, width: int, height: int) -> None:
+        if self.model is not None:
+            self.dropped["size"] += 1
+            self.get_logger().warning(f"scene size changed to {width}x{height}: camera restarted")
+        self.model = PtzCameraModel(config_from(self.params), width, height)
+        for command in self.early_commands:
+            self.model.command(command)
+        self.early_commands.clear()
+        base_w, base_h = self.model.base_size
+        self.get_logger().info(
+            f"scene {width}x{height}: view {base_w}x{base_h} px, focal length "
+            f"{self.model.geometry.focal_length:.1f} px/rad, pan range +-{self.model.limits()[0][1]:.3f} rad"
+        )
+
+    def _publish(self, scene_msg: Image, view: Any, snapshot: PtzSnapshot) -> None:
+        stamp = scene_msg.header.stamp
+        camera_frame = self.params["camera_frame_id"]
+        fx, fy, cx, cy = self.model.intrinsics()
+        height, width = view.shape[:2]
+        self.view_pub.publish(array_to_image(view, scene_msg.encoding, stamp, camera_frame))
+        self.info_pub.publish(camera_info(width, height, fx, fy, cx, cy, stamp, camera_frame))
+        state = PtzState(
+            pan=snapshot.pan,
+            tilt=snapshot.tilt,
+            pan_rate=snapshot.pan_rate,
+            tilt_rate=snapshot.tilt_rate,
+            zoom=snapshot.zoom,
+            focal_length=self.model.geometry.focal_length,
+            window=rect_to_msg(snapshot.window),
+            moving=snapshot.moving,
+        )
+        state.header.stamp = stamp
+        state.header.frame_id = self.params["scene_frame_id"]
+        self.state_pub.publish(state)
+        joints = JointState(
+            name=list(self.params["joint_names"]),
+            position=[snapshot.pan, snapshot.tilt],
+            velocity=[snapshot.pan_rate, snapshot.tilt_rate],
+        )
+        joints.header.stamp = stamp
+        joints.header.frame_id = "ptz_base"
+        self.joint_pub.publish(joints)
+
+
+def main(args: list[str] | None = None) -> int:
+    return run_node(PtzCameraNode, args)
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
