@@ -30,6 +30,8 @@ setup(
             "ptz_camera = tracker_ptz_sim.ptz_camera_node:main",
             "ptz_controller = tracker_ptz_sim.ptz_controller_node:main",
             "run_demo = tracker_ptz_sim.demo:main",
+            "fetch_sample = tracker_ptz_sim.sample:main",
+            "make_scene = tracker_ptz_sim.scene_cli:main",
             "evaluate = tracker_ptz_sim.evaluate:main",
         ],
     },

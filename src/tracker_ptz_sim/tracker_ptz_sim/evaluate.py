@@ -60,14 +60,6 @@ def _json_number(value: object) -> object:
     return None if isinstance(value, float) and math.isnan(value) else value
 
 
-def scene_video(scene_dir: Path) -> Path:
-    """The video (or frame folder) of a scene written by make_scene."""
-    from tracker_ptz_sim.scenes import META_NAME
-
-    meta = json.loads((scene_dir / META_NAME).read_text())
-    return scene_dir / meta["video"]
-
-
 def format_scores(result: dict) -> str:
     rows = [("frames", str(result["frames"]))]
     for name in ("in_view", "whole_scene"):
@@ -125,6 +117,7 @@ def main(argv: list[str] | None = None) -> int:
     if bag is None:
         from tracker_ptz_sim import demo
         from tracker_ptz_sim.graph import load_graph
+        from tracker_ptz_sim.scenes import scene_video
 
         video = args.video or scene_video(args.scene)
         overrides = demo.parse_overrides(args.set)

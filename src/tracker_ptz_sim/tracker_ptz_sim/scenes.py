@@ -525,3 +525,10 @@ def load_scene(directory: str | Path) -> Scene:
         np.asarray(meta["jitter"], np.int64).reshape(n, 2),
         config,
     )
+
+
+def scene_video(directory: str | Path) -> Path:
+    """The video (or PNG folder) of a scene written by :func:`write_scene`."""
+    root = Path(directory)
+    meta = json.loads((root / META_NAME).read_text())
+    return root / meta["video"]
