@@ -51,6 +51,7 @@ class RosProcess:
                 item for key, value in params.items() for item in ("-p", f"{key}:={_param(value)}")
             ]
         self.name = name
+        log_dir.mkdir(parents=True, exist_ok=True)
         self.log_path = log_dir / f"{name}-{time.monotonic_ns()}.log"
         self._log = self.log_path.open("w")
         self.process = subprocess.Popen(
@@ -62,7 +63,8 @@ class RosProcess:
         )
 
     def output(self) -> str:
-        self._log.flush()
+        if not self._log.closed:
+            self._log.flush()
         return self.log_path.read_text()
 
     def interrupt(self, timeout: float) -> int | None:

@@ -215,7 +215,7 @@ def run_graph(
         for node in graph.nodes:
             if node.name != "video_source":
                 nodes.start(node.name, overrides.get(node.name))
-        _wait_for_graph(recorder, graph, nodes)
+        _wait_for_graph(recorder, nodes)
         source = nodes.start("video_source", source_overrides)
         started = time.monotonic()
         recorder_cpu = time.process_time()
@@ -241,20 +241,32 @@ def run_graph(
     return RunResult(bag_path, codes, cpu, wall)
 
 
-def _wait_for_graph(
-    recorder: Recorder, graph: Graph, nodes: GraphProcesses, timeout: float = 20.0
-) -> None:
-    """Until every downstream node has started and its topics are discovered (so frame 0 is seen)."""
-    expected = {"/camera/image_raw", "/detections", "/target", "/ptz/command"}
+# Subscribers each topic needs before the first frame, counting the recorder (so no frame is lost
+# while the graph is still discovering itself).
+EXPECTED_SUBSCRIBERS = {
+    "/camera/image_raw": 2,  # ssim_detector, recorder
+    "/ptz/state": 4,  # ssim_detector, tracker, ptz_controller, recorder
+    "/detections": 2,  # tracker, recorder
+    "/target": 2,  # ptz_controller, recorder
+    "/ptz/command": 2,  # ptz_camera, recorder (video_source's comes with it)
+}
+
+
+def _wait_for_graph(recorder: Recorder, nodes: GraphProcesses, timeout: float = 30.0) -> None:
+    """Until every downstream node is up and its topics are discovered, so frame 0 is seen."""
     deadline = time.monotonic() + timeout
     while time.monotonic() < deadline:
         rclpy.spin_once(recorder, timeout_sec=0.1)
         if nodes.crashed():
             raise RuntimeError(f"nodes crashed at start-up: {nodes.crashed()}")
-        if all(recorder.count_publishers(topic) > 0 for topic in expected):
+        missing = {
+            topic: wanted
+            for topic, wanted in EXPECTED_SUBSCRIBERS.items()
+            if recorder.count_publishers(topic) == 0 or recorder.count_subscribers(topic) < wanted
+        }
+        if not missing:
             return
-    missing = [t for t in expected if recorder.count_publishers(t) == 0]
-    raise TimeoutError(f"graph did not come up within {timeout:.0f} s (no publisher of {missing})")
+    raise TimeoutError(f"the graph did not come up within {timeout:.0f} s (waiting for {missing})")
 
 
 def _drain(recorder: Recorder, seconds: float) -> None:

@@ -142,8 +142,8 @@ class BagSource(FrameSource):
         if topic:
             candidates = [c for c in candidates if c.topic == topic]
         if not candidates:
-            wanted = f"topic {topic}" if topic else "an Image or CompressedImage topic"
-            raise SourceError(f"{path}: the bag has no {wanted}")
+            missing = f"no image topic {topic}" if topic else "no Image or CompressedImage topic"
+            raise SourceError(f"{path}: the bag has {missing}")
         self.topic = candidates[0].topic
         self.total = sum(c.msgcount for c in candidates if c.topic == self.topic)
         if self.total == 0:

@@ -1,0 +1,307 @@
+"""video_source -> ptz_camera as separate processes, with this test playing the controller."""
+
+from __future__ import annotations
+
+import hashlib
+import time
+
+import numpy as np
+import pytest
+from ros_process import RosProcess
+
+pytestmark = pytest.mark.ros
+
+FRAMES = 24
+# Commands the test sends, by frame: every border, velocity moves, a hold.
+PLAN = {
+    0: ("position", 5.0, 0.0),  # far left: clamped at x = 0
+    4: ("position", -5.0, 0.0),  # far right
+    8: ("position", 0.0, -5.0),  # top
+    12: ("position", 0.0, 5.0),  # bottom
+    16: ("velocity", -0.4, 0.2),
+    20: ("hold", 0.0, 0.0),
+}
+
+
+@pytest.fixture(scope="module")
+def scene(tmp_path_factory):
+    from tracker_ptz_sim.scenes import SceneConfig, generate_scene, write_scene
+
+    scene = generate_scene(
+        SceneConfig(width=320, height=240, num_frames=FRAMES, num_objects=2, seed=3)
+    )
+    paths = write_scene(scene, tmp_path_factory.mktemp("scene"))
+    return scene, paths
+
+
+def stamp_ns(stamp) -> int:
+    return stamp.sec * 1_000_000_000 + stamp.nanosec
+
+
+class Controller:
+    """A stand-in for ptz_controller: acknowledges every camera image with the planned command."""
+
+    def __init__(self, instant: bool = True):
+        import rclpy
+        from rclpy.node import Node
+        from sensor_msgs.msg import Image, JointState
+
+        from tracker_msgs.msg import PtzCommand, PtzState, ReplayStatus
+        from tracker_msgs_py.conversions import image_qos
+        from tracker_ptz_sim.video_source_node import STATUS_QOS
+
+        self.context = rclpy.Context()
+        rclpy.init(context=self.context)
+        self.node = Node("test_controller", context=self.context)
+        self.views, self.states, self.joints, self.statuses = {}, {}, {}, []
+        self.PtzCommand = PtzCommand
+        self.command_pub = self.node.create_publisher(PtzCommand, "ptz/command", 10)
+        self.node.create_subscription(Image, "camera/image_raw", self._on_view, image_qos(True))
+        self.node.create_subscription(PtzState, "ptz/state", self._on_state, 10)
+        self.node.create_subscription(JointState, "ptz/joint_states", self._on_joints, 10)
+        self.node.create_subscription(
+            ReplayStatus, "replay/status", self.statuses.append, STATUS_QOS
+        )
+        self.pending: list = []
+
+    def _on_view(self, msg):
+        from tracker_msgs_py.conversions import image_to_array, stamp_to_ns
+
+        stamp = stamp_to_ns(msg.header.stamp)
+        self.views[stamp] = image_to_array(msg).copy()
+        self.pending.append(msg.header.stamp)
+
+    def _on_state(self, msg):
+        from tracker_msgs_py.conversions import stamp_to_ns
+
+        self.states[stamp_to_ns(msg.header.stamp)] = msg
+
+    def _on_joints(self, msg):
+        from tracker_msgs_py.conversions import stamp_to_ns
+
+        self.joints[stamp_to_ns(msg.header.stamp)] = msg
+
+    def acknowledge(self):
+        """Answer each camera image with the command planned for its frame (the latest PLAN
+        entry at or before it, so velocity commands are refreshed every frame)."""
+        PtzCommand = self.PtzCommand
+        while self.pending:
+            stamp = self.pending.pop(0)
+            frame = sorted(self.views).index(stamp_ns(stamp))
+            mode, a, b = PLAN[max(k for k in PLAN if k <= frame)]
+            msg = PtzCommand()
+            msg.header.stamp = stamp
+            if mode == "position":
+                msg.mode, msg.pan, msg.tilt = PtzCommand.MODE_POSITION, a, b
+            elif mode == "velocity":
+                msg.mode, msg.pan_rate, msg.tilt_rate = PtzCommand.MODE_VELOCITY, a, b
+            else:
+                msg.mode = PtzCommand.MODE_HOLD
+            self.command_pub.publish(msg)
+
+    def run_until(self, done, timeout=60.0):
+        deadline = time.monotonic() + timeout
+        while not done() and time.monotonic() < deadline:
+            self._spin()
+            self.acknowledge()
+
+    def _spin(self):
+        from rclpy.executors import SingleThreadedExecutor
+
+        if not hasattr(self, "executor"):
+            self.executor = SingleThreadedExecutor(context=self.context)
+            self.executor.add_node(self.node)
+        self.executor.spin_once(timeout_sec=0.02)
+
+    def close(self):
+        self.node.destroy_node()
+        self.context.try_shutdown()
+
+
+def replay(paths, tmp_path, servo="instant"):
+    """One lockstep replay; the views, states, joint states and statuses received."""
+    controller = Controller()
+    common = {"lockstep": True, "reliable_images": True}
+    camera = RosProcess(
+        "tracker_ptz_sim", "ptz_camera", log_dir=tmp_path, params={**common, "servo": servo}
+    )
+    # Frame 0 must not be lost: start the replay once the camera and this test see each other.
+    controller.run_until(
+        lambda: (
+            controller.node.count_publishers("camera/image_raw") > 0
+            and controller.node.count_subscribers("ptz/command") > 0
+        ),
+        timeout=20.0,
+    )
+    source = RosProcess(
+        "tracker_ptz_sim",
+        "video_source",
+        log_dir=tmp_path,
+        params={**common, "path": str(paths.video), "rate": 0.0, "wait_for_subscribers": 1},
+    )
+    try:
+        controller.run_until(
+            lambda: source.process.poll() is not None and len(controller.views) >= FRAMES
+        )
+        controller.run_until(lambda: any(s.state == 1 for s in controller.statuses), timeout=5.0)
+        assert source.wait(timeout=10) == 0, source.output()
+        return controller.views, controller.states, controller.joints, controller.statuses
+    finally:
+        camera.interrupt(timeout=5)
+        camera.kill()
+        source.kill()
+        controller.close()
+
+
+def test_lockstep_views_are_exact_slices_at_the_reported_windows(scene, tmp_path):
+    scene, paths = scene
+    views, states, joints, statuses = replay(paths, tmp_path)
+    stamps = scene.stamps_ns()
+    assert sorted(views) == stamps, "every frame reaches the camera, in lockstep"
+    borders = set()
+    for index, stamp in enumerate(stamps):
+        state, view = states[stamp], views[stamp]
+        w = state.window
+        x, y, width, height = int(w.x), int(w.y), int(w.width), int(w.height)
+        assert (x, y, width, height) == (w.x, w.y, w.width, w.height)
+        assert np.array_equal(view, scene.frames[index][y : y + height, x : x + width])
+        # joint states and window agree through x = cx - f pan, y = cy + f tilt
+        pan, tilt = joints[stamp].position
+        assert (pan, tilt) == (state.pan, state.tilt)
+        assert 160 - state.focal_length * pan == pytest.approx(w.x + w.width / 2)
+        assert 120 + state.focal_length * tilt == pytest.approx(w.y + w.height / 2)
+        assert list(joints[stamp].name) == ["pan_joint", "tilt_joint"]
+        borders |= {
+            name
+            for name, hit in [
+                ("left", x == 0),
+                ("right", x + width == 320),
+                ("top", y == 0),
+                ("bottom", y + height == 240),
+            ]
+            if hit
+        }
+    assert borders == {"left", "right", "top", "bottom"}
+    ended = statuses[-1]
+    assert ended.state == ended.STATE_ENDED and ended.frames_published == FRAMES
+    assert ended.lockstep_timeouts == 0 and ended.frames_skipped == 0
+
+
+def test_two_lockstep_replays_are_identical(scene, tmp_path):
+    _, paths = scene
+
+    def digest(run):
+        views, states, _, _ = run
+        h = hashlib.sha256()
+        for stamp in sorted(views):
+            s = states[stamp]
+            h.update(views[stamp].tobytes())
+            h.update(
+                repr(
+                    (stamp, s.pan, s.tilt, s.pan_rate, s.tilt_rate, s.window.x, s.window.y)
+                ).encode()
+            )
+        return h.hexdigest()
+
+    first = digest(replay(paths, tmp_path / "a", servo="dynamic"))
+    second = digest(replay(paths, tmp_path / "b", servo="dynamic"))
+    assert first == second
+
+
+def test_bag_replays_with_identical_pixels_and_stamps(scene, tmp_path):
+    from rclpy.serialization import serialize_message
+
+    from tracker_msgs_py.conversions import array_to_image, ns_to_stamp
+    from tracker_ptz_sim.recording import BagWriter
+
+    scene, _ = scene
+    bag = tmp_path / "bag"
+    writer = BagWriter(bag, {"/cam/image": "sensor_msgs/msg/Image"})
+    stamps = [
+        1_700_000_000_000_000_000 + 40_000_000 * i for i in range(FRAMES)
+    ]  # 25 fps, epoch time
+    for frame, stamp in zip(scene.frames, stamps, strict=True):
+        writer.write(
+            "/cam/image",
+            stamp,
+            serialize_message(array_to_image(frame, "bgr8", ns_to_stamp(stamp), "c")),
+        )
+    writer.close()
+    received = {}
+    controller = Controller()
+
+    def on_scene(msg):
+        from tracker_msgs_py.conversions import image_to_array, stamp_to_ns
+
+        received[stamp_to_ns(msg.header.stamp)] = image_to_array(msg).copy()
+        ack = controller.PtzCommand()
+        ack.header.stamp = msg.header.stamp
+        controller.command_pub.publish(ack)
+
+    from sensor_msgs.msg import Image
+
+    from tracker_msgs_py.conversions import image_qos
+
+    controller.node.create_subscription(Image, "scene/image_raw", on_scene, image_qos(True))
+    source = RosProcess(
+        "tracker_ptz_sim",
+        "video_source",
+        log_dir=tmp_path,
+        params={"path": str(bag), "lockstep": True, "reliable_images": True, "rate": 0.0},
+    )
+    try:
+        deadline = time.monotonic() + 60
+        while source.process.poll() is None and time.monotonic() < deadline:
+            controller._spin()
+        assert source.wait(timeout=5) == 0, source.output()
+    finally:
+        source.kill()
+        controller.close()
+    assert sorted(received) == stamps
+    for frame, stamp in zip(scene.frames, stamps, strict=True):
+        assert np.array_equal(received[stamp], frame)
+
+
+@pytest.mark.parametrize("case", ["missing", "unknown_format", "empty_folder", "empty_bag_topic"])
+def test_bad_inputs_exit_with_one_clear_error(case, tmp_path):
+    if case == "missing":
+        path, expected = tmp_path / "nope.mp4", "no such file"
+    elif case == "unknown_format":
+        path, expected = tmp_path / "notes.avi", "not a video OpenCV can read"
+        path.write_text("this is not a video")
+    elif case == "empty_folder":
+        path, expected = tmp_path / "frames", "no images"
+        path.mkdir()
+    else:
+        from tracker_ptz_sim.recording import BagWriter
+
+        path, expected = tmp_path / "bag", "no Image or CompressedImage topic"
+        BagWriter(path, {"/status": "tracker_msgs/msg/ReplayStatus"}).close()
+    source = RosProcess(
+        "tracker_ptz_sim", "video_source", log_dir=tmp_path, params={"path": str(path)}
+    )
+    try:
+        code = source.wait(timeout=20)
+    finally:
+        source.kill()
+    output = source.output()
+    assert code == 2
+    assert expected in output and str(path) in output
+    assert "Traceback" not in output
+
+
+def test_corrupt_frame_is_skipped_and_counted(scene, tmp_path):
+    import cv2
+
+    scene, _ = scene
+    folder = tmp_path / "frames"
+    folder.mkdir()
+    for i in range(6):
+        cv2.imwrite(str(folder / f"img{i + 1}.png"), scene.frames[i])
+    (folder / "img3.png").write_bytes(b"\x89PNG broken")
+    from tracker_ptz_sim.frame_sources import open_source
+
+    source = open_source(folder)
+    frames = list(source.frames())
+    assert [f.index for f in frames] == [0, 1, 3, 4, 5] and source.skipped == 1
+    assert np.array_equal(frames[2].image, scene.frames[3])
