@@ -21,6 +21,7 @@ import signal
 import subprocess
 import sys
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -111,7 +112,8 @@ class GraphProcesses:
         return self.processes[name]
 
     def kill(self, name: str) -> None:
-        process = self.processes[name]
+        """SIGKILL a node (as a crash would); it is no longer watched until started again."""
+        process = self.processes.pop(name)
         if process.poll() is None:
             os.killpg(process.pid, signal.SIGKILL)
             process.wait()
@@ -193,8 +195,13 @@ def run_graph(
     install_dir: Path,
     timeout: float,
     storage: str = "mcap",
+    during: Callable[[ReplayStatus | None, GraphProcesses], None] | None = None,
 ) -> RunResult:
-    """Replay `video` through the graph, recording every topic into out/bag."""
+    """Replay `video` through the graph, recording every topic into out/bag.
+
+    `during(status, nodes)` is called while the replay runs (tests use it to kill and restart
+    nodes); a node that crashes on its own ends the run with an error.
+    """
     bag_path = out / "bag"
     if bag_path.exists():
         shutil.rmtree(bag_path)
@@ -224,6 +231,8 @@ def run_graph(
             rclpy.spin_once(recorder, timeout_sec=0.05)
             if recorder.status is not None:
                 progress.show(recorder.status.frames_published, recorder.status.frames_total)
+            if during is not None:
+                during(recorder.status, nodes)
             crashed = nodes.crashed()
             if crashed:
                 raise RuntimeError(f"nodes crashed: {crashed}; see {out / 'logs'}")

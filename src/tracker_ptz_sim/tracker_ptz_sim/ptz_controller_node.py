@@ -121,6 +121,8 @@ class PtzControllerNode(Node):
         self.params = declare_parameters(self, PARAMS, on_change=self._on_change, check_all=_check)
         self.controller = PanTiltController(config_from(self.params))
         self.states: dict[int, PtzState] = {}
+        # Targets whose image's PtzState has not arrived yet: the two travel on different paths.
+        self.waiting: dict[int, Target] = {}
         self.last_target_ns: int | None = None
         self.command_pub = self.create_publisher(PtzCommand, "ptz/command", 10)
         self.joint_pub = self._joint_publisher()
@@ -143,6 +145,9 @@ class PtzControllerNode(Node):
         self.states[stamp] = state
         while len(self.states) > STATE_BUFFER:
             del self.states[min(self.states)]
+        for target_stamp in sorted(t for t in self.waiting if t <= stamp):
+            # The state of a newer image came first: the exact one is lost, use the nearest.
+            self._respond(self.waiting.pop(target_stamp))
         timeout_ns = self.params["target_timeout"] * NS_PER_S
         if self.last_target_ns is not None and stamp - self.last_target_ns > timeout_ns:
             # Targets stopped (detector or tracker down): stop the camera, and acknowledge the image.
@@ -151,11 +156,21 @@ class PtzControllerNode(Node):
 
     def _on_target(self, target: Target) -> None:
         stamp = stamp_to_ns(target.header.stamp)
-        state = self.states.get(stamp) or (self.states[max(self.states)] if self.states else None)
         self.last_target_ns = stamp
-        if state is None:  # no pose yet: nothing sensible to command, but acknowledge the image
+        if stamp in self.states or (self.states and max(self.states) > stamp):
+            self._respond(target)
+        elif len(self.waiting) < STATE_BUFFER:
+            self.waiting[stamp] = target
+        else:  # no pan-tilt state at all: nothing sensible to command, but acknowledge the image
             self._publish(Command(CommandMode.HOLD), target.header.stamp)
-            return
+
+    def _respond(self, target: Target) -> None:
+        """Step the controller with the target and the camera pose of the same image."""
+        stamp = stamp_to_ns(target.header.stamp)
+        state = self.states.get(stamp)
+        if state is None:
+            earlier = [s for s in self.states if s <= stamp]
+            state = self.states[max(earlier) if earlier else min(self.states)]
         command = self.controller.step(stamp / NS_PER_S, pose_of(state), estimate_of(target))
         self._publish(command, target.header.stamp)
 

@@ -2,9 +2,9 @@
 
 Publishes `scene/image_raw` (sensor_msgs/Image, bgr8 or mono8), `scene/camera_info`, `/clock`
 (so the graph can run on the recording's time) and `replay/status` (tracker_msgs/ReplayStatus).
-Frames are stamped from the recording. Pacing: `rate` x real time, as fast as possible (rate 0),
-or lockstep: frame n+1 goes out only after an acknowledgement stamped >= frame n arrives on
-`ack_topic` (tracker_msgs/PtzCommand by default), or after `lockstep_timeout` with a warning. At
+Frames are stamped from the recording. Pacing: `rate` x real time, or as fast as possible (rate 0);
+with lockstep, frame n+1 also waits for an acknowledgement stamped >= frame n on `ack_topic`
+(tracker_msgs/PtzCommand by default), or for `lockstep_timeout` with a warning. At
 the end of the stream it publishes STATE_ENDED and exits 0 (unless `loop`).
 """
 
@@ -193,7 +193,7 @@ class VideoSourceNode(Node):
 
     def _pace(self, since_first_ns: int, started_wall: float) -> None:
         rate = self.params["rate"]
-        if rate <= 0 or self.params["lockstep"]:
+        if rate <= 0:
             return
         delay = since_first_ns / 1e9 / rate - (time.monotonic() - started_wall)
         if delay > 0:

@@ -1,0 +1,215 @@
+"""The whole surveillance graph as separate processes, in lockstep, on synthetic scenes with
+ground truth: video_source -> ptz_camera -> ssim_detector -> tracker -> ptz_controller."""
+
+from __future__ import annotations
+
+import subprocess
+
+import numpy as np
+import pytest
+from ros_process import executable
+
+pytestmark = [pytest.mark.ros, pytest.mark.slow]
+
+VIEW_FRACTION = 0.35  # a 168 px view on a 640x480 scene
+SWEEP_RATE = 0.6  # rad/s: 170 px/s, the search crosses the scene in about 3 s
+
+
+def _scene(root, **config):
+    from tracker_ptz_sim.scenes import SceneConfig, generate_scene, write_scene
+
+    scene = generate_scene(SceneConfig(**config))
+    return scene, write_scene(scene, root)
+
+
+def run_demo(video, out, *settings, mode="servo", render=False):
+    command = [
+        str(executable("tracker_ptz_sim", "run_demo")),
+        "--video",
+        str(video),
+        "--out",
+        str(out),
+    ]
+    command += ["--mode", mode, "--set", f"ptz_camera.view_height_fraction={VIEW_FRACTION}"]
+    command += ["--set", f"ptz_controller.sweep_rate={SWEEP_RATE}"]
+    for setting in settings:
+        command += ["--set", setting]
+    if not render:
+        command.append("--no-video")
+    result = subprocess.run(command, capture_output=True, text=True, timeout=300)
+    assert result.returncode == 0, result.stdout + result.stderr
+    return result.stdout
+
+
+@pytest.fixture(scope="module")
+def one_walker(tmp_path_factory):
+    """One person-sized object walking with two turns, never closer than 80 px to a border."""
+    root = tmp_path_factory.mktemp("one_walker")
+    scene, paths = _scene(
+        root / "scene",
+        width=640,
+        height=480,
+        num_frames=150,
+        num_objects=1,
+        object_size_range=(30, 60),
+        speed_range=(25.0, 40.0),
+        turns=2,
+        seed=9,
+    )
+    return scene, paths, root
+
+
+@pytest.mark.parametrize("mode", ["direct", "servo"])
+def test_one_moving_target_stays_in_view_and_centred(one_walker, mode):
+    from tracker_ptz_sim import metrics, run_report
+    from tracker_ptz_sim.evaluate import windows_and_targets
+
+    _, paths, root = one_walker
+    out = root / mode
+    run_demo(paths.video, out, mode=mode)
+    frames = run_report.collect(out / "bag")
+    windows, targets = windows_and_targets(frames)
+    follow = metrics.follow_scores(metrics.load_mot(paths.gt), windows, targets)
+    assert follow.followed_id == 1
+    assert follow.frames_after_lock >= 100
+    assert follow.inside_share >= 0.95, follow
+    assert follow.mean_center_error_share <= 0.10, follow
+
+
+def test_demo_outputs_bag_mot_and_video(one_walker):
+    """The servo run's bag has every topic, one message per frame on frame-level topics, and
+    tracks.txt is exactly the confirmed tracks the tracker published."""
+    from tracker_ptz_sim import metrics, run_report
+    from tracker_ptz_sim.graph import load_graph
+    from tracker_ptz_sim.recording import read_bag, topic_counts
+
+    scene, paths, root = one_walker
+    out = root / "demo"
+    stdout = run_demo(paths.video, out, render=True)
+    assert "throughput" in stdout and "camera image -> command" in stdout
+    counts = topic_counts(out / "bag")
+    assert set(counts) == {t.name for t in load_graph().topics}
+    frames = scene.num_frames
+    for topic in [
+        "/scene/image_raw",
+        "/camera/image_raw",
+        "/camera/camera_info",
+        "/ptz/state",
+        "/ptz/joint_states",
+        "/detections",
+        "/tracks",
+        "/target",
+        "/ptz/command",
+    ]:
+        assert counts[topic] == frames, (topic, counts[topic])
+    status = [m for _, _, m in read_bag(out / "bag", {"/replay/status"})][-1]
+    assert status.frames_published == frames and status.lockstep_timeouts == 0
+    published = {}
+    numbers = run_report.frame_numbers(run_report.collect(out / "bag"))
+    for _, _, msg in read_bag(out / "bag", {"/tracks"}):
+        number = numbers[run_report.stamp_ns(msg)]
+        for track in msg.tracks:
+            if track.status in run_report.CONFIRMED_STATUSES:
+                published.setdefault(number, {})[track.id] = (track.bbox.x, track.bbox.y)
+    written = metrics.load_mot(out / "tracks.txt")
+    assert published and {f: {i: (b.x, b.y) for i, b in t.items()} for f, t in written.items()} == {
+        f: {i: (round(x, 2), round(y, 2)) for i, (x, y) in t.items()} for f, t in published.items()
+    }
+    import cv2
+
+    capture = cv2.VideoCapture(str(out / "annotated.mp4"))
+    assert int(capture.get(cv2.CAP_PROP_FRAME_COUNT)) == frames
+
+
+def test_search_locks_a_newcomer_then_scans_and_returns_home(tmp_path):
+    """An object enters while the camera sweeps: locked within 2 s of entering the view. After it
+    leaves, the camera scans the last region for lost_scan_time, then goes home."""
+    from tracker_ptz_sim import run_report
+    from tracker_ptz_sim.evaluate import windows_and_targets
+    from tracker_ptz_sim.metrics import load_mot
+
+    scene, paths = _scene(
+        tmp_path / "scene",
+        width=480,
+        height=360,
+        num_frames=160,
+        num_objects=1,
+        object_size_range=(30, 50),
+        speed_range=(45.0, 55.0),
+        turns=0,
+        entries_exits=True,
+        seed=2,
+    )
+    out = tmp_path / "run"
+    scan_time, home = 2.0, (0.05, 0.0)
+    run_demo(
+        paths.video,
+        out,
+        f"ptz_controller.lost_scan_time={scan_time}",
+        f"ptz_controller.home=[{home[0]}, {home[1]}]",
+        "ptz_controller.home_dwell_time=100.0",
+        mode="servo",
+    )
+    frames = run_report.collect(out / "bag")
+    windows, targets = windows_and_targets(frames)
+    truth = load_mot(paths.gt)
+    seen = [
+        f
+        for f in sorted(windows)
+        if 1 in truth.get(f, {}) and windows[f].contains(*truth[f][1].center)
+    ]
+    assert seen, "the object never entered the view: the sweep did not find it"
+    first_lock = min(targets)
+    assert (first_lock - seen[0]) / scene.fps <= 2.0
+    commands = {run_report.frame_numbers(frames)[s]: r.command for s, r in frames.items()}
+    last_lock = max(targets)
+    assert last_lock < max(commands) - scan_time * scene.fps - 5, "the run ended before the scan"
+    after = [commands[f] for f in sorted(commands) if f > last_lock]
+    scan = after[: int(scan_time * scene.fps) - 1]
+    assert all(c.mode == c.MODE_POSITION for c in scan)
+    assert np.ptp([c.pan for c in scan]) > 0.05  # it sweeps around the last position
+    homing = after[int(scan_time * scene.fps) + 1 :]
+    assert homing and all(c.mode == c.MODE_POSITION and (c.pan, c.tilt) == home for c in homing)
+
+
+def test_killing_the_detector_stops_the_camera_and_tracking_resumes(one_walker, tmp_path):
+    from tracker_ptz_sim import demo, run_report
+    from tracker_ptz_sim.graph import load_graph
+
+    _, paths, _ = one_walker
+    events = {}
+
+    def during(status, nodes):
+        if status is None:
+            return
+        frame = status.frames_published
+        if "killed" not in events and frame >= 40:
+            nodes.kill("ssim_detector")
+            events["killed"] = frame
+        elif "killed" in events and "restarted" not in events and frame >= events["killed"] + 20:
+            nodes.start("ssim_detector")
+            events["restarted"] = frame
+
+    overrides = {
+        "ptz_camera": {"view_height_fraction": VIEW_FRACTION},
+        "video_source": {"rate": 1.0},
+    }
+    run = demo.run_graph(
+        load_graph(), paths.video, tmp_path, overrides, demo.install_space(), 300.0, during=during
+    )
+    assert {name: code for name, code in run.exit_codes.items() if code != 0} == {}
+    assert set(events) == {"killed", "restarted"}
+    frames = run_report.collect(run.bag)
+    ordered = list(frames.values())
+    down = ordered[events["killed"] + 5 : events["restarted"]]
+    assert down and all(r.detections is None for r in down[2:])
+    holds = [r.command for r in down if r.command is not None]
+    assert holds and all(c.mode == c.MODE_HOLD for c in holds[3:])
+    # The camera stands still while the detector is down.
+    windows = {(r.state.window.x, r.state.window.y) for r in down[5:] if r.state is not None}
+    assert len(windows) == 1
+    # ... and tracks the walker again after it is back.
+    relocked = [
+        r for r in ordered[events["restarted"] :] if r.target is not None and r.target.locked
+    ]
+    assert len(relocked) >= 20
