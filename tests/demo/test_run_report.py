@@ -142,7 +142,8 @@ def test_graph_description_is_consistent():
         graph.node("tracker"), graph.params_file, {"lead_time": 0.2, "flag": False, "topic": ""}
     )
     assert args[:3] == ["--ros-args", "-r", "__node:=tracker"]
-    assert "lead_time:=0.2" in args and "flag:=false" in args and 'topic:=""' in args
+    assert "tracker:lead_time:=0.2" in args and "tracker:flag:=false" in args
+    assert 'tracker:topic:=""' in args
     assert format_value([1.0, 2.0]) == "[1.0,2.0]"
 
 

@@ -176,40 +176,49 @@ def test_killing_the_detector_stops_the_camera_and_tracking_resumes(one_walker, 
     from tracker_ptz_sim import demo, run_report
     from tracker_ptz_sim.graph import load_graph
 
-    _, paths, _ = one_walker
+    scene, paths, _ = one_walker
     events = {}
 
     def during(status, nodes):
         if status is None:
             return
         frame = status.frames_published
-        if "killed" not in events and frame >= 40:
+        if "killed" not in events and frame >= 30:
             nodes.kill("ssim_detector")
             events["killed"] = frame
-        elif "killed" in events and "restarted" not in events and frame >= events["killed"] + 20:
+        elif "killed" in events and "restarted" not in events and frame >= events["killed"] + 15:
             nodes.start("ssim_detector")
             events["restarted"] = frame
 
+    # Start looking at the walker (so it is tracked when the detector dies), replay at half speed
+    # so the detector's restart (a few seconds of process start-up) costs few frames.
+    first = scene.boxes[0][0]
+    focal = round(VIEW_FRACTION * 480) / 0.6  # view width / view_fov
     overrides = {
-        "ptz_camera": {"view_height_fraction": VIEW_FRACTION},
-        "video_source": {"rate": 1.0},
+        "ptz_camera": {
+            "view_height_fraction": VIEW_FRACTION,
+            "initial_pan": (320 - (first.x + first.width / 2)) / focal,
+            "initial_tilt": ((first.y + first.height / 2) - 240) / focal,
+        },
+        "ptz_controller": {"sweep_rate": SWEEP_RATE},
+        "video_source": {"rate": 0.5},
     }
     run = demo.run_graph(
         load_graph(), paths.video, tmp_path, overrides, demo.install_space(), 300.0, during=during
     )
     assert {name: code for name, code in run.exit_codes.items() if code != 0} == {}
     assert set(events) == {"killed", "restarted"}
-    frames = run_report.collect(run.bag)
-    ordered = list(frames.values())
-    down = ordered[events["killed"] + 5 : events["restarted"]]
-    assert down and all(r.detections is None for r in down[2:])
+    ordered = list(run_report.collect(run.bag).values())
+    before = ordered[: events["killed"]]
+    assert sum(1 for r in before if r.target is not None and r.target.locked) >= 15
+    down = ordered[events["killed"] + 2 : events["restarted"]]
+    assert down and all(r.detections is None for r in down)
+    # No stale commands: once targets stop, every image is answered with HOLD...
     holds = [r.command for r in down if r.command is not None]
-    assert holds and all(c.mode == c.MODE_HOLD for c in holds[3:])
-    # The camera stands still while the detector is down.
-    windows = {(r.state.window.x, r.state.window.y) for r in down[5:] if r.state is not None}
-    assert len(windows) == 1
-    # ... and tracks the walker again after it is back.
-    relocked = [
-        r for r in ordered[events["restarted"] :] if r.target is not None and r.target.locked
-    ]
-    assert len(relocked) >= 20
+    assert len(holds) >= 8 and all(c.mode == c.MODE_HOLD for c in holds[4:])
+    # ... so the camera stands still while the detector is down.
+    assert len({(r.state.window.x, r.state.window.y) for r in down[6:] if r.state is not None}) == 1
+    # And the graph tracks the walker again after the detector is back.
+    after = ordered[events["restarted"] :]
+    assert any(r.detections is not None for r in after)
+    assert sum(1 for r in after if r.target is not None and r.target.locked) >= 10

@@ -80,7 +80,8 @@ def ros_args(
     """The `--ros-args ...` of one node process: name, params file, overrides, remappings."""
     args = ["--ros-args", "-r", f"__node:={node.name}", "--params-file", str(params_file)]
     for key, value in (overrides or {}).items():
-        args += ["-p", f"{key}:={format_value(value)}"]
+        # Node-qualified: a plain -p is a /** override, which the params file's node section beats.
+        args += ["-p", f"{node.name}:{key}:={format_value(value)}"]
     for source, target in node.remappings.items():
         args += ["-r", f"{source}:={target}"]
     return args

@@ -169,6 +169,10 @@ class VideoSourceNode(Node):
 
     def _wait_for_subscribers(self) -> None:
         wanted = self.params["wait_for_subscribers"] if self.params["lockstep"] else 0
+        if self.image_pub.get_subscription_count() < wanted:
+            self.get_logger().info(
+                f"lockstep: waiting for {wanted} subscriber(s) of scene/image_raw"
+            )
         while not self._stop.is_set() and self.image_pub.get_subscription_count() < wanted:
             time.sleep(0.02)
 

@@ -1,0 +1,117 @@
+"""Replay benchmark: video_source -> ptz_camera on vtest.avi (768x576) as fast as possible.
+
+Two modes, both as separate processes started from the install space:
+- lockstep: this process acknowledges every camera image at once (a controller that costs
+  nothing), so no frame is lost and the number is the pair's deterministic throughput;
+- free-running: rate 0 without lockstep; frames the camera could not keep up with are dropped
+  (sensor-data QoS) and counted.
+Prints throughput and the hop's latency (median, p95; lockstep) and writes out/bench/replay.json.
+Target (issue): >= 200 frames/s.
+"""
+
+from __future__ import annotations
+
+import json
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+import rclpy
+from rclpy.node import Node
+from sensor_msgs.msg import Image
+
+from tracker_msgs.msg import PtzCommand
+from tracker_msgs_py.conversions import image_qos, stamp_to_ns
+from tracker_ptz_sim.demo import GraphProcesses, install_space
+from tracker_ptz_sim.graph import load_graph
+from tracker_ptz_sim.sample import sample_or_synthetic
+
+OUT = Path("out/bench")
+
+
+class Probe(Node):
+    """Receive times of scene and camera images; optionally acknowledges each camera image."""
+
+    def __init__(self, acknowledge: bool) -> None:
+        super().__init__("replay_probe")
+        self.scene: dict[int, int] = {}
+        self.camera: dict[int, int] = {}
+        self.acknowledge = acknowledge
+        self.ack_pub = self.create_publisher(PtzCommand, "ptz/command", 10)
+        qos = image_qos(reliable=acknowledge)
+        if acknowledge:
+            # Free-running, a second reader of the 1.3 MB scene images would itself be the
+            # bottleneck (and can stall the writer), so scene receive times are lockstep-only.
+            self.create_subscription(Image, "scene/image_raw", self._on_scene, qos)
+        self.create_subscription(Image, "camera/image_raw", self._on_camera, qos)
+
+    def _on_scene(self, msg: Image) -> None:
+        self.scene[stamp_to_ns(msg.header.stamp)] = time.perf_counter_ns()
+
+    def _on_camera(self, msg: Image) -> None:
+        self.camera[stamp_to_ns(msg.header.stamp)] = time.perf_counter_ns()
+        if self.acknowledge:
+            ack = PtzCommand(mode=PtzCommand.MODE_HOLD)
+            ack.header.stamp = msg.header.stamp
+            self.ack_pub.publish(ack)
+
+
+def run(video: Path, lockstep: bool) -> dict:
+    rclpy.init()
+    probe = Probe(acknowledge=lockstep)
+    with tempfile.TemporaryDirectory() as logs:
+        nodes = GraphProcesses(load_graph(), install_space(), Path(logs))
+        common = {"lockstep": lockstep, "reliable_images": lockstep, "use_sim_time": False}
+        nodes.start("ptz_camera", common)
+        deadline = time.monotonic() + 30
+        while probe.count_publishers("camera/image_raw") == 0 and time.monotonic() < deadline:
+            rclpy.spin_once(probe, timeout_sec=0.05)
+        source = nodes.start(
+            "video_source", {**common, "path": str(video), "rate": 0.0, "wait_for_subscribers": 2}
+        )
+        while source.poll() is None:
+            rclpy.spin_once(probe, timeout_sec=0.01)
+        end = time.monotonic() + 1.0
+        while time.monotonic() < end:
+            rclpy.spin_once(probe, timeout_sec=0.01)
+        nodes.stop_all()
+    probe.destroy_node()
+    rclpy.shutdown()
+    hop = [(probe.camera[s] - probe.scene[s]) / 1e6 for s in probe.camera if s in probe.scene] or [
+        float("nan")
+    ]
+    times = sorted(probe.camera.values())
+    duration = (times[-1] - times[0]) / 1e9 if len(times) > 1 else float("nan")
+    return {
+        "mode": "lockstep" if lockstep else "free-running",
+        "frames_published": len(probe.scene) if lockstep else None,
+        "frames_through_camera": len(probe.camera),
+        "throughput_fps": (len(times) - 1) / duration,
+        "latency_ms_p50": float(np.percentile(hop, 50)),
+        "latency_ms_p95": float(np.percentile(hop, 95)),
+    }
+
+
+def main() -> int:
+    video, note = sample_or_synthetic()
+    print(note)
+    results = [run(video, lockstep=True), run(video, lockstep=False)]
+    print(f"\nvideo_source -> ptz_camera on {video.name}:")
+    print(
+        f"  {'mode':<13} {'frames in':>9} {'through':>8} {'frames/s':>9} {'hop p50':>8} {'hop p95':>8}"
+    )
+    for r in results:
+        print(
+            f"  {r['mode']:<13} {r['frames_published'] or '-':>9} {r['frames_through_camera']:>8} "
+            f"{r['throughput_fps']:>9.1f} {r['latency_ms_p50']:>6.2f}ms {r['latency_ms_p95']:>6.2f}ms"
+        )
+    OUT.mkdir(parents=True, exist_ok=True)
+    (OUT / "replay.json").write_text(
+        json.dumps({"video": str(video), "runs": results}, indent=2) + "\n"
+    )
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
