@@ -12,6 +12,8 @@ from __future__ import annotations
 
 import threading
 import time
+from collections.abc import Iterator
+from queue import Full, Queue
 
 import rclpy
 from rclpy.node import Node
@@ -185,7 +187,7 @@ class VideoSourceNode(Node):
             if self.status.frames_published
             else 0
         )
-        for frame in self.source.frames(start, end):
+        for frame in prefetched(self.source.frames(start, end), self._stop):
             if self._stop.is_set():
                 return
             stamp = frame.stamp_ns + loop_offset
@@ -262,6 +264,37 @@ class VideoSourceNode(Node):
         )
         if not self.params["loop"] or state == ReplayStatus.STATE_FAILED or self._stop.is_set():
             self.context.try_shutdown()
+
+
+def prefetched(frames: Iterator[Frame], stop: threading.Event, depth: int = 3) -> Iterator[Frame]:
+    """`frames`, decoded ahead in a thread, so decoding frame n+1 overlaps waiting for frame n's
+    acknowledgement (decoding a 768x576 frame takes a few ms)."""
+    queue: Queue = Queue(maxsize=depth)
+    done = object()
+
+    def read() -> None:
+        try:
+            for frame in frames:
+                while not stop.is_set():
+                    try:
+                        queue.put(frame, timeout=0.1)
+                        break
+                    except Full:
+                        continue
+                if stop.is_set():
+                    return
+            queue.put(done)
+        except Exception as error:  # re-raised in the consumer, where the replay reports it
+            queue.put(error)
+
+    threading.Thread(target=read, daemon=True).start()
+    while True:
+        item = queue.get()
+        if item is done:
+            return
+        if isinstance(item, Exception):
+            raise item
+        yield item
 
 
 def main(args: list[str] | None = None) -> int:
