@@ -61,7 +61,8 @@ install_python_packages() {
   fi
   say "installing Python packages ($mode mode, pinned by constraints.txt)"
   # shellcheck disable=SC2086
-  "$VENV/bin/pip" install -q --disable-pip-version-check -c "$ROOT/constraints.txt" $reqs
+  "$VENV/bin/pip" install -q --disable-pip-version-check -c "$ROOT/constraints.txt" $reqs \
+    2> >(grep -v "is ignored: it is neither a file nor a directory" >&2)
   echo "$want" > "$VENV/.setup-stamp"
 }
 

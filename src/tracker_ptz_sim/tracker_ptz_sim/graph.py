@@ -41,17 +41,25 @@ class Graph:
         raise KeyError(f"no node '{name}' in the graph")
 
 
-def config_dir() -> Path:
-    """The package's config/ directory: the install share/ when built, else the source tree."""
+SOURCE_DIR = Path(__file__).resolve().parents[2]  # src/ when running from the source tree
+
+
+def package_data(package: str, subdir: str) -> Path:
+    """share/<package>/<subdir> of the installed package, else src/<package>/<subdir>."""
     try:
         from ament_index_python.packages import get_package_share_directory
 
-        share = Path(get_package_share_directory("tracker_ptz_sim")) / "config"
-        if share.is_dir():
-            return share
+        installed = Path(get_package_share_directory(package)) / subdir
+        if installed.is_dir():
+            return installed
     except (ImportError, LookupError, ValueError):
         pass
-    return Path(__file__).resolve().parents[1] / "config"
+    return SOURCE_DIR / package / subdir
+
+
+def config_dir() -> Path:
+    """The package's config/ directory."""
+    return package_data("tracker_ptz_sim", "config")
 
 
 def load_graph(directory: Path | None = None) -> Graph:

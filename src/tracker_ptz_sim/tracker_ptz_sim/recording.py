@@ -15,18 +15,7 @@ from rosbags.rosbag2 import Reader, StoragePlugin, Writer
 from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 from rosbags.typesys.store import Typestore
 
-
-def _msg_dir() -> Path:
-    """tracker_msgs' .msg files: the installed share/ when built, else the source tree."""
-    try:
-        from ament_index_python.packages import get_package_share_directory
-
-        installed = Path(get_package_share_directory("tracker_msgs")) / "msg"
-        if installed.is_dir():
-            return installed
-    except (ImportError, LookupError, ValueError):
-        pass
-    return Path(__file__).resolve().parents[2] / "tracker_msgs" / "msg"
+from tracker_ptz_sim.graph import package_data
 
 
 @cache
@@ -34,7 +23,7 @@ def typestore() -> Typestore:
     """ROS 2 Jazzy's standard types plus tracker_msgs."""
     store = get_typestore(Stores.ROS2_JAZZY)
     types: dict[str, Any] = {}
-    for path in sorted(_msg_dir().glob("*.msg")):
+    for path in sorted(package_data("tracker_msgs", "msg").glob("*.msg")):
         types.update(get_types_from_msg(path.read_text(), f"tracker_msgs/msg/{path.stem}"))
     store.register(types)
     return store
