@@ -217,10 +217,12 @@ class VideoSourceNode(Node):
         frame_id = self.params["frame_id"]
         height, width = image.shape[:2]
         focal = self.params["focal_length"] or float(width)
-        self.info_pub.publish(
-            camera_info(width, height, focal, focal, width / 2, height / 2, stamp, frame_id)
+        self.last_sent = (
+            camera_info(width, height, focal, focal, width / 2, height / 2, stamp, frame_id),
+            array_to_image(image, self.params["encoding"], stamp, frame_id),
         )
-        self.image_pub.publish(array_to_image(image, self.params["encoding"], stamp, frame_id))
+        self.info_pub.publish(self.last_sent[0])
+        self.image_pub.publish(self.last_sent[1])
         self.status.header.stamp = stamp
         self.status.header.frame_id = frame_id
         self.status.frame_index = frame.index
@@ -237,8 +239,17 @@ class VideoSourceNode(Node):
             self.status.frames_skipped = self.source.skipped
 
     def _wait_for_ack(self, stamp_ns: int) -> None:
-        deadline = time.monotonic() + self.params["lockstep_timeout"]
+        """Until frame `stamp_ns` is acknowledged, or the timeout. Halfway through, the frame is
+        sent once more: a frame published while a subscriber was still completing discovery can
+        be lost, and every node drops the duplicate of a frame it did get."""
+        timeout = self.params["lockstep_timeout"]
+        deadline = time.monotonic() + timeout
+        resend_at = time.monotonic() + timeout / 2
         while self.acked_ns < stamp_ns and not self._stop.is_set():
+            if resend_at is not None and time.monotonic() >= resend_at:
+                resend_at = None
+                self.info_pub.publish(self.last_sent[0])
+                self.image_pub.publish(self.last_sent[1])
             remaining = deadline - time.monotonic()
             if remaining <= 0:
                 self.status.lockstep_timeouts += 1
@@ -250,7 +261,7 @@ class VideoSourceNode(Node):
                 return
             self.ack_event.clear()
             if self.acked_ns < stamp_ns:
-                self.ack_event.wait(remaining)
+                self.ack_event.wait(remaining if resend_at is None else min(remaining, timeout / 2))
 
     def _finish(self, state: int, message: str) -> None:
         self._note_skipped()
