@@ -25,11 +25,12 @@ class UnsupportedEncodingError(ValueError):
     """An Image whose encoding (or layout) the suite cannot read."""
 
 
-def image_qos(reliable: bool = False, depth: int = 5) -> QoSProfile:
-    """Sensor-data QoS for image streams (best effort, keep last), or reliable for lockstep replays."""
+def image_qos(reliable: bool = False, depth: int | None = None) -> QoSProfile:
+    """Sensor-data QoS for image streams (best effort, keep last 5), or reliable for lockstep
+    replays, with a deeper history (30) so a slower reader such as a recorder loses nothing."""
     return QoSProfile(
         history=HistoryPolicy.KEEP_LAST,
-        depth=depth,
+        depth=depth or (30 if reliable else 5),
         reliability=ReliabilityPolicy.RELIABLE if reliable else ReliabilityPolicy.BEST_EFFORT,
         durability=DurabilityPolicy.VOLATILE,
     )

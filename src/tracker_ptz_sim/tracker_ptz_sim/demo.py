@@ -20,6 +20,7 @@ import shutil
 import signal
 import subprocess
 import sys
+import threading
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -27,6 +28,7 @@ from pathlib import Path
 from typing import Any
 
 import rclpy
+from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
@@ -208,6 +210,12 @@ def run_graph(
     bag = BagWriter(bag_path, {t.name: t.type for t in graph.topics}, storage)
     rclpy.init(args=["--ros-args", "--disable-rosout-logs"])
     recorder = Recorder(graph, bag)
+    # The recorder spins in its own thread: one executor for the whole run is far cheaper per
+    # message than spin_once from the supervising loop below.
+    executor = SingleThreadedExecutor()
+    executor.add_node(recorder)
+    spinner = threading.Thread(target=executor.spin, daemon=True)
+    spinner.start()
     nodes = GraphProcesses(graph, install_dir, out / "logs")
     progress = Progress(f"replaying {video.name}")
     cpu: dict[str, float] = {}
@@ -223,12 +231,15 @@ def run_graph(
             if node.name != "video_source":
                 nodes.start(node.name, overrides.get(node.name))
         _wait_for_graph(recorder, nodes)
+        # The counts above are this process's view; give the nodes a moment to finish matching
+        # each other too, so frame 0 is not published into a half-discovered graph.
+        time.sleep(1.0)
         source = nodes.start("video_source", source_overrides)
         started = time.monotonic()
         recorder_cpu = time.process_time()
         deadline = time.monotonic() + timeout
         while source.poll() is None and time.monotonic() < deadline:
-            rclpy.spin_once(recorder, timeout_sec=0.05)
+            time.sleep(0.05)
             if recorder.status is not None:
                 progress.show(recorder.status.frames_published, recorder.status.frames_total)
             if during is not None:
@@ -239,11 +250,13 @@ def run_graph(
         if source.poll() is None:
             raise TimeoutError(f"the replay did not finish within {timeout:.0f} s")
         wall = time.monotonic() - started
-        _drain(recorder, seconds=1.0)
+        time.sleep(1.0)  # the last frame's messages
         progress.done()
         cpu = {**nodes.cpu_seconds(), "recorder": time.process_time() - recorder_cpu}
     finally:
         codes = nodes.stop_all()
+        executor.shutdown()
+        spinner.join(timeout=5.0)
         recorder.destroy_node()
         rclpy.try_shutdown()
         bag.close()
@@ -265,7 +278,7 @@ def _wait_for_graph(recorder: Recorder, nodes: GraphProcesses, timeout: float = 
     """Until every downstream node is up and its topics are discovered, so frame 0 is seen."""
     deadline = time.monotonic() + timeout
     while time.monotonic() < deadline:
-        rclpy.spin_once(recorder, timeout_sec=0.1)
+        time.sleep(0.1)
         if nodes.crashed():
             raise RuntimeError(f"nodes crashed at start-up: {nodes.crashed()}")
         missing = {
@@ -276,12 +289,6 @@ def _wait_for_graph(recorder: Recorder, nodes: GraphProcesses, timeout: float = 
         if not missing:
             return
     raise TimeoutError(f"the graph did not come up within {timeout:.0f} s (waiting for {missing})")
-
-
-def _drain(recorder: Recorder, seconds: float) -> None:
-    end = time.monotonic() + seconds
-    while time.monotonic() < end:
-        rclpy.spin_once(recorder, timeout_sec=0.05)
 
 
 def report(bag: Path, out: Path, render: bool = True) -> run_report.Summary:
