@@ -17,6 +17,7 @@ here, and later the robust Kalman filter (seed 001) and particle filters (seeds 
 from __future__ import annotations
 
 import math
+from abc import ABC, abstractmethod
 from dataclasses import dataclass, field
 from enum import StrEnum
 from typing import Protocol, runtime_checkable
@@ -77,7 +78,7 @@ def check_measurement(z: np.ndarray | None) -> np.ndarray | None:
     return z
 
 
-class KinematicFilter:
+class KinematicFilter(ABC):
     """Shared part of the filters on a `KinematicModel`: time checks, gating, lead prediction."""
 
     def __init__(self, model: KinematicModel, measurement_noise: float, t0: float) -> None:
@@ -96,12 +97,14 @@ class KinematicFilter:
         return self._time
 
     @property
+    @abstractmethod
     def mean(self) -> np.ndarray:
-        raise NotImplementedError
+        """State mean, in `state_layout` order."""
 
     @property
+    @abstractmethod
     def covariance(self) -> np.ndarray:
-        raise NotImplementedError
+        """State covariance."""
 
     def _interval_to(self, t: float) -> float:
         """dt from the filter's time to t; raises ValueError (state untouched) for NaN or the past."""
