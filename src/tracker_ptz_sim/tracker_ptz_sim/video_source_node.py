@@ -170,13 +170,27 @@ class VideoSourceNode(Node):
             self._finish(ReplayStatus.STATE_FAILED, str(error))
 
     def _wait_for_subscribers(self) -> None:
-        wanted = self.params["wait_for_subscribers"] if self.params["lockstep"] else 0
-        if self.image_pub.get_subscription_count() < wanted:
-            self.get_logger().info(
-                f"lockstep: waiting for {wanted} subscriber(s) of scene/image_raw"
+        """Lockstep: wait for the image subscribers and for someone publishing acknowledgements,
+        so frame 0 is neither lost nor waits for an ack that cannot come."""
+        if not self.params["lockstep"]:
+            return
+        wanted = self.params["wait_for_subscribers"]
+        ack_topic = self.params["ack_topic"]
+
+        def ready() -> bool:
+            return (
+                self.image_pub.get_subscription_count() >= wanted
+                and self.count_publishers(ack_topic) > 0
             )
-        while not self._stop.is_set() and self.image_pub.get_subscription_count() < wanted:
+
+        if not ready():
+            self.get_logger().info(
+                f"lockstep: waiting for {wanted} subscriber(s) of scene/image_raw and a publisher "
+                f"of {ack_topic}"
+            )
+        while not self._stop.is_set() and not ready():
             time.sleep(0.02)
+        time.sleep(0.2)  # let the acknowledgement publisher finish matching our subscription
 
     def _play_once(self, start: int, end: int | None) -> None:
         started_wall = time.monotonic()
