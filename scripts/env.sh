@@ -15,6 +15,8 @@ else
   # shellcheck disable=SC1091
   source "$_tracker_root/.venv/local_setup.bash"
 fi
+# Images travel through Fast DDS shared memory only with a segment larger than the default 0.5 MB.
+export FASTRTPS_DEFAULT_PROFILES_FILE="${FASTRTPS_DEFAULT_PROFILES_FILE:-$_tracker_root/src/tracker_ptz_sim/config/fastdds_shm.xml}"
 if [ "${1:-}" != "--no-workspace" ] && [ -f "$_tracker_root/install/setup.bash" ]; then
   # shellcheck disable=SC1091
   source "$_tracker_root/install/setup.bash"
