@@ -159,6 +159,7 @@ def test_launch_file_builds_the_same_graph(monkeypatch):
     launch.LaunchDescription = lambda entities: entities
     actions = types.ModuleType("launch.actions")
     actions.DeclareLaunchArgument = lambda name, **kw: ("arg", name)
+    actions.SetEnvironmentVariable = lambda name, value: ("env", name, value)
     substitutions = types.ModuleType("launch.substitutions")
     substitutions.LaunchConfiguration = lambda name: f"$({name})"
     launch_ros_actions = types.ModuleType("launch_ros.actions")

@@ -4,8 +4,10 @@ The whole surveillance graph, built from the same config/graph.yaml + config/sur
 demo runner (make demo) uses, so both run exactly the same nodes with the same parameters.
 """
 
+import os
+
 from launch import LaunchDescription
-from launch.actions import DeclareLaunchArgument
+from launch.actions import DeclareLaunchArgument, SetEnvironmentVariable
 from launch.substitutions import LaunchConfiguration
 from launch_ros.actions import Node
 
@@ -37,4 +39,9 @@ def generate_launch_description():
         )
         for node in graph.nodes
     ]
-    return LaunchDescription(arguments + nodes)
+    # Large images need a shared-memory segment bigger than Fast DDS's default (see the profile).
+    profile = graph.params_file.parent / "fastdds_shm.xml"
+    environment = []
+    if "FASTRTPS_DEFAULT_PROFILES_FILE" not in os.environ and profile.exists():
+        environment.append(SetEnvironmentVariable("FASTRTPS_DEFAULT_PROFILES_FILE", str(profile)))
+    return LaunchDescription(arguments + environment + nodes)
