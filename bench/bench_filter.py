@@ -34,28 +34,14 @@ ROOT = Path(__file__).resolve().parents[1]
 for _pkg in ("tracker_msgs", "tracker_filter"):
     sys.path.insert(0, str(ROOT / "src" / _pkg))
 
-from tracker_filter.banks import ObjectBank  # noqa: E402
 from tracker_filter.config import TrackerConfig  # noqa: E402
+from tracker_filter.filters import PerTrackFactory  # noqa: E402
 from tracker_filter.management import Detections, TrackManager, TrackStatus  # noqa: E402
 from tracker_filter.synthetic import bouncing_scene  # noqa: E402
 
 OUT = ROOT / "out" / "bench" / "filter.json"
 TARGET_MS = 1.0
 FILTERS = ("kalman_cv", "kalman_ca", "alpha_beta", "alpha_beta_gamma")
-
-
-class _PerTrackFactory:
-    """The filter config, but making an ObjectBank (one filterpy filter object per track)."""
-
-    def __init__(self, config):
-        self.config = config
-        self.state_layout = config.state_layout
-
-    def new_filter(self, z, t):
-        return self.config.new_filter(z, t)
-
-    def new_bank(self):
-        return ObjectBank(self.config.new_filter, self.state_layout)
 
 
 def timed_steps(tracker, frames, warmup: int) -> tuple[list[float], list]:
@@ -104,7 +90,7 @@ def bench_multi(quick: bool) -> tuple[dict, list]:
     config = TrackerConfig.preset("multi")
     reference = config.build_tracker()
     per_track = TrackManager(
-        _PerTrackFactory(config.filter),
+        PerTrackFactory(config.filter),
         reference.associator,
         reference.initiator,
         reference.confirmation,

@@ -5,8 +5,8 @@ import motmetrics as mm
 import numpy as np
 import pytest
 
-from tracker_filter.banks import ObjectBank
 from tracker_filter.config import TrackerConfig
+from tracker_filter.filters import PerTrackFactory
 from tracker_filter.management import Detections, OutOfOrderError, TrackManager, TrackStatus
 from tracker_filter.synthetic import bouncing_scene, piecewise_constant_velocity
 from tracker_msgs.msg import Track
@@ -236,7 +236,7 @@ def test_object_bank_plugs_in_and_gives_the_same_tracks():
     components = config.build_tracker()
     fast = config.build_tracker()
     plug = TrackManager(
-        _ObjectFactory(config.filter),
+        PerTrackFactory(config.filter),
         components.associator,
         components.initiator,
         components.confirmation,
@@ -247,17 +247,3 @@ def test_object_bank_plugs_in_and_gives_the_same_tracks():
         np.testing.assert_array_equal(a.ids, b.ids)
         np.testing.assert_array_equal(a.status, b.status)
         np.testing.assert_allclose(a.means, b.means, rtol=1e-9, atol=1e-8)
-
-
-class _ObjectFactory:
-    """A factory without a vectorised bank, as the particle filters will be."""
-
-    def __init__(self, config):
-        self.config = config
-        self.state_layout = config.state_layout
-
-    def new_filter(self, z, t):
-        return self.config.new_filter(z, t)
-
-    def new_bank(self):
-        return ObjectBank(self.new_filter, self.state_layout)

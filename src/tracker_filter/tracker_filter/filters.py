@@ -26,7 +26,7 @@ import numpy as np
 from filterpy.gh import GHFilter, GHKFilter
 from filterpy.kalman import KalmanFilter as FilterpyKalmanFilter
 
-from tracker_filter.banks import FilterBank, LinearGaussianBank
+from tracker_filter.banks import FilterBank, LinearGaussianBank, ObjectBank
 from tracker_filter.gains import GainRule, GhGains, gain_schedule, resolve_gains
 from tracker_filter.linear_gaussian import fixed_gain, joseph_update
 from tracker_filter.models import AXES, CONSTANT_ACCELERATION, CONSTANT_VELOCITY, KinematicModel
@@ -366,3 +366,19 @@ class FilterConfig:
             gains=self.gains if self.kind.fixed_gain else None,
             startup=self.startup,
         )
+
+
+class PerTrackFactory:
+    """A FilterFactory that keeps one filter object per track (an ObjectBank) instead of the
+    vectorised bank: the way in for filters without a vectorised form (robust Kalman, particle
+    filters), and the reference the vectorised bank is measured against."""
+
+    def __init__(self, factory: FilterFactory) -> None:
+        self.factory = factory
+        self.state_layout = factory.state_layout
+
+    def new_filter(self, z: np.ndarray, t: float) -> StateFilter:
+        return self.factory.new_filter(z, t)
+
+    def new_bank(self) -> FilterBank:
+        return ObjectBank(self.factory.new_filter, self.state_layout)
