@@ -32,8 +32,17 @@ def run_node(make_node: Callable[[], Node], args: Sequence[str] | None = None) -
     except (StartupError, ParameterError) as error:
         print(f"[FATAL] {error}", file=sys.stderr, flush=True)
         return 2
+    except Exception:
+        if rclpy.ok():
+            raise
+        # Ctrl-C landed while the node was still starting to spin: rclpy's handler had already
+        # shut the context down, so whatever failed next is part of a requested shutdown.
     finally:
         if node is not None:
-            node.destroy_node()
+            try:
+                node.destroy_node()
+            except Exception:  # the context may already be gone after a shutdown
+                if rclpy.ok():
+                    raise
         rclpy.try_shutdown()
     return getattr(node, "exit_code", 0)
