@@ -17,6 +17,7 @@ from typing import Any
 import cv2
 import numpy as np
 
+from tracker_ptz_sim.frame_sources import decode_image_message
 from tracker_ptz_sim.recording import read_bag
 
 SCENE, CAMERA = "/scene/image_raw", "/camera/image_raw"
@@ -35,6 +36,7 @@ HOPS = [
     ("tracker -> ptz_controller", TARGET, COMMAND),
     ("camera image -> command", CAMERA, COMMAND),
 ]
+IMAGE = "sensor_msgs/msg/Image"
 CONFIRMED_STATUSES = (1, 2)  # Track.STATUS_CONFIRMED, STATUS_COASTING
 
 
@@ -193,10 +195,10 @@ def render_video(
         for topic, _, msg in read_bag(bag, {SCENE, CAMERA}):
             stamp = stamp_ns(msg)
             if topic == CAMERA:
-                cameras[stamp] = image_of(msg)
+                cameras[stamp] = decode_image_message(msg, IMAGE)
                 continue
             record = frames.get(stamp)
-            canvas = annotate_scene(image_of(msg), record)
+            canvas = annotate_scene(decode_image_message(msg, IMAGE), record)
             canvas = side_by_side(canvas, annotate_view(cameras.pop(stamp, None), canvas.shape[0]))
             if writer is None:
                 writer = cv2.VideoWriter(
@@ -217,18 +219,6 @@ def render_video(
         if writer is not None:
             writer.release()
     return written
-
-
-def image_of(msg: Any) -> np.ndarray:
-    """A rosbags-deserialized sensor_msgs/Image as BGR."""
-    channels = 1 if msg.encoding == "mono8" else 3
-    rows = np.asarray(msg.data, dtype=np.uint8).reshape(msg.height, msg.step)
-    pixels = rows[:, : msg.width * channels].reshape(msg.height, msg.width, channels)
-    if msg.encoding == "rgb8":
-        return np.ascontiguousarray(pixels[:, :, ::-1])
-    if channels == 1:
-        return cv2.cvtColor(pixels, cv2.COLOR_GRAY2BGR)
-    return pixels.copy()
 
 
 def annotate_scene(image: np.ndarray, record: FrameRecord | None) -> np.ndarray:
