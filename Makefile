@@ -6,8 +6,9 @@ SIM := install/tracker_ptz_sim/lib/tracker_ptz_sim
 PYTEST_ARGS ?=
 VIDEO ?=
 DEMO_ARGS ?=
+STRESS_ARGS ?=
 
-.PHONY: help setup build test lint format shell sample demo bench evaluate clean freeze
+.PHONY: help setup build test lint format shell sample demo bench stress evaluate clean freeze
 
 help:  ## List the targets
 	@grep -E '^[a-z]+:.*## ' $(MAKEFILE_LIST) | awk -F':.*## ' '{printf "  make %-10s %s\n", $$1, $$2}'
@@ -38,6 +39,9 @@ demo: setup  ## Run the surveillance demo (VIDEO=path/to/video to use your own)
 
 bench: setup  ## Benchmarks: prints tables, writes out/bench/*.json
 	@$(ENV) for b in bench/bench_*.py; do echo "== $$b"; python "$$b" || exit 1; done
+
+stress: setup  ## Shutdown stress: 50 SIGINT/SIGTERM per node at random moments, exit-code histogram
+	@$(ENV) python scripts/stress_signals.py $(STRESS_ARGS)
 
 clean:  ## Remove build products (keeps .venv and the sample cache)
 	rm -rf build install log out

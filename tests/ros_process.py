@@ -67,10 +67,11 @@ class RosProcess:
             self._log.flush()
         return self.log_path.read_text()
 
-    def interrupt(self, timeout: float) -> int | None:
-        """Send SIGINT (Ctrl-C) and wait up to `timeout` s; the exit code, or None if still running."""
+    def interrupt(self, timeout: float, signum: int = signal.SIGINT) -> int | None:
+        """Send SIGINT (Ctrl-C) or `signum` and wait up to `timeout` s; the exit code, or None if
+        still running."""
         if self.process.poll() is None:
-            self.process.send_signal(signal.SIGINT)
+            self.process.send_signal(signum)
         try:
             return self.process.wait(timeout=timeout)
         except subprocess.TimeoutExpired:

@@ -23,6 +23,6 @@ setup(
     ),
     license="Apache-2.0",
     entry_points={
-        "console_scripts": ["tracker = tracker_filter.tracker_node:main"],
+        "console_scripts": ["tracker = tracker_filter.entry_points:tracker"],
     },
 )

@@ -26,13 +26,13 @@ setup(
     license="Apache-2.0",
     entry_points={
         "console_scripts": [
-            "video_source = tracker_ptz_sim.video_source_node:main",
-            "ptz_camera = tracker_ptz_sim.ptz_camera_node:main",
-            "ptz_controller = tracker_ptz_sim.ptz_controller_node:main",
-            "run_demo = tracker_ptz_sim.demo:main",
+            "video_source = tracker_ptz_sim.entry_points:video_source",
+            "ptz_camera = tracker_ptz_sim.entry_points:ptz_camera",
+            "ptz_controller = tracker_ptz_sim.entry_points:ptz_controller",
+            "run_demo = tracker_ptz_sim.entry_points:run_demo",
             "fetch_sample = tracker_ptz_sim.sample:main",
             "make_scene = tracker_ptz_sim.scene_cli:main",
-            "evaluate = tracker_ptz_sim.evaluate:main",
+            "evaluate = tracker_ptz_sim.entry_points:evaluate",
         ],
     },
 )

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from tracker_detect.pose_buffer import PoseBuffer, PoseStatus
+from tracker_detect.pose_buffer import PoseBuffer, PoseLookup, PoseStatus
 
 MS = 1_000_000
 
@@ -59,3 +59,13 @@ def test_repeated_stamp_replaces_and_bad_values_are_rejected():
     assert len(buffer) == 1
     with pytest.raises(ValueError):
         PoseBuffer(capacity=1)
+
+
+def test_a_new_epoch_drops_the_newer_poses():
+    buffer = PoseBuffer(capacity=10)
+    for k in range(5):
+        buffer.add(k * 100, (float(k),))
+    assert buffer.drop_after(150) == 3
+    assert buffer.newest_stamp == 100
+    buffer.add(120, (9.0,))
+    assert buffer.lookup(120) == PoseLookup(PoseStatus.FOUND, (9.0,))

@@ -153,8 +153,8 @@ def test_one_blob_array_per_frame_with_poses_in_any_order(harness_factory):
     assert h.node.counters.frames == len(frames)
 
 
-def test_bad_encodings_and_stale_stamps(harness_factory):
-    h = harness_factory(pose_source="none")
+def test_bad_encodings_repeated_stamps_and_a_new_epoch(harness_factory):
+    h = harness_factory(pose_source="none", gap=1)
     frames, _ = scene_and_windows()
     h.images.publish(image_msg(frames[0][:90, :120], 0))
     h.settle(1)
@@ -164,12 +164,38 @@ def test_bad_encodings_and_stale_stamps(harness_factory):
     h.settle(2)
     assert h.node.counters.unsupported_encoding == 1
     assert not h.detections[1].target_present and not h.detections[1].blobs  # acknowledged
-    h.images.publish(image_msg(frames[1][:90, :120], NS))  # duplicate stamp
-    h.images.publish(image_msg(frames[1][:90, :120], NS // 2))  # out of order
-    h.spin_until(lambda: h.node.counters.stale_stamp >= 2)
-    h.spin_until(lambda: len(h.detections) > 2, 0.2)
-    assert h.node.counters.stale_stamp == 2
-    assert len(h.detections) == 2  # stale frames are dropped, not answered
+    h.images.publish(image_msg(frames[1][:90, :120], NS))  # repeated stamp: dropped
+    h.spin_until(lambda: h.node.counters.stale_stamp >= 1)
+    assert len(h.detections) == 2 and h.node.problems.count("repeat image stamp") == 1
+    # Stamps going back are a restarted source: a new epoch, answered, with a fresh history.
+    h.images.publish(image_msg(frames[2][:90, :120], NS // 2))
+    h.images.publish(image_msg(frames[3][:90, :120], NS // 2 + NS))
+    h.settle(4)
+    assert [d.compared_area > 0 for d in h.detections[2:]] == [False, True]
+    assert h.node.image_order.epochs == 1
+
+
+def test_each_kind_of_malformed_image_gets_its_own_warning(harness_factory, capfd):
+    h = harness_factory(pose_source="none")
+    frames, _ = scene_and_windows()
+    short = image_msg(frames[0][:90, :120], 0)
+    short.data = bytes(short.data[:50])  # fewer bytes than step x height
+    narrow = image_msg(frames[0][:90, :120], NS)
+    narrow.step = 60  # shorter than a row
+    again = image_msg(frames[0][:90, :120], 2 * NS)
+    again.data = bytes(again.data[:10])
+    for msg in (short, narrow, again):
+        h.images.publish(msg)
+    h.settle(3)  # each still answered with an empty BlobArray
+    err = capfd.readouterr().err
+    assert err.count("fewer bytes than step x height") == 1
+    assert err.count("the step is shorter than a row") == 1
+    assert h.node.problems.counts == {
+        "image data shorter than step x height": 2,
+        "image step shorter than a row": 1,
+    }
+    h.images.publish(image_msg(frames[1][:90, :120], 3 * NS))  # good images still work
+    h.settle(4)
 
 
 def test_size_change_resets_the_history(harness_factory):

@@ -199,6 +199,34 @@ def test_bad_input_leaves_the_state_untouched():
         Detections(np.zeros((2, 2)), np.zeros(3), np.zeros((2, 4)), np.zeros(2))
 
 
+def test_detections_that_cannot_be_measurements_are_rejected_by_cause():
+    good = [50.0, 60.0, 10.0, 10.0, 100.0, 0.3]  # x, y, box w, box h, area, score
+    rows = [
+        good,
+        [1e308, 60.0, 10.0, 10.0, 100.0, 0.3],  # centroid far outside any scene
+        [50.0, 60.0, 10.0, 10.0, 100.0, np.nan],  # NaN score
+        [50.0, 60.0, -10.0, 10.0, 100.0, 0.3],  # negative box width
+        [50.0, np.inf, -10.0, 10.0, 100.0, np.nan],  # several problems: counted under the first
+        [50.0, 60.0, 10.0, 10.0, -1.0, 0.3],  # negative area
+    ]
+    values = np.array(rows)
+    boxes = np.column_stack([values[:, :2] - 5.0, values[:, 2:4]])
+    detections = Detections(values[:, :2], values[:, 4], boxes, values[:, 5])
+    valid, rejected = detections.validated()
+    assert len(valid) == 1 and valid.positions.tolist() == [[50.0, 60.0]]
+    assert rejected == {
+        "non-finite centroid": 1,
+        "centroid beyond 1e+06 px": 1,
+        "negative box size": 1,
+        "non-finite or negative area": 1,
+        "non-finite score": 1,
+    }
+    tracker = multi()
+    tracks = tracker.step(1.0, detections)
+    assert len(tracks) == 1 and tracks.rejections == rejected
+    assert np.isfinite(tracks.means).all() and (tracks.bboxes[:, 2:] >= 0).all()
+
+
 def test_reset_and_ids():
     tracker = multi()
     tracker.step(5.0, Detections.from_positions([[10.0, 10.0], [50.0, 50.0]], size=4))

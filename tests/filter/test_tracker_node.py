@@ -145,14 +145,52 @@ def test_one_output_of_each_per_frame_with_the_frame_stamp(harness):
     assert harness.tracker._tracker.rejected_measurements == 1
 
 
-def test_out_of_order_frames_are_answered_but_change_nothing(harness):
+def test_a_repeated_frame_is_dropped_and_a_jump_back_starts_a_new_epoch(harness):
     for k in range(4):
-        harness.send(5.0 + 0.1 * k, [(100 + 5 * k, 50)])
-    tracks, target = harness.send(5.05, [(500, 500)])
-    assert stamp_s(tracks.header) == pytest.approx(5.05)
-    assert tracks.tracks == [] and not target.locked
-    tracks, target = harness.send(5.4, [(120, 50)])
-    assert [t.id for t in tracks.tracks] == [1] and tracks.tracks[0].hits == 5 and target.locked
+        _, target = harness.send(5.0 + 0.1 * k, [(100 + 5 * k, 50)])
+    assert target.locked and target.track.id == 1
+    repeat = BlobArray(target_present=True)
+    repeat.header.stamp.sec, repeat.header.stamp.nanosec = 5, 300_000_000
+    harness.detections.publish(repeat)
+    harness.wait(lambda: harness.tracker.problems.count("repeat detections stamp") == 1)
+    assert len(harness.targets) == 4  # not answered: the frame was tracked once already
+    # A restarted replay: the old tracks go, ids continue, the new time base is accepted.
+    tracks, target = harness.send(0.5, [(500, 500)])
+    assert [t.id for t in tracks.tracks] == [2] and not target.locked
+    for k in range(1, 4):
+        tracks, target = harness.send(0.5 + 0.1 * k, [(500 + 5 * k, 500)])
+    assert target.locked and target.track.id == 2 and target.track.hits == 4
+
+
+def test_hostile_blobs_never_become_tracks(harness, capfd):
+    hostile = [
+        dict(centroid_x=1e308, centroid_y=50.0),
+        dict(centroid_x=200.0, centroid_y=50.0, score=float("nan")),
+        dict(centroid_x=300.0, centroid_y=50.0, width=-10.0),
+    ]
+    for k in range(4):
+        msg = BlobArray(target_present=True)
+        msg.header.stamp.sec, msg.header.stamp.nanosec = 1, 100_000_000 * k
+        for fields in hostile:
+            blob = Blob(centroid_x=fields["centroid_x"], centroid_y=fields["centroid_y"], area=100)
+            blob.score = fields.get("score", 0.2)
+            blob.bbox.x, blob.bbox.y = fields["centroid_x"] - 5.0, fields["centroid_y"] - 5.0
+            blob.bbox.width, blob.bbox.height = fields.get("width", 10.0), 10.0
+            msg.blobs.append(blob)
+        expected = len(harness.targets) + 1
+        harness.detections.publish(msg)
+        harness.wait(lambda n=expected: len(harness.targets) >= n)  # every frame is answered
+        assert harness.tracks[-1].tracks == [] and not harness.targets[-1].locked
+    assert harness.tracker.problems.counts == {
+        "centroid beyond 1e+06 px": 4,
+        "non-finite score": 4,
+        "negative box size": 4,
+    }
+    err = capfd.readouterr().err
+    assert err.count("dropped a detection") == 3  # one line per cause
+    for k in range(4):  # good detections afterwards are tracked as on a fresh tracker
+        tracks, target = harness.send(2.0 + 0.1 * k, [(100 + 5 * k, 50)])
+    assert [t.id for t in tracks.tracks] == [1] and target.locked
 
 
 def test_services_select_and_reset(harness):

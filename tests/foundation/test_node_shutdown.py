@@ -1,7 +1,9 @@
-"""Every node executable starts from the install space and exits 0 within 2 s of SIGINT."""
+"""Every node executable starts from the install space and exits 0 within 2 s of SIGINT or SIGTERM
+(the random-moment version is tests/foundation/test_stress_signals.py)."""
 
 from __future__ import annotations
 
+import signal
 import time
 
 import cv2
@@ -48,17 +50,19 @@ def test_the_suite_installs_node_executables():
     assert node_executables(), "no node executables installed: run 'make setup'"
 
 
+@pytest.mark.parametrize("signum", [signal.SIGINT, signal.SIGTERM], ids=["SIGINT", "SIGTERM"])
 @pytest.mark.parametrize(("package", "name"), node_executables())
-def test_node_exits_cleanly_on_sigint(package, name, tmp_path):
+def test_node_exits_cleanly_on_a_stop_signal(package, name, signum, tmp_path):
     node = RosProcess(package, name, log_dir=tmp_path, params=node_params(name, tmp_path))
     try:
         time.sleep(STARTUP_S)
         assert node.process.poll() is None, f"{name} died at start-up:\n{node.output()}"
         started = time.monotonic()
-        code = node.interrupt(timeout=SHUTDOWN_S)
+        code = node.interrupt(timeout=SHUTDOWN_S, signum=signum)
         elapsed = time.monotonic() - started
-        assert code is not None, f"{name} still running {SHUTDOWN_S} s after SIGINT"
-        assert code == 0, f"{name} exited {code} after SIGINT:\n{node.output()}"
+        assert code is not None, f"{name} still running {SHUTDOWN_S} s after {signum.name}"
+        assert code == 0, f"{name} exited {code} after {signum.name}:\n{node.output()}"
+        assert "Traceback" not in node.output()
         assert elapsed <= SHUTDOWN_S
     finally:
         node.kill()

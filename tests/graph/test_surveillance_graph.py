@@ -9,11 +9,7 @@ import numpy as np
 import pytest
 from ros_process import executable
 
-# Five processes discovering each other over DDS on a loaded 2-core machine: on a rare start-up
-# the graph loses frame 0 before every reader has matched, which shows as a lockstep timeout.
-# One rerun (reported as such by pytest-rerunfailures) keeps CI honest without hiding a real bug,
-# which fails twice.
-pytestmark = [pytest.mark.ros, pytest.mark.slow, pytest.mark.flaky(reruns=1)]
+pytestmark = [pytest.mark.ros, pytest.mark.slow]
 
 VIEW_FRACTION = 0.35  # a 168 px view on a 640x480 scene
 SWEEP_RATE = 0.6  # rad/s: 170 px/s, the search crosses the scene in about 3 s

@@ -262,8 +262,21 @@ def test_bag_replays_with_identical_pixels_and_stamps(scene, tmp_path):
         assert np.array_equal(received[stamp], frame)
 
 
-@pytest.mark.parametrize("case", ["missing", "unknown_format", "empty_folder", "empty_bag_topic"])
-def test_bad_inputs_exit_with_one_clear_error(case, tmp_path):
+@pytest.mark.parametrize(
+    "case",
+    [
+        "missing",
+        "unknown_format",
+        "empty_folder",
+        "empty_bag_topic",
+        "empty_path",
+        "start_past_end",
+        "start_past_end_looping",
+        "end_before_start",
+    ],
+)
+def test_bad_inputs_exit_with_one_clear_error(case, scene, tmp_path):
+    params = {}
     if case == "missing":
         path, expected = tmp_path / "nope.mp4", "no such file"
     elif case == "unknown_format":
@@ -272,22 +285,91 @@ def test_bad_inputs_exit_with_one_clear_error(case, tmp_path):
     elif case == "empty_folder":
         path, expected = tmp_path / "frames", "no images"
         path.mkdir()
-    else:
+    elif case == "empty_bag_topic":
         from tracker_ptz_sim.recording import BagWriter
 
         path, expected = tmp_path / "bag", "no Image or CompressedImage topic"
         BagWriter(path, {"/status": "tracker_msgs/msg/ReplayStatus"}).close()
+    elif case == "empty_path":
+        path, expected = "", "no input"  # not the current directory
+    else:
+        path = scene[1].video  # FRAMES frames
+        params = {
+            "start_past_end": {"start_frame": FRAMES},
+            "start_past_end_looping": {"start_frame": FRAMES + 5, "loop": True},
+            "end_before_start": {"start_frame": 5, "end_frame": 5},
+        }[case]
+        expected = "must be greater than" if case == "end_before_start" else "past the end"
     source = RosProcess(
-        "tracker_ptz_sim", "video_source", log_dir=tmp_path, params={"path": str(path)}
+        "tracker_ptz_sim",
+        "video_source",
+        log_dir=tmp_path,
+        params={"path": str(path) if path else '""', **params},
     )
     try:
         code = source.wait(timeout=20)
     finally:
         source.kill()
     output = source.output()
-    assert code == 2
+    assert code == 2, output
     assert expected in output and str(path) in output
-    assert "Traceback" not in output
+    assert "Traceback" not in output and output.count("[FATAL]") == 1
+
+
+def test_changing_the_rate_during_a_replay_neither_bursts_nor_stalls(tmp_path):
+    """Pacing continues from the moment of the change (it used to restart from the loop's start:
+    a burst of catch-up frames when speeding up, a long stall when slowing down)."""
+    from node_harness import NodeHarness
+    from rcl_interfaces.srv import SetParameters
+    from rclpy.parameter import Parameter
+    from sensor_msgs.msg import Image
+
+    from tracker_msgs_py.conversions import image_qos
+    from tracker_ptz_sim.video_source_node import VideoSourceNode
+
+    video = tmp_path / "clip.avi"
+    import cv2
+
+    writer = cv2.VideoWriter(str(video), cv2.VideoWriter_fourcc(*"MJPG"), 10.0, (64, 48))
+    for k in range(200):
+        writer.write(np.full((48, 64, 3), k % 250, np.uint8))
+    writer.release()
+    arrivals = []
+    h = NodeHarness(
+        VideoSourceNode,
+        inputs={},
+        outputs={"scene/image_raw": (Image, image_qos(True))},
+        path=str(video),
+        rate=1.0,
+        reliable_images=True,
+        publish_clock=False,
+    )
+    h.peer.create_subscription(
+        Image, "scene/image_raw", lambda _: arrivals.append(time.monotonic()), image_qos(True)
+    )
+    client = h.peer.create_client(SetParameters, "video_source/set_parameters")
+
+    def set_rate(rate):
+        future = client.call_async(
+            SetParameters.Request(parameters=[Parameter("rate", value=rate).to_parameter_msg()])
+        )
+        h.spin_until(future.done)
+        assert future.result().results[0].successful
+        return time.monotonic()
+
+    try:
+        h.spin_until(lambda: len(arrivals) >= 15, timeout=10.0)  # 1.5 s of replay at 10 fps
+        changed = set_rate(5.0)
+        h.spin_until(lambda: len(arrivals) >= 40, timeout=10.0)
+        after = [t for t in arrivals if t > changed]
+        # 5x: about 50 frames/s. A catch-up burst would send ~15 frames at once.
+        assert sum(1 for t in after if t < changed + 0.2) <= 10 + 3
+        slowed = set_rate(0.1)  # a frame every second from now on
+        count = len(arrivals)
+        h.spin_until(lambda: len(arrivals) > count + 1, timeout=5.0)  # not a 10 s stall
+        assert arrivals[count + 1] - slowed < 3.0
+    finally:
+        h.close()
 
 
 def test_corrupt_frame_is_skipped_and_counted(scene, tmp_path):

@@ -52,6 +52,13 @@ class PoseBuffer:
         self._stamps.clear()
         self._values.clear()
 
+    def drop_after(self, stamp_ns: int) -> int:
+        """Forget the poses stamped after `stamp_ns` (a new epoch: time jumped back); how many."""
+        i = bisect.bisect_right(self._stamps, stamp_ns)
+        dropped = len(self._stamps) - i
+        del self._stamps[i:], self._values[i:]
+        return dropped
+
     def add(self, stamp_ns: int, values: Sequence[float]) -> None:
         """Store a pose; non-finite values raise ValueError, a repeated stamp replaces the pose."""
         pose = tuple(float(v) for v in values)

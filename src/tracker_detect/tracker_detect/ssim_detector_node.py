@@ -11,12 +11,12 @@ and `detector/ssim_map` (mono8 Images in camera pixels) are published only while
 
 from __future__ import annotations
 
+import math
 from collections import deque
 from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
-from rclpy.node import Node
 from sensor_msgs.msg import CameraInfo, Image, JointState
 from std_msgs.msg import Header
 
@@ -45,8 +45,9 @@ from tracker_msgs_py.conversions import (
     stamp_to_ns,
 )
 from tracker_msgs_py.geometry import Rect, SceneGeometry
-from tracker_msgs_py.node_main import run_node
+from tracker_msgs_py.node_main import SuiteNode, run_node
 from tracker_msgs_py.params import ParamSpec, declare_parameters
+from tracker_msgs_py.stamps import Order, StampOrder
 
 POSE_SOURCES = ("ptz_state", "joint_states", "none", "estimate")
 _D = DetectorConfig()
@@ -247,7 +248,7 @@ class Counters:
     registration_fallbacks: int = 0
 
 
-class SsimDetectorNode(Node):
+class SsimDetectorNode(SuiteNode):
     def __init__(self, **node_options: Any) -> None:
         """node_options go to rclpy's Node (namespace, parameter_overrides, context...)."""
         super().__init__("ssim_detector", **node_options)
@@ -257,8 +258,7 @@ class SsimDetectorNode(Node):
         self.poses = PoseBuffer(self.params["pose_buffer_size"], self._max_gap_ns())
         self.pending: deque[_PendingImage] = deque()
         self.camera: CameraIntrinsics | None = None
-        self.last_image_ns: int | None = None
-        self.warned: set[str] = set()
+        self.image_order = StampOrder()
         reliable = self.params["reliable_images"]
         self.detections_pub = self.create_publisher(BlobArray, "detections", 10)
         self.mask_pub = self.create_publisher(Image, "detector/motion_mask", image_qos(reliable))
@@ -289,55 +289,81 @@ class SsimDetectorNode(Node):
 
     def _on_image(self, msg: Image) -> None:
         stamp = stamp_to_ns(msg.header.stamp)
-        if self.last_image_ns is not None and stamp <= self.last_image_ns:
+        order = self.image_order.check(stamp)
+        if order in (Order.REPEAT, Order.INVALID):
             self.counters.stale_stamp += 1
-            self.get_logger().warning(
-                f"dropped an image stamped {stamp} ns: not newer than the last one "
-                f"({self.last_image_ns} ns); {self.counters.stale_stamp} dropped so far",
-                throttle_duration_sec=5.0,
+            self.problems.report(
+                f"{order.value} image stamp",
+                f"dropped an image stamped {stamp} ns ({order.value}): every image is answered "
+                "once",
             )
             return
-        self.last_image_ns = stamp
+        if order is Order.NEW_EPOCH:
+            self._start_epoch(stamp)
         try:
             gray = image_to_gray(msg)
         except UnsupportedEncodingError as error:
             self.counters.unsupported_encoding += 1
-            self._warn_once(
-                f"encoding:{msg.encoding}",
-                f"{error}; such frames are dropped (answered with an empty BlobArray)",
+            self.problems.report(
+                error.cause, f"{error}; such images are answered with an empty BlobArray"
             )
             self._publish_empty(msg.header)
             return
         self.pending.append(_PendingImage(msg.header, stamp, gray.copy()))
         self._drain()
 
+    def _start_epoch(self, stamp_ns: int) -> None:
+        """Time jumped back (a restarted or looping source): forget what the old stamps built."""
+        self.get_logger().info(
+            f"camera images: {self.image_order.describe_jump()}; a new replay epoch: detection "
+            "history and waiting images cleared"
+        )
+        for image in self.pending:
+            self._publish_empty(image.header)  # still answered once, as every image is
+        self.pending.clear()
+        self.detector.reset()
+        self.poses.drop_after(stamp_ns)
+
+    def _add_pose(self, stamp_ns: int, values: tuple[float, ...]) -> None:
+        newest = self.poses.newest_stamp
+        if newest is not None and stamp_ns < newest:
+            self.poses.drop_after(stamp_ns)  # the pose stream jumped back: a new epoch
+        self.poses.add(stamp_ns, values)
+        self._drain()
+
     def _on_ptz_state(self, msg: PtzState) -> None:
         try:
             window = msg_to_rect(msg.window)
         except ValueError as error:
-            self._warn_once("bad_window", f"ignored a PtzState: {error}")
+            self.problems.report("invalid PtzState window", f"ignored a PtzState: {error}")
             return
         if window.width <= 0 or window.height <= 0:
-            self._warn_once("bad_window", "ignored a PtzState with an empty window")
+            self.problems.report(
+                "empty PtzState window", f"ignored a PtzState with an empty window {window}"
+            )
             return
-        self.poses.add(
+        self._add_pose(
             stamp_to_ns(msg.header.stamp), (window.x, window.y, window.width, window.height)
         )
-        self._drain()
 
     def _on_joint_state(self, msg: JointState) -> None:
         names = list(msg.name)
+        wanted = self.params["joint_names"]
         try:
-            pan, tilt = (msg.position[names.index(n)] for n in self.params["joint_names"])
-            self.poses.add(stamp_to_ns(msg.header.stamp), (pan, tilt))
-        except (ValueError, IndexError) as error:
-            self._warn_once(
-                "bad_joints",
-                f"ignored a JointState without finite positions for "
-                f"{self.params['joint_names']} ({error})",
+            pan, tilt = (float(msg.position[names.index(n)]) for n in wanted)
+        except (ValueError, IndexError):
+            self.problems.report(
+                "JointState without the pan/tilt joints",
+                f"ignored a JointState without positions for {wanted} (names {names})",
             )
             return
-        self._drain()
+        if not (math.isfinite(pan) and math.isfinite(tilt)):
+            self.problems.report(
+                "non-finite joint position",
+                f"ignored a JointState with non-finite pan/tilt {pan, tilt}",
+            )
+            return
+        self._add_pose(stamp_to_ns(msg.header.stamp), (pan, tilt))
 
     def _on_camera_info(self, msg: CameraInfo) -> None:
         try:
@@ -350,7 +376,7 @@ class SsimDetectorNode(Node):
                 float(msg.k[5]),
             )
         except ValueError as error:
-            self._warn_once("bad_camera_info", f"ignored a CameraInfo: {error}")
+            self.problems.report("invalid CameraInfo", f"ignored a CameraInfo: {error}")
             return
         self._drain()
 
@@ -368,10 +394,10 @@ class SsimDetectorNode(Node):
                 self._detect(image, view)
             else:
                 self.counters.without_pose += 1
-                self.get_logger().warning(
+                self.problems.report(
+                    f"pose {status.value}",
                     f"no pose for the image stamped {image.stamp_ns} ns ({status.value}); "
-                    f"answered with an empty BlobArray ({self.counters.without_pose} so far)",
-                    throttle_duration_sec=5.0,
+                    "answered with an empty BlobArray",
                 )
                 self._publish_empty(image.header)
 
@@ -383,7 +409,9 @@ class SsimDetectorNode(Node):
         if source == "estimate":
             return None, PoseStatus.FOUND
         if source == "joint_states" and self.camera is None:
-            self._warn_once("no_camera_info", "waiting for camera/camera_info to use joint states")
+            self.problems.report(
+                "no CameraInfo yet", "waiting for camera/camera_info to use joint states"
+            )
             return None, PoseStatus.WAIT
         found = self.poses.lookup(image.stamp_ns)
         if found.status is not PoseStatus.FOUND:
@@ -395,7 +423,7 @@ class SsimDetectorNode(Node):
                 *found.values, self._camera_for(width, height), self._scene_geometry(width, height)
             ), PoseStatus.FOUND
         except ValueError as error:
-            self._warn_once("bad_pose", f"unusable pose: {error}")
+            self.problems.report("unusable pose", f"unusable pose: {error}")
             return None, PoseStatus.MISSING
 
     def _camera_for(self, width: int, height: int) -> CameraIntrinsics:
@@ -471,11 +499,6 @@ class SsimDetectorNode(Node):
         if detection.similarity is not None and self.ssim_pub.get_subscription_count() > 0:
             grey = np.clip(detection.similarity * 255.0, 0.0, 255.0).astype(np.uint8)
             self.ssim_pub.publish(array_to_image(grey, "mono8", image_header.stamp, frame_id))
-
-    def _warn_once(self, key: str, text: str) -> None:
-        if key not in self.warned:
-            self.warned.add(key)
-            self.get_logger().warning(text)
 
 
 def main(args: list[str] | None = None) -> int:

@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterator
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from enum import IntEnum
 from typing import Protocol
 
@@ -31,6 +31,9 @@ class TrackStatus(IntEnum):
     CONFIRMED = 1
     COASTING = 2
     LOST = 3
+
+
+MAX_COORDINATE_PX = 1e6  # farther from the scene origin is a corrupt message, not a detection
 
 
 class OutOfOrderError(ValueError):
@@ -84,9 +87,36 @@ class Detections:
             self.positions[indices], self.areas[indices], self.bboxes[indices], self.scores[indices]
         )
 
-    def finite_mask(self) -> np.ndarray:
-        """True for detections whose centroid and box are finite numbers."""
-        return np.isfinite(self.positions).all(axis=1) & np.isfinite(self.bboxes).all(axis=1)
+    def invalid_by_cause(self) -> dict[str, np.ndarray]:
+        """Masks (M,) of the detections that cannot be measurements, by cause, in the order they
+        are checked: a centroid, box, area or score that is not a finite number, a centroid or
+        box beyond MAX_COORDINATE_PX, a box of negative size."""
+        positions, boxes = self.positions, self.bboxes
+        with np.errstate(invalid="ignore"):
+            return {
+                "non-finite centroid": ~np.isfinite(positions).all(axis=1),
+                f"centroid beyond {MAX_COORDINATE_PX:g} px": (
+                    np.abs(positions) > MAX_COORDINATE_PX
+                ).any(axis=1),
+                "non-finite box": ~np.isfinite(boxes).all(axis=1),
+                f"box beyond {MAX_COORDINATE_PX:g} px": (np.abs(boxes) > MAX_COORDINATE_PX).any(
+                    axis=1
+                ),
+                "negative box size": (boxes[:, 2:] < 0).any(axis=1),
+                "non-finite or negative area": ~(np.isfinite(self.areas) & (self.areas >= 0)),
+                "non-finite score": ~np.isfinite(self.scores),
+            }
+
+    def validated(self) -> tuple[Detections, dict[str, int]]:
+        """The usable detections, and how many were rejected by cause (each under its first)."""
+        rejected: dict[str, int] = {}
+        remaining = np.ones(len(self), dtype=bool)
+        for cause, invalid in self.invalid_by_cause().items():
+            hit = remaining & invalid
+            if hit.any():
+                rejected[cause] = int(np.count_nonzero(hit))
+                remaining &= ~hit
+        return (self if remaining.all() else self.subset(remaining)), rejected
 
 
 # --- components --------------------------------------------------------------------------------
@@ -216,10 +246,15 @@ class TrackSet:
     existence: np.ndarray
     areas: np.ndarray
     detections: np.ndarray
-    rejected_measurements: int = 0  # non-finite detections dropped in this step
+    rejections: dict[str, int] = field(default_factory=dict)  # invalid detections dropped, by cause
 
     def __len__(self) -> int:
         return len(self.ids)
+
+    @property
+    def rejected_measurements(self) -> int:
+        """Invalid detections dropped in this step."""
+        return sum(self.rejections.values())
 
     def __iter__(self) -> Iterator[TrackReport]:
         return (self.report(i) for i in range(len(self)))
@@ -340,7 +375,8 @@ class TrackManager:
         """Process the detections of the frame at time t (s); returns every track after it.
 
         Raises OutOfOrderError (state unchanged) unless t is after the previous step's time.
-        Non-finite detections are dropped and counted (`rejected_measurements`).
+        Invalid detections (`Detections.invalid_by_cause`) are dropped and counted
+        (`TrackSet.rejections`, `rejected_measurements`).
         """
         if not math.isfinite(t):
             raise OutOfOrderError(f"step time must be finite, got {t}")
@@ -348,11 +384,8 @@ class TrackManager:
             raise OutOfOrderError(
                 f"time {t:.6f} s is not after the previous frame's {self._time:.6f} s"
             )
-        finite = detections.finite_mask()
-        rejected = int(len(finite) - np.count_nonzero(finite))
-        if rejected:
-            self.rejected_measurements += rejected
-            detections = detections.subset(finite)
+        detections, rejected = detections.validated()
+        self.rejected_measurements += sum(rejected.values())
         detections = self.selector.select(detections)
 
         self.bank.predict(t)
@@ -414,7 +447,9 @@ class TrackManager:
         self._anchors = np.concatenate([self._anchors, detections.positions[new]])
         self._areas = np.concatenate([self._areas, detections.areas[new]])
 
-    def _snapshot(self, t: float, updated: np.ndarray, lost: np.ndarray, rejected: int) -> TrackSet:
+    def _snapshot(
+        self, t: float, updated: np.ndarray, lost: np.ndarray, rejected: dict[str, int]
+    ) -> TrackSet:
         status = np.where(
             self._confirmed,
             np.where(updated, TrackStatus.CONFIRMED, TrackStatus.COASTING),
@@ -438,7 +473,7 @@ class TrackManager:
             existence=np.ones(len(self)),
             areas=self._areas.copy(),
             detections=self._detections.copy(),
-            rejected_measurements=rejected,
+            rejections=rejected,
         )
 
     def _keep(self, mask: np.ndarray) -> None:

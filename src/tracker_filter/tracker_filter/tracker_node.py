@@ -13,18 +13,18 @@ import math
 from typing import Any
 
 import numpy as np
-from rclpy.node import Node
 from std_msgs.msg import Header
 
 from tracker_filter.config import LIVE_PARAMETERS, PARAMETERS, PRESETS, TrackerConfig
-from tracker_filter.management import Detections, MultiTargetTracker, OutOfOrderError, TrackSet
+from tracker_filter.management import Detections, MultiTargetTracker, TrackSet
 from tracker_filter.models import extrapolate_positions
 from tracker_filter.selection import SelectionPolicy, TargetSelector
 from tracker_msgs.msg import BlobArray, PtzState, Rect, Target, Track, TrackArray
 from tracker_msgs.srv import ResetTracker, SelectTarget
 from tracker_msgs_py.conversions import msg_to_rect, stamp_to_ns
-from tracker_msgs_py.node_main import run_node
+from tracker_msgs_py.node_main import SuiteNode, run_node
 from tracker_msgs_py.params import ParamSpec, declare_parameters
+from tracker_msgs_py.stamps import Order, StampOrder
 
 NS_PER_S = 1e9
 
@@ -114,7 +114,7 @@ def _parameter_specs(preset: str) -> list[ParamSpec]:
     return specs
 
 
-class TrackerNode(Node):
+class TrackerNode(SuiteNode):
     def __init__(self, **kwargs: Any) -> None:
         super().__init__("tracker", **kwargs)
         preset_spec = ParamSpec(
@@ -136,7 +136,7 @@ class TrackerNode(Node):
         self._selector: TargetSelector = self._config.build_selector()
         self._epoch_ns: int | None = None  # stamp of the first frame: keeps float seconds exact
         self._view_centre: tuple[float, float] | None = None
-        self._warned: set[str] = set()
+        self._order = StampOrder()
 
         self._tracks_pub = self.create_publisher(TrackArray, "tracks", 10)
         self._target_pub = self.create_publisher(Target, "target", 10)
@@ -178,47 +178,54 @@ class TrackerNode(Node):
 
     # --- topics -------------------------------------------------------------------------------
 
-    def _warn_once(self, key: str, message: str) -> None:
-        if key not in self._warned:
-            self._warned.add(key)
-            self.get_logger().warning(message)
-
     def _on_ptz_state(self, msg: PtzState) -> None:
         w = msg.window
         centre = (w.x + w.width / 2.0, w.y + w.height / 2.0)
-        if all(math.isfinite(c) for c in centre) and w.width > 0.0 and w.height > 0.0:
-            self._view_centre = centre
+        if not (all(math.isfinite(c) for c in centre) and w.width > 0.0 and w.height > 0.0):
+            self.problems.report(
+                "invalid PtzState window",
+                f"ignored a PtzState window {(w.x, w.y, w.width, w.height)} for the view centre",
+            )
+            return
+        self._view_centre = centre
 
     def _on_detections(self, msg: BlobArray) -> None:
         header = Header(stamp=msg.header.stamp, frame_id=self._params["scene_frame_id"])
         if msg.header.frame_id and msg.header.frame_id != header.frame_id:
-            self._warn_once(
-                "frame",
+            self.problems.report(
+                "detections in another frame",
                 f"detections are in frame '{msg.header.frame_id}', expected "
                 f"'{header.frame_id}'; tracking them as scene pixels",
             )
         stamp_ns = stamp_to_ns(msg.header.stamp)
+        order = self._order.check(stamp_ns)
+        if order in (Order.REPEAT, Order.INVALID):
+            self.problems.report(
+                f"{order.value} detections stamp",
+                f"dropped detections stamped {stamp_ns} ns ({order.value}): each frame is "
+                "tracked once",
+            )
+            return
+        if order is Order.NEW_EPOCH:
+            self._start_epoch()
         if self._epoch_ns is None:
             self._epoch_ns = stamp_ns
-        try:
-            tracks = self._tracker.step(
-                (stamp_ns - self._epoch_ns) / NS_PER_S, detections_from_msg(msg)
-            )
-        except OutOfOrderError as error:
-            self.get_logger().warning(
-                f"detections dropped: {error} (reset_tracker accepts any stamp again)",
-                throttle_duration_sec=5.0,
-            )
-            self._publish(header, None)
-            return
-        if tracks.rejected_measurements:
-            total = self._tracker.rejected_measurements
-            self._warn_once(
-                "nan",
-                f"ignoring detections with NaN/inf coordinates ({total} so far; "
-                "further ones are counted silently)",
-            )
+        tracks = self._tracker.step(
+            (stamp_ns - self._epoch_ns) / NS_PER_S, detections_from_msg(msg)
+        )
+        for cause, count in tracks.rejections.items():
+            self.problems.report(cause, f"dropped a detection: {cause}", count)
         self._publish(header, tracks)
+
+    def _start_epoch(self) -> None:
+        """Time jumped back (a restarted or looping source): the tracks of the old time base go."""
+        cleared = self._tracker.reset()
+        self._selector.reset()
+        self._epoch_ns = None
+        self.get_logger().info(
+            f"detections: {self._order.describe_jump()}; a new replay epoch: {cleared} track(s) "
+            f"cleared, ids continue from {self._tracker.next_id}"
+        )
 
     def _publish(self, header: Header, tracks: TrackSet | None) -> None:
         """One TrackArray and one Target per input frame (lockstep), even without tracks."""
@@ -259,6 +266,7 @@ class TrackerNode(Node):
         response.tracks_cleared = self._tracker.reset(reset_ids=request.reset_ids)
         self._selector.reset()
         self._epoch_ns = None
+        self._order.reset()
         response.success = True
         response.message = f"cleared {response.tracks_cleared} track(s)" + (
             "; ids restart at 1" if request.reset_ids else ""

@@ -22,7 +22,12 @@ NS_PER_S = 1_000_000_000
 
 
 class UnsupportedEncodingError(ValueError):
-    """An Image whose encoding (or layout) the suite cannot read."""
+    """An Image whose encoding (or layout) the suite cannot read; `cause` names the kind of
+    problem in a few words (one warning per cause, see tracker_msgs_py.problems)."""
+
+    def __init__(self, message: str, cause: str) -> None:
+        super().__init__(message)
+        self.cause = cause
 
 
 def image_qos(reliable: bool = False, depth: int | None = None) -> QoSProfile:
@@ -59,13 +64,23 @@ def image_to_array(msg: Image) -> np.ndarray:
     if channels is None:
         raise UnsupportedEncodingError(
             f"unsupported image encoding '{msg.encoding}' (supported: "
-            f"{', '.join(SUPPORTED_ENCODINGS)})"
+            f"{', '.join(SUPPORTED_ENCODINGS)})",
+            f"unsupported encoding '{msg.encoding}'",
         )
     height, width, step = int(msg.height), int(msg.width), int(msg.step)
     row_bytes = width * channels
-    if height == 0 or width == 0 or step < row_bytes or len(msg.data) < step * height:
+    layout = f"{msg.encoding} image {width}x{height}, step {step}, {len(msg.data)} bytes"
+    if height == 0 or width == 0:
+        raise UnsupportedEncodingError(f"empty {layout}", "empty image")
+    if step < row_bytes:
         raise UnsupportedEncodingError(
-            f"malformed {msg.encoding} image: {width}x{height}, step {step}, {len(msg.data)} bytes"
+            f"malformed {layout}: the step is shorter than a row ({row_bytes} bytes)",
+            "image step shorter than a row",
+        )
+    if len(msg.data) < step * height:
+        raise UnsupportedEncodingError(
+            f"malformed {layout}: fewer bytes than step x height ({step * height})",
+            "image data shorter than step x height",
         )
     rows = np.frombuffer(msg.data, dtype=np.uint8, count=step * height).reshape(height, step)
     pixels = rows[:, :row_bytes]
@@ -97,7 +112,9 @@ def array_to_image(pixels: np.ndarray, encoding: str, stamp: Time, frame_id: str
     """An Image message holding `pixels` ((H, W) for mono8, (H, W, 3) for bgr8/rgb8, uint8)."""
     channels = SUPPORTED_ENCODINGS.get(encoding)
     if channels is None:
-        raise UnsupportedEncodingError(f"cannot publish encoding '{encoding}'")
+        raise UnsupportedEncodingError(
+            f"cannot publish encoding '{encoding}'", f"unsupported encoding '{encoding}'"
+        )
     expected_ndim = 2 if channels == 1 else 3
     if pixels.dtype != np.uint8 or pixels.ndim != expected_ndim:
         raise ValueError(

@@ -1,48 +1,162 @@
-"""The one way the suite's executables start, spin and stop (clean exit 0 on SIGINT/SIGTERM)."""
+"""How the suite's nodes start, run, report bad input and stop.
+
+`SuiteNode` is the base of every node: it owns the node's worker threads and its `ProblemLog`.
+`run_node` spins one node until a stop signal or until the node finishes, then tears it down in
+the one safe order:
+
+    stop requested (SIGINT/SIGTERM, or the node finished)
+      -> `stopping` is set and the node's wakers run: workers leave their waits
+      -> the workers are joined: from here on no thread of the node publishes
+      -> the node's entities are destroyed -> the ROS context is shut down
+
+A shutdown is never a failure: the exit code is 0 unless the node itself reported one (2 when it
+cannot start, e.g. a bad path or parameter, printed once without a traceback).
+"""
 
 from __future__ import annotations
 
 import sys
+import threading
+import time
+import traceback
 from collections.abc import Callable, Sequence
+from typing import Any
 
 import rclpy
-from rclpy.executors import ExternalShutdownException
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from rclpy.clock import Clock, ClockType
+from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
+from rclpy.signals import SignalHandlerOptions
 
+from tracker_msgs_py import stop_signals
 from tracker_msgs_py.params import ParameterError
+from tracker_msgs_py.problems import ProblemLog
+
+SIGNAL_POLL_S = 0.1  # longest a stop signal waits for the executor to return to Python
+WORKER_JOIN_S = 1.5  # workers get this long to leave (the node must exit within 2 s)
+DIAGNOSTICS_PERIOD_S = 1.0
 
 
 class StartupError(RuntimeError):
     """A node cannot start (bad input path, bad parameters...): the message is shown to the user."""
 
 
-def run_node(make_node: Callable[[], Node], args: Sequence[str] | None = None) -> int:
-    """Create the node, spin it until shutdown, and return the process exit code.
+class SuiteNode(Node):
+    """A node that stops its threads before its entities go away and reports bad input once.
 
-    0 after Ctrl-C / SIGTERM or when the node shuts the context down itself; 2 when it cannot start
-    (the error is printed once, without a traceback, naming what is wrong).
+    Workers (`start_worker`) run beside the executor. A worker must wait only with
+    `self.stopping.wait(...)` or on something a waker (`add_waker`) releases, must check
+    `self.stopping` before it publishes, and must return soon after `stopping` is set.
+    `finish(code)` ends the node from inside (a replay that reached its end).
+    `problems.report(cause, detail)` logs the first of each cause of dropped input and counts the
+    rest; the counts go to `/diagnostics` (diagnostic_msgs/DiagnosticArray, once a second).
     """
-    rclpy.init(args=args)
+
+    def __init__(self, node_name: str, **node_options: Any) -> None:
+        super().__init__(node_name, **node_options)
+        self.stopping = threading.Event()
+        self.finished = threading.Event()
+        self.exit_code = 0
+        self.problems = ProblemLog(self.get_logger().warning)
+        self._workers: list[threading.Thread] = []
+        self._wakers: list[Callable[[], None]] = []
+        self._diagnostics_pub = self.create_publisher(DiagnosticArray, "/diagnostics", 10)
+        self._diagnostics_seen = 0
+        self.create_timer(
+            DIAGNOSTICS_PERIOD_S,
+            self._publish_diagnostics,
+            clock=Clock(clock_type=ClockType.STEADY_TIME),
+        )
+
+    # --- threads and ending -----------------------------------------------------------------
+
+    def start_worker(self, target: Callable[[], None], name: str) -> threading.Thread:
+        """Run `target` in a thread of the node. If it raises (outside a shutdown), the error is
+        logged with its traceback and the node finishes with exit code 1: never a silent hang."""
+
+        def run() -> None:
+            try:
+                target()
+            except Exception:
+                if not self.stopping.is_set():
+                    self.get_logger().error(f"{name} failed:\n{traceback.format_exc()}")
+                    self.finish(1)
+
+        thread = threading.Thread(target=run, name=f"{self.get_name()}.{name}", daemon=True)
+        self._workers.append(thread)
+        thread.start()
+        return thread
+
+    def add_waker(self, wake: Callable[[], None]) -> None:
+        """`wake()` is called once stopping begins, to release a worker's wait."""
+        self._wakers.append(wake)
+
+    def finish(self, exit_code: int = 0) -> None:
+        """The node's work is done (callable from a worker): the runner stops the node."""
+        self.exit_code = exit_code
+        self.finished.set()
+        executor = self.executor
+        if executor is not None:
+            executor.wake()
+
+    def stop_workers(self, timeout: float = WORKER_JOIN_S) -> list[str]:
+        """Set `stopping`, wake and join the workers; the names of any still running."""
+        self.stopping.set()
+        for wake in self._wakers:
+            wake()
+        deadline = time.monotonic() + timeout
+        current = threading.current_thread()
+        for thread in self._workers:
+            if thread is not current:
+                thread.join(max(0.0, deadline - time.monotonic()))
+        stuck = [t.name for t in self._workers if t.is_alive() and t is not current]
+        if stuck:
+            self.get_logger().error(f"threads still running after {timeout} s: {stuck}")
+        return stuck
+
+    def destroy_node(self) -> None:
+        self.stop_workers()
+        if self.problems.total:
+            self.get_logger().info(f"dropped input: {self.problems.summary()}")
+        super().destroy_node()
+
+    # --- diagnostics ----------------------------------------------------------------------------
+
+    def _publish_diagnostics(self) -> None:
+        revision = self.problems.revision
+        recent = revision != self._diagnostics_seen
+        self._diagnostics_seen = revision
+        status = DiagnosticStatus(
+            level=DiagnosticStatus.WARN if recent else DiagnosticStatus.OK,
+            name=f"{self.get_fully_qualified_name()}: input",
+            message=self.problems.summary() or "no input dropped",
+            values=[KeyValue(key=c, value=str(n)) for c, n in sorted(self.problems.counts.items())],
+        )
+        array = DiagnosticArray(status=[status])
+        array.header.stamp = self.get_clock().now().to_msg()
+        self._diagnostics_pub.publish(array)
+
+
+def run_node(make_node: Callable[[], SuiteNode], args: Sequence[str] | None = None) -> int:
+    """Create the node, spin it until a stop signal or until it finishes, tear it down in order,
+    and return the process exit code (see the module docstring)."""
+    stop_signals.install()
+    rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
     node = None
     try:
+        if stop_signals.requested():
+            return 0
         node = make_node()
-        rclpy.spin(node)
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
+        executor = SingleThreadedExecutor()
+        executor.add_node(node)
+        while not stop_signals.requested() and not node.finished.is_set():
+            executor.spin_once(timeout_sec=SIGNAL_POLL_S)
     except (StartupError, ParameterError) as error:
         print(f"[FATAL] {error}", file=sys.stderr, flush=True)
         return 2
-    except Exception:
-        if rclpy.ok():
-            raise
-        # Ctrl-C landed while the node was still starting to spin: rclpy's handler had already
-        # shut the context down, so whatever failed next is part of a requested shutdown.
     finally:
         if node is not None:
-            try:
-                node.destroy_node()
-            except Exception:  # the context may already be gone after a shutdown
-                if rclpy.ok():
-                    raise
+            node.destroy_node()
         rclpy.try_shutdown()
-    return getattr(node, "exit_code", 0)
+    return node.exit_code

@@ -27,6 +27,7 @@ import numpy as np
 from tracker_msgs_py.geometry import Rect, SceneGeometry
 
 INTEGRATION_STEP_S = 0.005  # servo dynamics are integrated in steps of at most this
+MIN_VIEW_SIDE = 8  # px: the smallest camera image the model makes (a scene must allow it)
 
 
 @dataclass(frozen=True)
@@ -105,10 +106,8 @@ class PtzCameraModel:
             raise ValueError("; ".join(problems))
         self.config = config
         self.width, self.height = width, height
-        base_h = min(height, max(2, int(round(config.view_height_fraction * height))))
-        base_w = min(width, max(2, int(round(base_h * config.view_aspect))))
-        self.base_size = (base_w, base_h)
-        focal = config.focal_length or base_w / config.view_fov
+        self.base_size = view_size(config, width, height)
+        focal = config.focal_length or self.base_size[0] / config.view_fov
         self.geometry = SceneGeometry(width, height, focal)
         self.zoom = 1.0
         self.time: float | None = None
@@ -130,6 +129,14 @@ class PtzCameraModel:
         self._pending.append(command)
 
     # --- time -----------------------------------------------------------------------------------
+
+    def restart_clock(self, t: float) -> None:
+        """A new time base from `t` [s] on (a replay restarted, so time jumped back): pending and
+        active commands belong to the old one and are dropped; the servos stop where they are."""
+        self.time = t
+        self._pending.clear()
+        self._active = None
+        self.pan.rate = self.tilt.rate = 0.0
 
     def advance(self, t: float) -> PtzSnapshot:
         """Move the servos to scene time `t` [s] (never backwards) and return the camera's state."""
@@ -203,7 +210,10 @@ class PtzCameraModel:
 
     def window_size(self) -> tuple[int, int]:
         base_w, base_h = self.base_size
-        return (max(2, int(round(base_w / self.zoom))), max(2, int(round(base_h / self.zoom))))
+        return (
+            min(base_w, max(2, int(round(base_w / self.zoom)))),
+            min(base_h, max(2, int(round(base_h / self.zoom)))),
+        )
 
     def limits(self) -> tuple[tuple[float, float], tuple[float, float]]:
         """(pan_min, pan_max), (tilt_min, tilt_max) keeping the window inside the scene [rad]."""
@@ -284,6 +294,21 @@ class PtzCameraModel:
         self.config = config
         self.zoom = min(self.zoom, config.max_zoom)
         self._clamp_axes()
+
+
+def view_size(config: PtzConfig, width: int, height: int) -> tuple[int, int]:
+    """(width, height) px of the window at zoom 1 on a `width` x `height` scene.
+
+    Raises ValueError when the scene cannot hold a window of MIN_VIEW_SIDE px on each side.
+    """
+    base_h = min(height, int(round(config.view_height_fraction * height)))
+    base_w = min(width, int(round(base_h * config.view_aspect)))
+    if min(base_w, base_h) < MIN_VIEW_SIDE:
+        raise ValueError(
+            f"a {width}x{height} px scene is too small: its camera view would be {base_w}x{base_h}"
+            f" px (at least {MIN_VIEW_SIDE} px a side needed)"
+        )
+    return base_w, base_h
 
 
 def _servo_step(

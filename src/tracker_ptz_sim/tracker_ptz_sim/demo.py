@@ -1,6 +1,7 @@
 """run_demo: the whole surveillance graph as separate processes, recorded and summarised.
 
     run_demo [--video PATH] [--out out] [--mode servo|direct] [--set node.param=value ...]
+             [--respawn] [--no-video]
 
 Starts every node of config/graph.yaml from the install space (exactly as `ros2 run` would) with
 config/surveillance.yaml, replays the video in lockstep, records every topic into an MCAP bag with
@@ -8,8 +9,14 @@ config/surveillance.yaml, replays the video in lockstep, records every topic int
     bag/            rosbag2 (MCAP) of every topic
     annotated.mp4   scene with camera window, blobs, tracks, target; camera view beside it
     tracks.txt      confirmed tracks, MOTChallenge format
-    summary.json    frames, throughput, per-hop latency, lock share, centring error (also printed)
+    summary.json    frames, throughput, per-hop latency, lock share, centring error (also
+                    printed), and the run's account: complete or not, and why
     logs/           one log per node
+
+A node that dies is reported with its last log lines; with --respawn it is restarted (video_source
+resumes at the next frame), otherwise the run ends. Either way, and on Ctrl-C, whatever was
+recorded is summarised and written, and the summary says the run is incomplete (exit code 1, or
+130 when interrupted).
 """
 
 from __future__ import annotations
@@ -17,13 +24,12 @@ from __future__ import annotations
 import argparse
 import os
 import shutil
-import signal
-import subprocess
 import sys
 import threading
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+from enum import Enum
 from pathlib import Path
 from typing import Any
 
@@ -31,11 +37,16 @@ import rclpy
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+from rclpy.signals import SignalHandlerOptions
 
 from tracker_msgs.msg import ReplayStatus
+from tracker_msgs_py import stop_signals
 from tracker_ptz_sim import run_report
-from tracker_ptz_sim.graph import Graph, executable_path, load_graph, ros_args
+from tracker_ptz_sim.graph import Graph, load_graph
+from tracker_ptz_sim.processes import GraphProcesses, describe_exit
 from tracker_ptz_sim.recording import BagWriter
+
+RESPAWN_LIMIT = 5  # --respawn: restarts per node before the run gives up on it
 
 RECORD_QOS = QoSProfile(
     history=HistoryPolicy.KEEP_LAST,
@@ -89,73 +100,6 @@ def _import_type(name: str) -> Any:
     return getattr(module, message)
 
 
-class GraphProcesses:
-    """The graph's nodes as child processes started from the install space, one log file each."""
-
-    def __init__(self, graph: Graph, install_dir: Path, log_dir: Path) -> None:
-        self.graph = graph
-        self.install_dir = install_dir
-        self.log_dir = log_dir
-        self.processes: dict[str, subprocess.Popen] = {}
-        log_dir.mkdir(parents=True, exist_ok=True)
-
-    def start(self, name: str, overrides: dict[str, Any] | None = None) -> subprocess.Popen:
-        node = self.graph.node(name)
-        command = [str(executable_path(self.install_dir, node))]
-        command += ros_args(node, self.graph.params_file, overrides)
-        log = (self.log_dir / f"{name}.log").open("a")
-        self.processes[name] = subprocess.Popen(
-            command,
-            stdout=log,
-            stderr=subprocess.STDOUT,
-            env=dict(os.environ),
-            start_new_session=True,
-        )
-        return self.processes[name]
-
-    def kill(self, name: str) -> None:
-        """SIGKILL a node (as a crash would); it is no longer watched until started again."""
-        process = self.processes.pop(name)
-        if process.poll() is None:
-            os.killpg(process.pid, signal.SIGKILL)
-            process.wait()
-
-    def stop_all(self, timeout: float = 5.0) -> dict[str, int]:
-        """SIGINT every node, escalate to SIGKILL after `timeout`; the exit codes by node."""
-        for process in self.processes.values():
-            if process.poll() is None:
-                process.send_signal(signal.SIGINT)
-        deadline = time.monotonic() + timeout
-        codes = {}
-        for name, process in self.processes.items():
-            try:
-                codes[name] = process.wait(timeout=max(0.1, deadline - time.monotonic()))
-            except subprocess.TimeoutExpired:
-                os.killpg(process.pid, signal.SIGKILL)
-                codes[name] = process.wait()
-        return codes
-
-    def cpu_seconds(self) -> dict[str, float]:
-        """CPU time (user + system) each running node has used so far, from /proc."""
-        ticks = os.sysconf("SC_CLK_TCK")
-        used = {}
-        for name, process in self.processes.items():
-            try:
-                fields = Path(f"/proc/{process.pid}/stat").read_text().rsplit(")", 1)[1].split()
-            except OSError:
-                continue
-            used[name] = (int(fields[11]) + int(fields[12])) / ticks  # utime, stime
-        return used
-
-    def crashed(self) -> dict[str, int]:
-        """Nodes that exited with an error (video_source exits 0 at the end of the stream)."""
-        return {
-            name: code
-            for name, process in self.processes.items()
-            if (code := process.poll()) is not None and code != 0
-        }
-
-
 class Progress:
     """One updating line on a terminal, a line every 10 % otherwise."""
 
@@ -184,9 +128,94 @@ class Progress:
 @dataclass
 class RunResult:
     bag: Path
-    exit_codes: dict[str, int]  # by node
-    cpu_seconds: dict[str, float]  # by node, plus "recorder" for this process
-    wall_seconds: float  # from the first frame published to the end of the stream
+    exit_codes: dict[str, int] = field(default_factory=dict)  # by node, at the end of the run
+    cpu_seconds: dict[str, float] = field(default_factory=dict)  # by node, plus "recorder"
+    wall_seconds: float = 0.0  # from the first frame published to the end of the stream
+    complete: bool = True  # the whole stream went through the graph
+    problems: list[str] = field(default_factory=list)  # why not, and nodes that died
+    restarts: dict[str, int] = field(default_factory=dict)  # by node (--respawn)
+    interrupted_by: str | None = None  # "SIGINT" when the user stopped the run
+    replay: dict[str, Any] = field(default_factory=dict)  # the last ReplayStatus
+
+    def fail(self, problem: str) -> None:
+        self.complete = False
+        self.problems.append(problem)
+
+    def as_dict(self) -> dict[str, Any]:
+        """What summary.json says about the run itself."""
+        return {
+            "complete": self.complete,
+            "problems": self.problems,
+            "restarts": self.restarts,
+            "interrupted_by": self.interrupted_by,
+            "exit_codes": self.exit_codes,
+            "replay": self.replay,
+        }
+
+
+class Watch(Enum):
+    RUNNING = "running"
+    ENDED = "ended"  # video_source reached the end of the stream
+    STOP = "stop"  # a node died and is not restarted
+
+
+class Supervisor:
+    """Watches the node processes: a node that ends is reported with its last log lines, then
+    restarted (up to `respawn_limit` times, as launch's respawn does) or the run stops. A
+    restarted video_source resumes at the frame after the last one it published."""
+
+    def __init__(
+        self,
+        nodes: GraphProcesses,
+        recorder: Recorder,
+        result: RunResult,
+        overrides: dict[str, dict[str, Any]],
+        respawn_limit: int,
+    ) -> None:
+        self.nodes = nodes
+        self.recorder = recorder
+        self.result = result
+        self.overrides = overrides
+        self.respawn_limit = respawn_limit
+
+    def check(self) -> Watch:
+        for name, code in self.nodes.exited().items():
+            if name == "video_source" and code == 0 and self._stream_ended():
+                return Watch.ENDED
+            status = self.recorder.status
+            frame = status.frames_published if status is not None else 0
+            died = f"{name} {describe_exit(code)} after frame {frame}"
+            print(f"[run_demo] {self.nodes.death_report(name, code)}", file=sys.stderr, flush=True)
+            restarts = self.result.restarts.get(name, 0)
+            if restarts >= self.respawn_limit:
+                self.result.fail(f"{died} (see logs/{name}.log)")
+                return Watch.STOP
+            self.result.restarts[name] = restarts + 1
+            self.result.problems.append(f"{died}; restarted")
+            print(
+                f"[run_demo] restarting {name} ({restarts + 1}/{self.respawn_limit})",
+                file=sys.stderr,
+                flush=True,
+            )
+            self.nodes.start(name, self._restart_overrides(name))
+        return Watch.RUNNING
+
+    def _stream_ended(self, wait: float = 1.0) -> bool:
+        """video_source exited 0: at the end of the stream, or stopped from outside?"""
+        deadline = time.monotonic() + wait
+        while time.monotonic() < deadline:
+            status = self.recorder.status
+            if status is not None and status.state != ReplayStatus.STATE_PLAYING:
+                return status.state == ReplayStatus.STATE_ENDED
+            time.sleep(0.05)
+        return False
+
+    def _restart_overrides(self, name: str) -> dict[str, Any]:
+        overrides = dict(self.overrides.get(name, {}))
+        status = self.recorder.status
+        if name == "video_source" and status is not None and status.frames_published:
+            overrides["start_frame"] = int(status.frame_index) + 1
+        return overrides
 
 
 def run_graph(
@@ -198,69 +227,126 @@ def run_graph(
     timeout: float,
     storage: str = "mcap",
     during: Callable[[ReplayStatus | None, GraphProcesses], None] | None = None,
+    respawn_limit: int = 0,
 ) -> RunResult:
     """Replay `video` through the graph, recording every topic into out/bag.
 
+    Never raises for a node that dies, a graph that does not come up, a timeout or a stop signal:
+    the run ends, the bag is closed, and the result says why (`complete`, `problems`).
     `during(status, nodes)` is called while the replay runs (tests use it to kill and restart
-    nodes); a node that crashes on its own ends the run with an error.
+    nodes); `respawn_limit` restarts per node (0: a node that dies ends the run).
     """
     bag_path = out / "bag"
     if bag_path.exists():
         shutil.rmtree(bag_path)
     bag = BagWriter(bag_path, {t.name: t.type for t in graph.topics}, storage)
-    rclpy.init(args=["--ros-args", "--disable-rosout-logs"])
+    result = RunResult(bag_path)
+    # Our stop signals, not rclpy's: the graph is stopped and the bag closed on Ctrl-C.
+    rclpy.init(
+        args=["--ros-args", "--disable-rosout-logs"],
+        signal_handler_options=SignalHandlerOptions.NO,
+    )
     recorder = Recorder(graph, bag)
     # The recorder spins in its own thread: one executor for the whole run is far cheaper per
     # message than spin_once from the supervising loop below.
     executor = SingleThreadedExecutor()
     executor.add_node(recorder)
-    spinner = threading.Thread(target=executor.spin, daemon=True)
+    spinner = threading.Thread(target=_spin_recorder, args=(executor, result), daemon=True)
     spinner.start()
     nodes = GraphProcesses(graph, install_dir, out / "logs")
-    progress = Progress(f"replaying {video.name}")
-    cpu: dict[str, float] = {}
-    started = time.monotonic()
+    source_overrides = {
+        "path": str(video),
+        "wait_for_subscribers": 2,  # the first frame goes out once ptz_camera and we listen
+        **overrides.get("video_source", {}),
+    }
+    supervisor = Supervisor(
+        nodes, recorder, result, {**overrides, "video_source": source_overrides}, respawn_limit
+    )
     try:
-        # The first frame goes out once ptz_camera and this recorder both listen.
-        source_overrides = {
-            "path": str(video),
-            "wait_for_subscribers": 2,
-            **overrides.get("video_source", {}),
-        }
         for node in graph.nodes:
             if node.name != "video_source":
                 nodes.start(node.name, overrides.get(node.name))
-        _wait_for_graph(recorder, nodes)
-        # The counts above are this process's view; give the nodes a moment to finish matching
-        # each other too, so frame 0 is not published into a half-discovered graph.
-        time.sleep(1.0)
-        source = nodes.start("video_source", source_overrides)
-        started = time.monotonic()
-        recorder_cpu = time.process_time()
-        deadline = time.monotonic() + timeout
-        while source.poll() is None and time.monotonic() < deadline:
-            time.sleep(0.05)
-            if recorder.status is not None:
-                progress.show(recorder.status.frames_published, recorder.status.frames_total)
-            if during is not None:
-                during(recorder.status, nodes)
-            crashed = nodes.crashed()
-            if crashed:
-                raise RuntimeError(f"nodes crashed: {crashed}; see {out / 'logs'}")
-        if source.poll() is None:
-            raise TimeoutError(f"the replay did not finish within {timeout:.0f} s")
-        wall = time.monotonic() - started
-        time.sleep(1.0)  # the last frame's messages
-        progress.done()
-        cpu = {**nodes.cpu_seconds(), "recorder": time.process_time() - recorder_cpu}
+        if _wait_for_graph(recorder, supervisor):
+            # The counts above are this process's view; give the nodes a moment to finish
+            # matching each other too, so frame 0 is not published into a half-discovered graph.
+            stop_signals.wait(1.0)
+            _replay(nodes, recorder, supervisor, source_overrides, timeout, during)
     finally:
-        codes = nodes.stop_all()
+        result.exit_codes = nodes.stop_all()
         executor.shutdown()
         spinner.join(timeout=5.0)
         recorder.destroy_node()
         rclpy.try_shutdown()
         bag.close()
-    return RunResult(bag_path, codes, cpu, wall)
+        result.replay = _replay_summary(recorder.status)
+    return result
+
+
+def _spin_recorder(executor: SingleThreadedExecutor, result: RunResult) -> None:
+    try:
+        executor.spin()
+    except Exception as error:  # a failing recorder ends the recording, not the process
+        result.fail(f"the recorder failed: {error!r}")
+
+
+def _stopped(result: RunResult) -> bool:
+    """A stop signal arrived (Ctrl-C): the run ends early, keeping what was recorded."""
+    if stop_signals.requested() and result.interrupted_by is None:
+        result.interrupted_by = stop_signals.received()
+        result.fail(f"interrupted by {result.interrupted_by}")
+    return result.interrupted_by is not None
+
+
+def _replay(
+    nodes: GraphProcesses,
+    recorder: Recorder,
+    supervisor: Supervisor,
+    source_overrides: dict[str, Any],
+    timeout: float,
+    during: Callable[[ReplayStatus | None, GraphProcesses], None] | None,
+) -> None:
+    """Start video_source and supervise the graph until the stream ends or the run must stop."""
+    result = supervisor.result
+    progress = Progress(f"replaying {Path(source_overrides['path']).name}")
+    nodes.start("video_source", source_overrides)
+    started = time.monotonic()
+    recorder_cpu = time.process_time()
+    deadline = started + timeout
+    watch = Watch.RUNNING
+    while watch is Watch.RUNNING and not _stopped(result):
+        if time.monotonic() > deadline:
+            result.fail(f"the replay did not finish within {timeout:.0f} s")
+            break
+        stop_signals.wait(0.05)
+        if recorder.status is not None:
+            progress.show(recorder.status.frames_published, recorder.status.frames_total)
+        if during is not None:
+            during(recorder.status, nodes)
+        watch = supervisor.check()
+    result.wall_seconds = time.monotonic() - started
+    if watch is Watch.ENDED:
+        stop_signals.wait(1.0)  # the last frame's messages
+    progress.done()
+    result.cpu_seconds = {**nodes.cpu_seconds(), "recorder": time.process_time() - recorder_cpu}
+
+
+def _replay_summary(status: ReplayStatus | None) -> dict[str, Any]:
+    if status is None:
+        return {}
+    states = {
+        ReplayStatus.STATE_PLAYING: "playing",
+        ReplayStatus.STATE_ENDED: "ended",
+        ReplayStatus.STATE_FAILED: "failed",
+    }
+    return {
+        "state": states.get(status.state, str(status.state)),
+        "message": status.message,
+        "frames_published": int(status.frames_published),
+        "frames_total": int(status.frames_total),
+        "frames_skipped": int(status.frames_skipped),
+        "frames_lost": int(status.frames_lost),
+        "lockstep_timeouts": int(status.lockstep_timeouts),
+    }
 
 
 # Subscribers each topic needs before the first frame, counting the recorder (so no frame is lost
@@ -274,37 +360,55 @@ EXPECTED_SUBSCRIBERS = {
 }
 
 
-def _wait_for_graph(recorder: Recorder, nodes: GraphProcesses, timeout: float = 30.0) -> None:
-    """Until every downstream node is up and its topics are discovered, so frame 0 is seen."""
+def _wait_for_graph(recorder: Recorder, supervisor: Supervisor, timeout: float = 30.0) -> bool:
+    """Until every downstream node is up and its topics are discovered, so frame 0 is seen.
+    False (the result says why) when a node dies for good, time runs out or a stop arrives."""
+    result = supervisor.result
     deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        time.sleep(0.1)
-        if nodes.crashed():
-            raise RuntimeError(f"nodes crashed at start-up: {nodes.crashed()}")
+    while not _stopped(result):
+        stop_signals.wait(0.1)
+        if supervisor.check() is Watch.STOP:
+            return False
         missing = {
             topic: wanted
             for topic, wanted in EXPECTED_SUBSCRIBERS.items()
             if recorder.count_publishers(topic) == 0 or recorder.count_subscribers(topic) < wanted
         }
         if not missing:
-            return
-    raise TimeoutError(f"the graph did not come up within {timeout:.0f} s (waiting for {missing})")
+            return True
+        if time.monotonic() > deadline:
+            result.fail(f"the graph did not come up within {timeout:.0f} s (waiting for {missing})")
+            return False
+    return False
 
 
-def report(bag: Path, out: Path, render: bool = True) -> run_report.Summary:
-    """Summary, MOT tracks and (optionally) the annotated video of a recorded run."""
+def report(
+    bag: Path, out: Path, render: bool = True, run: RunResult | None = None
+) -> run_report.Summary:
+    """Summary, MOT tracks and (optionally) the annotated video of a recorded run, complete or
+    not; `run` adds the run's own account (complete, problems, restarts) to summary.json."""
     frames = run_report.collect(bag)
     summary = run_report.summarize(frames, run_report.message_counts(frames))
-    run_report.write_summary(summary, out / "summary.json")
+    run_report.write_summary(summary, out / "summary.json", None if run is None else run.as_dict())
     run_report.write_mot(frames, out / "tracks.txt")
-    if render:
+    if render and summary.frames:
         progress = Progress("rendering annotated.mp4")
         fps = run_report.stream_fps(frames)
-        run_report.render_video(
-            bag, frames, out / "annotated.mp4", fps, lambda n: progress.show(n, summary.frames)
-        )
-        progress.done()
+
+        def show(count: int) -> None:
+            if stop_signals.requested():
+                raise RenderingInterruptedError
+            progress.show(count, summary.frames)
+
+        try:
+            run_report.render_video(bag, frames, out / "annotated.mp4", fps, show)
+        finally:
+            progress.done()
     return summary
+
+
+class RenderingInterruptedError(Exception):
+    """A stop signal arrived while the annotated video was being rendered."""
 
 
 def parse_overrides(items: list[str]) -> dict[str, dict[str, Any]]:
@@ -335,6 +439,12 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--set", action="append", default=[], metavar="NODE.PARAM=VALUE")
     parser.add_argument("--no-video", action="store_true", help="skip the annotated video")
     parser.add_argument(
+        "--respawn",
+        action="store_true",
+        help=f"restart a node that dies (up to {RESPAWN_LIMIT} times each; video_source resumes "
+        "at the next frame) instead of ending the run",
+    )
+    parser.add_argument(
         "--timeout", type=float, default=1800.0, help="give up after this many seconds"
     )
     parser.add_argument("--storage", choices=("mcap", "sqlite3"), default="mcap")
@@ -347,17 +457,35 @@ def main(argv: list[str] | None = None) -> int:
         overrides.setdefault("ptz_controller", {})["mode"] = args.mode
     args.out.mkdir(parents=True, exist_ok=True)
     graph = load_graph()
-    run = run_graph(graph, video, args.out, overrides, install_space(), args.timeout, args.storage)
-    failed = {name: code for name, code in run.exit_codes.items() if code != 0}
-    summary = report(run.bag, args.out, render=not args.no_video)
+    run = run_graph(
+        graph,
+        video,
+        args.out,
+        overrides,
+        install_space(),
+        args.timeout,
+        args.storage,
+        respawn_limit=RESPAWN_LIMIT if args.respawn else 0,
+    )
+    for name, code in run.exit_codes.items():
+        if code != 0:
+            run.fail(f"{name} {describe_exit(code)} when stopped (see {args.out}/logs)")
+    try:
+        summary = report(run.bag, args.out, render=not args.no_video, run=run)
+    except RenderingInterruptedError:
+        print(f"\nrendering interrupted; {args.out}/summary.json and tracks.txt are written")
+        return 130
     print(f"\nRun summary ({video}):\n{run_report.format_summary(summary)}")
     products = "bag/, tracks.txt, summary.json, logs/" + (
-        "" if args.no_video else ", annotated.mp4"
+        "" if args.no_video or not summary.frames else ", annotated.mp4"
     )
     print(f"\nWrote {args.out}/: {products}")
-    if failed:
-        print(f"nodes exited with errors: {failed} (see {args.out}/logs)", file=sys.stderr)
-        return 1
+    if not run.complete:
+        problems = "\n  ".join(run.problems)
+        print(f"\nThe run is INCOMPLETE:\n  {problems}", file=sys.stderr)
+        return 130 if run.interrupted_by else 1
+    if run.problems:
+        print("\nRecovered from:\n  " + "\n  ".join(run.problems), file=sys.stderr)
     return 0 if summary.frames > 0 else 1
 
 

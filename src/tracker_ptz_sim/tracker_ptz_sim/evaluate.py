@@ -128,9 +128,10 @@ def main(argv: list[str] | None = None) -> int:
         )
         bag = run.bag
         failed = {name: code for name, code in run.exit_codes.items() if code != 0}
-        if failed:
-            print(f"nodes exited with errors: {failed} (see {args.out}/logs)")
-            return 1
+        if failed or not run.complete:
+            problems = "; ".join(run.problems) or f"nodes exited with errors: {failed}"
+            print(f"the run is incomplete: {problems} (see {args.out}/logs)")
+            return 130 if run.interrupted_by else 1
     result = score(bag, gt, args.out)
     print(f"Evaluation against {gt}:\n{format_scores(result)}")
     return 0

@@ -54,6 +54,8 @@ class FrameSource(ABC):
     fps: float
     total: int  # frames in the input, 0 when unknown
     skipped: int  # frames that could not be decoded so far
+    lost: int = 0  # frames the input announces but that could not be reached
+    end_note: str = ""  # why the stream ended early, if it did
 
     @abstractmethod
     def frames(self, start: int = 0, end: int | None = None) -> Iterator[Frame]:

@@ -17,7 +17,6 @@ import time
 from dataclasses import fields
 from typing import Any
 
-from rclpy.node import Node
 from sensor_msgs.msg import CameraInfo, Image, JointState
 
 from tracker_msgs.msg import PtzCommand as PtzCommandMsg
@@ -31,9 +30,16 @@ from tracker_msgs_py.conversions import (
     rect_to_msg,
     stamp_to_ns,
 )
-from tracker_msgs_py.node_main import run_node
+from tracker_msgs_py.node_main import SuiteNode, run_node
 from tracker_msgs_py.params import ParamSpec, declare_parameters
-from tracker_ptz_sim.camera_model import PtzCameraModel, PtzCommand, PtzConfig, PtzSnapshot
+from tracker_msgs_py.stamps import Order, StampOrder
+from tracker_ptz_sim.camera_model import (
+    PtzCameraModel,
+    PtzCommand,
+    PtzConfig,
+    PtzSnapshot,
+    view_size,
+)
 
 _D = PtzConfig()
 MODES = {
@@ -96,24 +102,35 @@ def config_from(values: dict[str, Any]) -> PtzConfig:
     return PtzConfig(**{k: v for k, v in values.items() if k in MODEL_FIELDS})
 
 
-def _check(values: dict[str, Any]) -> str | None:
-    problems = config_from(values).problems()
+def _check(values: dict[str, Any], scene_size: tuple[int, int] | None = None) -> str | None:
+    config = config_from(values)
+    problems = config.problems()
     if len(values["joint_names"]) != 2:
         problems.append("joint_names needs two names (pan, tilt)")
+    if scene_size is not None and not problems:
+        try:
+            view_size(config, *scene_size)
+        except ValueError as error:
+            problems.append(str(error))
     return "; ".join(problems) or None
 
 
-class PtzCameraNode(Node):
-    def __init__(self) -> None:
-        super().__init__("ptz_camera")
-        self.params = declare_parameters(self, PARAMS, on_change=self._on_change, check_all=_check)
+class PtzCameraNode(SuiteNode):
+    def __init__(self, **node_options: Any) -> None:
+        """node_options go to rclpy's Node (parameter_overrides, context...)."""
+        super().__init__("ptz_camera", **node_options)
+        self.params = declare_parameters(
+            self, PARAMS, on_change=self._on_change, check_all=self._check_parameters
+        )
         self.model: PtzCameraModel | None = None
+        self.scene_order = StampOrder()
         self.last_image_ns: int | None = None
         self.last_command_ns = -1
+        self.repeated_images = 0  # lockstep re-sends, dropped by design
+        self.commands_received = 0
         self.pending: Image | None = None
         self.pending_since = 0.0
         self.early_commands: list[PtzCommand] = []
-        self.dropped = {"stale": 0, "encoding": 0, "size": 0, "bad_command": 0}
         qos = image_qos(self.params["reliable_images"])
         self.view_pub = self.create_publisher(Image, "camera/image_raw", qos)
         self.info_pub = self.create_publisher(CameraInfo, "camera/camera_info", qos)
@@ -124,6 +141,10 @@ class PtzCameraNode(Node):
         if self.params["lockstep"]:
             self.create_timer(0.05, self._on_lockstep_timer)
 
+    def _check_parameters(self, values: dict[str, Any]) -> str | None:
+        model = getattr(self, "model", None)
+        return _check(values, None if model is None else (model.width, model.height))
+
     def _on_change(self, changed: dict[str, Any]) -> None:
         if self.model is not None and MODEL_FIELDS & changed.keys():
             self.model.reconfigure(config_from(self.params))
@@ -131,44 +152,76 @@ class PtzCameraNode(Node):
     # --- commands -------------------------------------------------------------------------------
 
     def _on_command(self, msg: PtzCommandMsg) -> None:
-        stamp = stamp_to_ns(msg.header.stamp)
-        mode = MODES.get(msg.mode)
-        command = None
-        if mode is not None:
-            command = PtzCommand(
-                stamp / 1e9, mode, msg.pan, msg.tilt, msg.pan_rate, msg.tilt_rate, msg.zoom
-            )
-        try:
-            if command is None:
-                raise ValueError(f"unknown command mode {msg.mode}")
+        self.commands_received += 1
+        command = self._command_from(msg)
+        if command is not None:
             if self.model is not None:
                 self.model.command(command)
             else:
                 self.early_commands.append(command)  # before the first image: applied at start
-        except ValueError as error:
-            self.dropped["bad_command"] += 1
-            self.get_logger().warning(
-                f"ignored pan-tilt command: {error}", throttle_duration_sec=5.0
-            )
-        self.last_command_ns = max(self.last_command_ns, stamp)
+        # Even a rejected command acknowledges its image: the controller did answer it.
+        self.last_command_ns = max(self.last_command_ns, stamp_to_ns(msg.header.stamp))
         self._process_pending()
+
+    def _command_from(self, msg: PtzCommandMsg) -> PtzCommand | None:
+        """The model's command, or None (reported) for a command the camera cannot act on."""
+        stamp = stamp_to_ns(msg.header.stamp)
+        mode = MODES.get(msg.mode)
+        values = (msg.pan, msg.tilt, msg.pan_rate, msg.tilt_rate)
+        if mode is None:
+            self.problems.report(
+                "unknown command mode",
+                f"ignored a pan-tilt command with unknown mode {msg.mode} (known: "
+                f"{', '.join(f'{k} = {v}' for k, v in MODES.items())})",
+            )
+        elif not all(math.isfinite(v) for v in values):
+            self.problems.report(
+                "non-finite command", f"ignored a pan-tilt command with non-finite values {values}"
+            )
+        elif self.last_image_ns is not None and stamp > self.last_image_ns:
+            self.problems.report(
+                "command from the future",
+                f"ignored a pan-tilt command stamped {stamp / 1e9:.3f} s, after the latest scene "
+                f"image ({self.last_image_ns / 1e9:.3f} s): commands carry the stamp of the image "
+                "they answer",
+            )
+        else:
+            return PtzCommand(
+                stamp / 1e9, mode, msg.pan, msg.tilt, msg.pan_rate, msg.tilt_rate, msg.zoom
+            )
+        return None
 
     # --- images ---------------------------------------------------------------------------------
 
     def _on_scene(self, msg: Image) -> None:
         stamp = stamp_to_ns(msg.header.stamp)
-        if self.last_image_ns is not None and stamp <= self.last_image_ns:
-            self.dropped["stale"] += 1
-            self.get_logger().warning(
-                f"dropped a scene image stamped {stamp} ns, not after the previous one "
-                f"({self.dropped['stale']} so far)",
-                throttle_duration_sec=5.0,
-            )
+        order = self.scene_order.check(stamp)
+        if order is Order.REPEAT:
+            self.repeated_images += 1
             return
-        if self.pending is not None:  # lockstep overrun: the newer image replaces the waiting one
+        if order is Order.INVALID:
+            self.problems.report("negative stamp", f"dropped a scene image stamped {stamp} ns")
+            return
+        if order is Order.NEW_EPOCH:
+            self._start_epoch(stamp)
+        elif self.pending is not None:  # lockstep overrun: the newer image replaces the waiting one
             self._process(self.pending)
         self.pending, self.pending_since = msg, time.monotonic()
         self._process_pending()
+
+    def _start_epoch(self, stamp_ns: int) -> None:
+        """Time jumped back (a restarted or looping source): a new time base for the camera and
+        the lockstep gate; the camera keeps its pose."""
+        self.get_logger().info(
+            f"scene {self.scene_order.describe_jump()}: a new replay epoch; the camera keeps its "
+            "pose and drops the commands of the old one"
+        )
+        self.pending = None
+        self.last_image_ns = None
+        self.last_command_ns = -1
+        self.early_commands.clear()
+        if self.model is not None:
+            self.model.restart_clock(stamp_ns / 1e9)
 
     def _acknowledged(self) -> bool:
         return (
@@ -199,21 +252,29 @@ class PtzCameraNode(Node):
         try:
             scene = image_to_array(msg)
         except UnsupportedEncodingError as error:
-            self.dropped["encoding"] += 1
-            self.get_logger().warning(f"dropped scene image: {error}", throttle_duration_sec=5.0)
+            self.problems.report(error.cause, f"dropped a scene image: {error}")
             return
-        if self.model is None or (self.model.width, self.model.height) != (msg.width, msg.height):
-            self._start_model(msg.width, msg.height)
+        size_changed = self.model is None or (self.model.width, self.model.height) != (
+            msg.width,
+            msg.height,
+        )
+        if size_changed and not self._start_model(msg.width, msg.height):
+            return
         self.last_image_ns = stamp
         snapshot = self.model.advance(stamp / 1e9)
         view = self.model.render(scene, snapshot.window)
         self._publish(msg, view, snapshot)
 
-    def _start_model(self, width: int, height: int) -> None:
+    def _start_model(self, width: int, height: int) -> bool:
+        """A camera for a scene of this size (False, reported, when it cannot have one)."""
+        try:
+            model = PtzCameraModel(config_from(self.params), width, height)
+        except ValueError as error:
+            self.problems.report("scene too small", f"dropped a scene image: {error}")
+            return False
         if self.model is not None:
-            self.dropped["size"] += 1
             self.get_logger().warning(f"scene size changed to {width}x{height}: camera restarted")
-        self.model = PtzCameraModel(config_from(self.params), width, height)
+        self.model = model
         for command in self.early_commands:
             self.model.command(command)
         self.early_commands.clear()
@@ -222,6 +283,7 @@ class PtzCameraNode(Node):
             f"scene {width}x{height}: view {base_w}x{base_h} px, focal length "
             f"{self.model.geometry.focal_length:.1f} px/rad, pan range +-{self.model.limits()[0][1]:.3f} rad"
         )
+        return True
 
     def _publish(self, scene_msg: Image, view: Any, snapshot: PtzSnapshot) -> None:
         stamp = scene_msg.header.stamp

@@ -10,16 +10,18 @@ arriving (a crashed detector or tracker) it sends HOLD, so the camera never acts
 from __future__ import annotations
 
 import math
+import time
 from dataclasses import fields
 from typing import Any
 
-from rclpy.node import Node
+from rclpy.clock import Clock, ClockType
 from sensor_msgs.msg import JointState
 
 from tracker_msgs.msg import PtzCommand, PtzState, Target
 from tracker_msgs_py.conversions import stamp_to_ns
-from tracker_msgs_py.node_main import run_node
+from tracker_msgs_py.node_main import SuiteNode, run_node
 from tracker_msgs_py.params import ParamSpec, declare_parameters
+from tracker_msgs_py.stamps import Order, StampOrder
 from tracker_ptz_sim.controller import (
     CameraPose,
     Command,
@@ -78,6 +80,20 @@ PARAMS = [
     ParamSpec(
         "target_timeout", 1.0, "no target for this long (scene time) -> HOLD [s]", 0.05, 60.0
     ),
+    ParamSpec(
+        "state_timeout",
+        0.5,
+        "answer a target whose image's ptz/state has not come within this with HOLD [s, wall]",
+        0.01,
+        60.0,
+    ),
+    ParamSpec(
+        "max_state_age",
+        0.25,
+        "when a target's own ptz/state is lost, use an earlier one at most this old [s]",
+        0.0,
+        10.0,
+    ),
     ParamSpec("joint_command_topic", "", "also publish commands as JointState here ('' = off)"),
     ParamSpec("joint_names", ["pan_joint", "tilt_joint"], "pan and tilt joint names"),
     ParamSpec("base_frame_id", "ptz_base", "frame_id of the commands"),
@@ -115,19 +131,24 @@ def _check(values: dict[str, Any]) -> str | None:
     return None
 
 
-class PtzControllerNode(Node):
-    def __init__(self) -> None:
-        super().__init__("ptz_controller")
+class PtzControllerNode(SuiteNode):
+    def __init__(self, **node_options: Any) -> None:
+        """node_options go to rclpy's Node (parameter_overrides, context...)."""
+        super().__init__("ptz_controller", **node_options)
         self.params = declare_parameters(self, PARAMS, on_change=self._on_change, check_all=_check)
         self.controller = PanTiltController(config_from(self.params))
-        self.states: dict[int, PtzState] = {}
-        # Targets whose image's PtzState has not arrived yet: the two travel on different paths.
-        self.waiting: dict[int, Target] = {}
+        # Pan-tilt states by stamp; None marks a state that came but is unusable.
+        self.states: dict[int, CameraPose | None] = {}
+        # Targets whose image's PtzState has not arrived yet (the two travel on different paths),
+        # with the wall time they came.
+        self.waiting: dict[int, tuple[Target, float]] = {}
+        self.target_order = StampOrder()
         self.last_target_ns: int | None = None
         self.command_pub = self.create_publisher(PtzCommand, "ptz/command", 10)
         self.joint_pub = self._joint_publisher()
         self.create_subscription(Target, "target", self._on_target, 10)
         self.create_subscription(PtzState, "ptz/state", self._on_state, 10)
+        self.create_timer(0.05, self._answer_overdue, clock=Clock(clock_type=ClockType.STEADY_TIME))
 
     def _joint_publisher(self):  # noqa: ANN202 - Publisher | None
         topic = self.params["joint_command_topic"]
@@ -140,39 +161,118 @@ class PtzControllerNode(Node):
                 self.destroy_publisher(self.joint_pub)
             self.joint_pub = self._joint_publisher()
 
+    # --- pan-tilt states ------------------------------------------------------------------------
+
     def _on_state(self, state: PtzState) -> None:
         stamp = stamp_to_ns(state.header.stamp)
-        self.states[stamp] = state
+        if self.states and stamp < max(self.states):
+            self._forget_states_after(stamp)
+        pose, problem = pose_of(state)
+        if problem is not None:
+            self.problems.report(problem, f"unusable PtzState stamped {stamp} ns: {problem}")
+        self.states[stamp] = pose
         while len(self.states) > STATE_BUFFER:
             del self.states[min(self.states)]
         for target_stamp in sorted(t for t in self.waiting if t <= stamp):
-            # The state of a newer image came first: the exact one is lost, use the nearest.
-            self._respond(self.waiting.pop(target_stamp))
+            # A state this new came: the target's own is here, or it will not come.
+            self._respond(self.waiting.pop(target_stamp)[0])
         timeout_ns = self.params["target_timeout"] * NS_PER_S
         if self.last_target_ns is not None and stamp - self.last_target_ns > timeout_ns:
             # Targets stopped (detector or tracker down): stop the camera, and acknowledge the image.
             self.controller.reset()
             self._publish(Command(CommandMode.HOLD), state.header.stamp)
 
+    def _forget_states_after(self, stamp_ns: int) -> None:
+        """The state stream jumped back (a new replay epoch): the newer states are of the old one."""
+        for old in [s for s in self.states if s > stamp_ns]:
+            del self.states[old]
+        if self.last_target_ns is not None and self.last_target_ns > stamp_ns:
+            self.last_target_ns = stamp_ns  # the target timeout counts from the new epoch
+
+    # --- targets --------------------------------------------------------------------------------
+
     def _on_target(self, target: Target) -> None:
         stamp = stamp_to_ns(target.header.stamp)
+        order = self.target_order.check(stamp)
+        if order in (Order.REPEAT, Order.INVALID):
+            self.problems.report(
+                f"{order.value} target stamp",
+                f"ignored a target stamped {stamp} ns ({order.value}): each image is answered once",
+            )
+            return
+        if order is Order.NEW_EPOCH:
+            self._start_epoch(stamp)
         self.last_target_ns = stamp
-        if stamp in self.states or (self.states and max(self.states) > stamp):
+        if stamp in self.states or self._paired_pose(stamp) is not None:
             self._respond(target)
-        elif len(self.waiting) < STATE_BUFFER:
-            self.waiting[stamp] = target
-        else:  # no pan-tilt state at all: nothing sensible to command, but acknowledge the image
-            self._publish(Command(CommandMode.HOLD), target.header.stamp)
+        else:
+            self.waiting[stamp] = (target, time.monotonic())
+
+    def _start_epoch(self, stamp_ns: int) -> None:
+        """Target stamps jumped back (a restarted or looping source): start the control afresh."""
+        self.get_logger().info(
+            f"targets: {self.target_order.describe_jump()}; a new replay epoch: the controller "
+            "starts afresh"
+        )
+        self.controller.reset()
+        for old in [s for s in self.waiting if s > stamp_ns]:
+            del self.waiting[old]
+
+    def _answer_overdue(self) -> None:
+        """Targets whose state did not come in time are answered with HOLD (and acknowledged)."""
+        now = time.monotonic()
+        for stamp, (target, since) in sorted(self.waiting.items()):
+            if now - since >= self.params["state_timeout"]:
+                del self.waiting[stamp]
+                self._respond(target)
+
+    def _paired_pose(self, stamp_ns: int) -> CameraPose | None:
+        """The pose of the target's image: its own state, or (when that was lost, i.e. a newer
+        one exists) the latest earlier one at most `max_state_age` older."""
+        if stamp_ns in self.states:
+            return self.states[stamp_ns]
+        if not self.states or max(self.states) < stamp_ns:
+            return None
+        earlier = [s for s in self.states if s < stamp_ns]
+        if not earlier:
+            return None
+        nearest = max(earlier)
+        if stamp_ns - nearest > self.params["max_state_age"] * NS_PER_S:
+            return None
+        return self.states[nearest]
 
     def _respond(self, target: Target) -> None:
-        """Step the controller with the target and the camera pose of the same image."""
+        """Step the controller with the target and the camera pose of the same image, or HOLD
+        (reported) when that pose is unknown or unusable."""
         stamp = stamp_to_ns(target.header.stamp)
-        state = self.states.get(stamp)
-        if state is None:
-            earlier = [s for s in self.states if s <= stamp]
-            state = self.states[max(earlier) if earlier else min(self.states)]
-        command = self.controller.step(stamp / NS_PER_S, pose_of(state), estimate_of(target))
+        pose = self._paired_pose(stamp)
+        if pose is None:
+            self._report_missing_pose(stamp)
+            self._publish(Command(CommandMode.HOLD), target.header.stamp)
+            return
+        estimate = estimate_of(target)
+        if target.locked and estimate is None:
+            self.problems.report(
+                "non-finite target", f"a locked target stamped {stamp} ns has non-finite values"
+            )
+        command = self.controller.step(stamp / NS_PER_S, pose, estimate)
         self._publish(command, target.header.stamp)
+
+    def _report_missing_pose(self, stamp_ns: int) -> None:
+        if not self.states:
+            self.problems.report(
+                "no ptz/state yet",
+                "targets arrive but no ptz/state has: is the camera or pan-tilt driver publishing "
+                "ptz/state? Answering with HOLD",
+            )
+        elif stamp_ns in self.states:
+            pass  # its state came but was unusable: reported when it came
+        else:
+            self.problems.report(
+                "no ptz/state for a target",
+                f"no usable ptz/state for the image stamped {stamp_ns} ns within "
+                f"{self.params['state_timeout']} s; answered with HOLD",
+            )
 
     def _publish(self, command: Command, stamp: Any) -> None:
         msg = PtzCommand()
@@ -191,10 +291,19 @@ class PtzControllerNode(Node):
             self.joint_pub.publish(joint_command(command, msg.header, self.params["joint_names"]))
 
 
-def pose_of(state: PtzState) -> CameraPose:
-    center_x = state.window.x + state.window.width / 2.0
-    center_y = state.window.y + state.window.height / 2.0
-    return CameraPose(state.pan, state.tilt, center_x, center_y, state.focal_length)
+def pose_of(state: PtzState) -> tuple[CameraPose | None, str | None]:
+    """The camera pose a PtzState describes, or None and the reason it cannot be used."""
+    window = state.window
+    if not (math.isfinite(state.focal_length) and state.focal_length > 0.0):
+        return None, "focal_length is not a positive number (unset by the driver?)"
+    if not (math.isfinite(state.pan) and math.isfinite(state.tilt)):
+        return None, "non-finite pan or tilt"
+    corners = (window.x, window.y, window.width, window.height)
+    if not all(math.isfinite(v) for v in corners) or window.width <= 0 or window.height <= 0:
+        return None, "window is not a finite rectangle of positive size"
+    center_x = window.x + window.width / 2.0
+    center_y = window.y + window.height / 2.0
+    return CameraPose(state.pan, state.tilt, center_x, center_y, state.focal_length), None
 
 
 def estimate_of(target: Target) -> TargetEstimate | None:

@@ -308,8 +308,12 @@ def format_summary(summary: Summary) -> str:
     return "\n".join(f"  {name:<{width}}  {value}" for name, value in rows)
 
 
-def write_summary(summary: Summary, path: Path) -> None:
-    path.write_text(json.dumps(asdict(summary), indent=2) + "\n")
+def write_summary(summary: Summary, path: Path, run: dict[str, Any] | None = None) -> None:
+    """summary.json: the summary's fields, and the runner's account of the run under "run"."""
+    data = asdict(summary)
+    if run is not None:
+        data["run"] = run
+    path.write_text(json.dumps(data, indent=2) + "\n")
 
 
 def message_counts(frames: dict[int, FrameRecord]) -> dict[str, int]:

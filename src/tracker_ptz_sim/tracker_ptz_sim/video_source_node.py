@@ -12,11 +12,9 @@ from __future__ import annotations
 
 import threading
 import time
-from collections.abc import Iterator
-from queue import Full, Queue
+from typing import Any
 
-import rclpy
-from rclpy.node import Node
+from rclpy.duration import Duration
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import CameraInfo, Image
@@ -29,9 +27,10 @@ from tracker_msgs_py.conversions import (
     ns_to_stamp,
     stamp_to_ns,
 )
-from tracker_msgs_py.node_main import StartupError, run_node
+from tracker_msgs_py.node_main import StartupError, SuiteNode, run_node
 from tracker_msgs_py.params import ParamSpec, declare_parameters
-from tracker_ptz_sim.frame_sources import Frame, SourceError, open_source
+from tracker_ptz_sim.frame_sources import Frame, FrameSource, SourceError, open_source
+from tracker_ptz_sim.replay import Pacer, Prefetcher
 
 STATUS_QOS = QoSProfile(
     depth=10, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL
@@ -109,16 +108,20 @@ PARAMS = [
 ]
 
 
-class VideoSourceNode(Node):
-    def __init__(self) -> None:
-        super().__init__("video_source")
-        self.params = declare_parameters(self, PARAMS)
+class VideoSourceNode(SuiteNode):
+    def __init__(self, **node_options: Any) -> None:
+        """node_options go to rclpy's Node (parameter_overrides, context...)."""
+        super().__init__("video_source", **node_options)
+        self.params = declare_parameters(self, PARAMS, on_change=self._on_change)
         try:
             self.source = open_source(
                 self.params["path"], self.params["fps"], self.params["bag_topic"]
             )
         except SourceError as error:
             raise StartupError(str(error)) from error
+        self.start, self.end = frame_range(
+            self.params["start_frame"], self.params["end_frame"], self.source
+        )
         self.get_logger().info(f"replaying {self.source.describe()}")
         qos = image_qos(self.params["reliable_images"])
         self.image_pub = self.create_publisher(Image, "scene/image_raw", qos)
@@ -131,13 +134,14 @@ class VideoSourceNode(Node):
         )
         self.acked_ns = -1
         self.ack_event = threading.Event()
+        self.pace_event = threading.Event()
+        self.pacer = Pacer(self.params["rate"])
         if self.params["lockstep"]:
             self.create_subscription(PtzCommand, self.params["ack_topic"], self._on_ack, 10)
         self.status = ReplayStatus(source=str(self.source.path), state=ReplayStatus.STATE_PLAYING)
-        self.exit_code = 0
-        self._stop = threading.Event()
-        self._thread = threading.Thread(target=self._replay, daemon=True)
-        self._thread.start()
+        self.add_waker(self.ack_event.set)
+        self.add_waker(self.pace_event.set)
+        self.start_worker(self._replay, "replay")
 
     def _on_ack(self, msg: PtzCommand) -> None:
         stamp = stamp_to_ns(msg.header.stamp)
@@ -145,29 +149,36 @@ class VideoSourceNode(Node):
             self.acked_ns = stamp
             self.ack_event.set()
 
-    def destroy_node(self) -> None:
-        self._stop.set()
-        self.ack_event.set()
-        super().destroy_node()
+    def _on_change(self, changed: dict[str, Any]) -> None:
+        if "rate" in changed:
+            self.pacer.set_rate(changed["rate"], time.monotonic())
+            self.pace_event.set()  # a frame waiting on the old schedule is rescheduled
 
-    # --- the replay thread ----------------------------------------------------------------------
+    # --- the replay worker ----------------------------------------------------------------------
 
     def _replay(self) -> None:
         try:
             self._wait_for_subscribers()
-            end = None if self.params["end_frame"] < 0 else self.params["end_frame"]
-            self.status.frames_total = len(
-                range(self.params["start_frame"], end or self.source.total)
-            )
-            while not self._stop.is_set():
-                self._play_once(self.params["start_frame"], end)
-                if not self.params["loop"] or self.status.frames_published == 0:
+            self.status.frames_total = len(range(self.start, self.end or self.source.total))
+            while not self.stopping.is_set():
+                published = self.status.frames_published
+                self._play_once()
+                if self.stopping.is_set():
+                    return
+                if self.status.frames_published == published:
+                    raise SourceError(
+                        f"{self.source.path}: no frame could be read in "
+                        f"[{self.start}, {self.end if self.end is not None else 'end'})"
+                    )
+                if not self.params["loop"]:
                     break
-            self._finish(ReplayStatus.STATE_ENDED, "end of stream")
+            if not self.stopping.is_set():
+                self._end(ReplayStatus.STATE_ENDED, "end of stream", 0)
         except Exception as error:  # anything reading the input: report it, exit non-zero
-            self.exit_code = 1
+            if self.stopping.is_set():
+                return  # a shutdown interrupted the replay: not a failure
             self.get_logger().error(f"replay of {self.source.path} failed: {error}")
-            self._finish(ReplayStatus.STATE_FAILED, str(error))
+            self._end(ReplayStatus.STATE_FAILED, str(error), 1)
 
     def _wait_for_subscribers(self) -> None:
         """Lockstep: wait for the image subscribers and for someone publishing acknowledgements,
@@ -188,36 +199,41 @@ class VideoSourceNode(Node):
                 f"lockstep: waiting for {wanted} subscriber(s) of scene/image_raw and a publisher "
                 f"of {ack_topic}"
             )
-        while not self._stop.is_set() and not ready():
-            time.sleep(0.02)
-        time.sleep(0.2)  # let the acknowledgement publisher finish matching our subscription
+        while not self.stopping.is_set() and not ready():
+            self.stopping.wait(0.02)
+        self.stopping.wait(0.2)  # let the acknowledgement publisher finish matching us
 
-    def _play_once(self, start: int, end: int | None) -> None:
-        started_wall = time.monotonic()
-        first_stamp: int | None = None
-        # Stamps keep increasing across loops: the next loop starts one frame after the last stamp.
-        loop_offset = (
+    def _play_once(self) -> None:
+        """One pass over [start, end). Stamps keep increasing across loops: a pass after the
+        first starts one frame period after the last stamp sent."""
+        next_stamp = (
             stamp_to_ns(self.status.header.stamp) + round(1e9 / self.source.fps)
             if self.status.frames_published
-            else 0
+            else None
         )
-        for frame in prefetched(self.source.frames(start, end), self._stop):
-            if self._stop.is_set():
-                return
-            stamp = frame.stamp_ns + loop_offset
-            first_stamp = stamp if first_stamp is None else first_stamp
-            self._pace(stamp - first_stamp, started_wall)
-            self._publish(frame, stamp)
-            if self.params["lockstep"]:
-                self._wait_for_ack(stamp)
+        offset: int | None = None
+        frames = Prefetcher(self.source.frames(self.start, self.end))
+        try:
+            for frame in frames:
+                if offset is None:
+                    offset = 0 if next_stamp is None else next_stamp - frame.stamp_ns
+                stamp = frame.stamp_ns + offset
+                self._pace(stamp)
+                if self.stopping.is_set():
+                    return
+                self._publish(frame, stamp)
+                if self.params["lockstep"]:
+                    self._wait_for_ack(stamp)
+        finally:
+            frames.close()
 
-    def _pace(self, since_first_ns: int, started_wall: float) -> None:
-        rate = self.params["rate"]
-        if rate <= 0:
-            return
-        delay = since_first_ns / 1e9 / rate - (time.monotonic() - started_wall)
-        if delay > 0:
-            self._stop.wait(delay)
+    def _pace(self, stamp_ns: int) -> None:
+        while not self.stopping.is_set():
+            self.pace_event.clear()
+            delay = self.pacer.delay(stamp_ns, time.monotonic())
+            if delay <= 0:
+                return
+            self.pace_event.wait(delay)
 
     def _publish(self, frame: Frame, stamp_ns: int) -> None:
         stamp = ns_to_stamp(stamp_ns)
@@ -237,29 +253,32 @@ class VideoSourceNode(Node):
         )
         self.info_pub.publish(self.last_sent[0])
         self.image_pub.publish(self.last_sent[1])
+        self.pacer.sent(stamp_ns)
         self.status.header.stamp = stamp
         self.status.header.frame_id = frame_id
         self.status.frame_index = frame.index
         self.status.frames_published += 1
-        self._note_skipped()
+        self._note_damage()
         self.status_pub.publish(self.status)
 
-    def _note_skipped(self) -> None:
+    def _note_damage(self) -> None:
         if self.source.skipped > self.status.frames_skipped:
-            self.get_logger().warning(
-                f"skipped {self.source.skipped - self.status.frames_skipped} undecodable frame(s) of "
-                f"{self.source.path} (total {self.source.skipped})"
+            self.problems.report(
+                "undecodable frame",
+                f"skipped {self.source.skipped - self.status.frames_skipped} undecodable "
+                f"frame(s) of {self.source.path} before frame {self.status.frame_index}",
             )
             self.status.frames_skipped = self.source.skipped
+        self.status.frames_lost = self.source.lost
 
     def _wait_for_ack(self, stamp_ns: int) -> None:
         """Until frame `stamp_ns` is acknowledged, or the timeout. Halfway through, the frame is
         sent once more: a frame published while a subscriber was still completing discovery can
-        be lost, and every node drops the duplicate of a frame it did get."""
+        be lost, and every node drops the repeat of a frame it did get."""
         timeout = self.params["lockstep_timeout"]
         deadline = time.monotonic() + timeout
         resend_at = time.monotonic() + timeout / 2
-        while self.acked_ns < stamp_ns and not self._stop.is_set():
+        while self.acked_ns < stamp_ns and not self.stopping.is_set():
             if resend_at is not None and time.monotonic() >= resend_at:
                 resend_at = None
                 self.info_pub.publish(self.last_sent[0])
@@ -277,49 +296,38 @@ class VideoSourceNode(Node):
             if self.acked_ns < stamp_ns:
                 self.ack_event.wait(remaining if resend_at is None else min(remaining, timeout / 2))
 
-    def _finish(self, state: int, message: str) -> None:
-        self._note_skipped()
+    def _end(self, state: int, message: str, exit_code: int) -> None:
+        """Publish the final status (kept for late joiners: transient local), log, and finish."""
+        self._note_damage()
+        if self.source.end_note:
+            message = f"{message}; {self.source.end_note}"
         self.status.state = state
         self.status.message = message
         self.status_pub.publish(self.status)
-        self.status_pub.wait_for_all_acked(rclpy.duration.Duration(seconds=1.0))
-        self.get_logger().info(
+        self.status_pub.wait_for_all_acked(Duration(seconds=0.5))
+        line = (
             f"{message}: {self.status.frames_published} frames published, "
-            f"{self.status.frames_skipped} skipped, {self.status.lockstep_timeouts} lockstep timeouts"
+            f"{self.status.frames_skipped} skipped, {self.status.frames_lost} lost, "
+            f"{self.status.lockstep_timeouts} lockstep timeouts"
         )
-        if not self.params["loop"] or state == ReplayStatus.STATE_FAILED or self._stop.is_set():
-            self.context.try_shutdown()
+        damaged = self.status.frames_skipped or self.status.frames_lost
+        (self.get_logger().warning if damaged else self.get_logger().info)(line)
+        self.finish(exit_code)
 
 
-def prefetched(frames: Iterator[Frame], stop: threading.Event, depth: int = 3) -> Iterator[Frame]:
-    """`frames`, decoded ahead in a thread, so decoding frame n+1 overlaps waiting for frame n's
-    acknowledgement (decoding a 768x576 frame takes a few ms)."""
-    queue: Queue = Queue(maxsize=depth)
-    done = object()
-
-    def read() -> None:
-        try:
-            for frame in frames:
-                while not stop.is_set():
-                    try:
-                        queue.put(frame, timeout=0.1)
-                        break
-                    except Full:
-                        continue
-                if stop.is_set():
-                    return
-            queue.put(done)
-        except Exception as error:  # re-raised in the consumer, where the replay reports it
-            queue.put(error)
-
-    threading.Thread(target=read, daemon=True).start()
-    while True:
-        item = queue.get()
-        if item is done:
-            return
-        if isinstance(item, Exception):
-            raise item
-        yield item
+def frame_range(start: int, end_frame: int, source: FrameSource) -> tuple[int, int | None]:
+    """[start, end) of the replay (end None = to the end); StartupError when it is empty."""
+    end = None if end_frame < 0 else end_frame
+    if end is not None and end <= start:
+        raise StartupError(
+            f"{source.path}: end_frame {end} must be greater than start_frame {start}"
+        )
+    if source.total and start >= source.total:
+        raise StartupError(
+            f"{source.path}: start_frame {start} is past the end (the input has "
+            f"{source.total} frames, 0 to {source.total - 1})"
+        )
+    return start, end
 
 
 def main(args: list[str] | None = None) -> int:

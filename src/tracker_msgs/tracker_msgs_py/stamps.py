@@ -1,0 +1,58 @@
+"""Order of the stamps on one input stream, and replay epochs (no rclpy).
+
+DDS delivers the samples of one writer in order, so on a stream from one source a stamp can only:
+- increase: the next message (`Order.NEXT`);
+- repeat: the same message again, e.g. a lockstep re-send (`Order.REPEAT`): drop it;
+- go back: the source restarted or looped (a respawned video_source, `ros2 bag play --loop`, a
+  camera driver restarted with a new clock). That is a new *epoch* (`Order.NEW_EPOCH`): the node
+  accepts the message and forgets the state it built on the old stamps, as tf2 clears its buffer
+  when time jumps back.
+
+A stamp that is not a valid time (negative) is `Order.INVALID`.
+"""
+
+from __future__ import annotations
+
+from enum import Enum
+
+
+class Order(Enum):
+    NEXT = "next"
+    REPEAT = "repeat"
+    NEW_EPOCH = "new epoch"
+    INVALID = "invalid"
+
+
+class StampOrder:
+    """Classifies each stamp of a stream against the last accepted one."""
+
+    def __init__(self) -> None:
+        self.last_ns: int | None = None
+        self.jumped_from_ns: int | None = None  # the last stamp before the latest new epoch
+        self.epochs = 0  # new epochs seen after the first message
+
+    def check(self, stamp_ns: int) -> Order:
+        """Classify `stamp_ns` and, unless it is a repeat or invalid, accept it as the last."""
+        if stamp_ns < 0:
+            return Order.INVALID
+        if self.last_ns is None:
+            self.last_ns = stamp_ns
+            return Order.NEXT
+        if stamp_ns == self.last_ns:
+            return Order.REPEAT
+        order = Order.NEXT if stamp_ns > self.last_ns else Order.NEW_EPOCH
+        if order is Order.NEW_EPOCH:
+            self.epochs += 1
+            self.jumped_from_ns = self.last_ns
+        self.last_ns = stamp_ns
+        return order
+
+    def describe_jump(self) -> str:
+        """'stamps jumped back 12.300 s, to 0.000 s', for the log line of the latest new epoch."""
+        if self.jumped_from_ns is None or self.last_ns is None:
+            return "no jump back yet"
+        back = (self.jumped_from_ns - self.last_ns) / 1e9
+        return f"stamps jumped back {back:.3f} s, to {self.last_ns / 1e9:.3f} s"
+
+    def reset(self) -> None:
+        self.last_ns = None

@@ -1,0 +1,79 @@
+"""Stop requests (SIGINT, SIGTERM) as a flag the process polls, installed before any heavy import.
+
+A suite executable calls `guarded_main("package.module")` from a module that imports nothing else:
+the handlers are in place about 50 ms after exec, before rclpy, NumPy or OpenCV load, so Ctrl-C or
+`kill` at any later moment of start-up, work or shutdown ends the process through its normal,
+clean path instead of a KeyboardInterrupt raised wherever the main thread happens to be. (Before
+the handlers exist the interpreter's defaults apply, as for any process.)
+
+This module imports only the standard library and no rclpy: the signal handling stays ours, so a
+node can stop its threads before its publishers and the ROS context go away.
+"""
+
+from __future__ import annotations
+
+import importlib
+import signal
+import threading
+from collections.abc import Callable
+from types import FrameType
+
+STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM)
+
+_requested = threading.Event()
+_received: list[str] = []
+_listeners: list[Callable[[], None]] = []
+
+
+def _on_signal(signum: int, _frame: FrameType | None) -> None:
+    _received.append(signal.Signals(signum).name)
+    _requested.set()
+    for listener in list(_listeners):
+        listener()
+
+
+def install() -> None:
+    """Catch SIGINT and SIGTERM from now on (main thread only; idempotent)."""
+    for signum in STOP_SIGNALS:
+        signal.signal(signum, _on_signal)
+
+
+def requested() -> bool:
+    """Whether a stop signal has arrived."""
+    return _requested.is_set()
+
+
+def received() -> str | None:
+    """The name of the first stop signal received ("SIGINT", "SIGTERM"), or None."""
+    return _received[0] if _received else None
+
+
+def wait(timeout: float | None = None) -> bool:
+    """Block until a stop signal arrives or `timeout` s pass; True if one arrived."""
+    return _requested.wait(timeout)
+
+
+def add_listener(listener: Callable[[], None]) -> None:
+    """Call `listener()` (in the main thread, from the handler) when a stop signal arrives.
+
+    Use it to wake a wait that would otherwise sleep through the request; it must be quick and
+    must not take locks the interrupted main-thread code may hold."""
+    _listeners.append(listener)
+
+
+def remove_listener(listener: Callable[[], None]) -> None:
+    if listener in _listeners:
+        _listeners.remove(listener)
+
+
+def guarded_main(module: str, function: str = "main") -> int:
+    """Install the handlers, then import `module` and return `module.function()`.
+
+    The import (rclpy, OpenCV...) is most of a node's start-up; a stop requested during it ends
+    the process with 0 before anything was started.
+    """
+    install()
+    entry = getattr(importlib.import_module(module), function)
+    if requested():
+        return 0
+    return entry()

@@ -1,0 +1,28 @@
+"""The package's executables (setup.py console_scripts).
+
+Each installs the stop-signal handlers before importing rclpy, OpenCV and its node, so Ctrl-C or
+SIGTERM at any moment of start-up ends it cleanly (`tracker_msgs_py.stop_signals`). Keep this
+module free of other imports.
+"""
+
+from tracker_msgs_py.stop_signals import guarded_main
+
+
+def video_source() -> int:
+    return guarded_main("tracker_ptz_sim.video_source_node")
+
+
+def ptz_camera() -> int:
+    return guarded_main("tracker_ptz_sim.ptz_camera_node")
+
+
+def ptz_controller() -> int:
+    return guarded_main("tracker_ptz_sim.ptz_controller_node")
+
+
+def run_demo() -> int:
+    return guarded_main("tracker_ptz_sim.demo")
+
+
+def evaluate() -> int:
+    return guarded_main("tracker_ptz_sim.evaluate")

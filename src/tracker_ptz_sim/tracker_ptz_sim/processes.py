@@ -1,0 +1,113 @@
+"""The graph's nodes as child processes, started from the install space as `ros2 run` would
+(no rclpy): start, restart, stop, and say why one ended, with its last log lines."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import time
+from collections import deque
+from pathlib import Path
+from typing import Any
+
+from tracker_ptz_sim.graph import Graph, executable_path, ros_args
+
+LOG_TAIL_LINES = 8
+
+
+class GraphProcesses:
+    """One process and one log file (logs/<name>.log, appended across restarts) per node."""
+
+    def __init__(self, graph: Graph, install_dir: Path, log_dir: Path) -> None:
+        self.graph = graph
+        self.install_dir = install_dir
+        self.log_dir = log_dir
+        self.processes: dict[str, subprocess.Popen] = {}
+        log_dir.mkdir(parents=True, exist_ok=True)
+
+    def log_path(self, name: str) -> Path:
+        return self.log_dir / f"{name}.log"
+
+    def start(self, name: str, overrides: dict[str, Any] | None = None) -> subprocess.Popen:
+        node = self.graph.node(name)
+        command = [str(executable_path(self.install_dir, node))]
+        command += ros_args(node, self.graph.params_file, overrides)
+        with self.log_path(name).open("a") as log:
+            self.processes[name] = subprocess.Popen(
+                command,
+                stdout=log,
+                stderr=subprocess.STDOUT,
+                env=dict(os.environ),
+                start_new_session=True,
+            )
+        return self.processes[name]
+
+    def kill(self, name: str) -> None:
+        """SIGKILL a node (as a crash would); it is no longer watched until started again."""
+        process = self.processes.pop(name)
+        if process.poll() is None:
+            os.killpg(process.pid, signal.SIGKILL)
+            process.wait()
+
+    def stop_all(self, timeout: float = 5.0) -> dict[str, int]:
+        """SIGINT every node, escalate to SIGKILL after `timeout`; the exit codes by node."""
+        for process in self.processes.values():
+            if process.poll() is None:
+                process.send_signal(signal.SIGINT)
+        deadline = time.monotonic() + timeout
+        codes = {}
+        for name, process in self.processes.items():
+            try:
+                codes[name] = process.wait(timeout=max(0.1, deadline - time.monotonic()))
+            except subprocess.TimeoutExpired:
+                os.killpg(process.pid, signal.SIGKILL)
+                codes[name] = process.wait()
+        return codes
+
+    def exited(self) -> dict[str, int]:
+        """The watched nodes that are no longer running, with their exit codes."""
+        return {
+            name: code
+            for name, process in self.processes.items()
+            if (code := process.poll()) is not None
+        }
+
+    def cpu_seconds(self) -> dict[str, float]:
+        """CPU time (user + system) each running node has used so far, from /proc."""
+        ticks = os.sysconf("SC_CLK_TCK")
+        used = {}
+        for name, process in self.processes.items():
+            try:
+                fields = Path(f"/proc/{process.pid}/stat").read_text().rsplit(")", 1)[1].split()
+            except OSError:
+                continue
+            used[name] = (int(fields[11]) + int(fields[12])) / ticks  # utime, stime
+        return used
+
+    def last_log_lines(self, name: str, count: int = LOG_TAIL_LINES) -> list[str]:
+        try:
+            with self.log_path(name).open(errors="replace") as log:
+                return [line.rstrip("\n") for line in deque(log, maxlen=count)]
+        except OSError:
+            return []
+
+    def death_report(self, name: str, code: int) -> str:
+        """'ssim_detector was killed by SIGKILL; its last log lines: ...' (several lines)."""
+        tail = self.last_log_lines(name)
+        lines = "\n".join(f"    {line}" for line in tail) if tail else "    (nothing logged)"
+        return f"{name} {describe_exit(code)}; its last log lines ({self.log_path(name)}):\n{lines}"
+
+
+def describe_exit(code: int) -> str:
+    """How a process ended, from its Popen return code."""
+    if code < 0:
+        try:
+            return f"was killed by {signal.Signals(-code).name}"
+        except ValueError:
+            return f"was killed by signal {-code}"
+    if code == 0:
+        return "exited with code 0 (stopped from outside?)"
+    if code == 2:
+        return "could not start (exit code 2)"
+    return f"failed with exit code {code}"

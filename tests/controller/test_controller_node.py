@@ -1,0 +1,154 @@
+"""The ptz_controller node with hostile pan-tilt states and targets: it keeps running, answers every
+image, logs one line per cause, and answers good messages afterwards exactly as before."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+rclpy = pytest.importorskip("rclpy")
+
+from node_harness import NodeHarness  # noqa: E402
+
+from tracker_msgs.msg import PtzCommand, PtzState, Target  # noqa: E402
+from tracker_msgs_py.conversions import ns_to_stamp, stamp_to_ns  # noqa: E402
+from tracker_ptz_sim.ptz_controller_node import PtzControllerNode  # noqa: E402
+
+pytestmark = pytest.mark.ros
+NS = 100_000_000  # 10 fps
+F = 440.0  # px/rad
+
+
+def state_msg(stamp_ns, focal=F, window=(252.0, 156.0, 264.0, 264.0), pan=0.0):
+    state = PtzState(pan=pan, tilt=0.0, zoom=1.0, focal_length=focal)
+    state.window.x, state.window.y, state.window.width, state.window.height = window
+    state.header.stamp = ns_to_stamp(stamp_ns)
+    state.header.frame_id = "scene"
+    return state
+
+
+def target_msg(stamp_ns, x=430.0, y=300.0, locked=True):
+    target = Target(locked=locked, lead_time=0.1, predicted_x=x + 2.0, predicted_y=y)
+    target.track.x, target.track.y, target.track.vx, target.track.vy = x, y, 20.0, 0.0
+    target.header.stamp = ns_to_stamp(stamp_ns)
+    return target
+
+
+@pytest.fixture
+def harness():
+    h = NodeHarness(
+        PtzControllerNode,
+        inputs={"ptz/state": (PtzState, 50), "target": (Target, 50)},
+        outputs={"ptz/command": (PtzCommand, 50)},
+        mode="servo",
+        state_timeout=0.3,
+    )
+    yield h
+    h.close()
+
+
+def commands(h):
+    return h.received["ptz/command"]
+
+
+def answer(h, state, target):
+    """Send a state and its image's target; the command that answers them."""
+    count = len(commands(h))
+    if state is not None:
+        h.publish("ptz/state", state)
+    h.publish("target", target)
+    h.spin_until(lambda: len(commands(h)) > count)
+    return commands(h)[-1]
+
+
+def good_run(h, first_frame):
+    """Ten frames of a target right of centre; the commands as (stamp, mode, rates)."""
+    out = []
+    for k in range(first_frame, first_frame + 10):
+        command = answer(h, state_msg(k * NS), target_msg(k * NS, x=430.0 + 3 * k))
+        out.append((stamp_to_ns(command.header.stamp), command.mode, command.pan_rate))
+    return out
+
+
+def test_good_states_and_targets_give_velocity_commands_to_the_right(harness):
+    run = good_run(harness, 10)
+    assert all(mode == PtzCommand.MODE_VELOCITY for _, mode, _ in run)
+    assert all(rate < 0 for _, _, rate in run)  # target right of centre: pan right (negative)
+    assert [stamp for stamp, _, _ in run] == [k * NS for k in range(10, 20)]
+
+
+@pytest.mark.parametrize(
+    ("focal", "window", "cause"),
+    [
+        (0.0, (252.0, 156.0, 264.0, 264.0), "focal_length"),  # the message default: unset
+        (math.nan, (252.0, 156.0, 264.0, 264.0), "focal_length"),
+        (-F, (252.0, 156.0, 264.0, 264.0), "focal_length"),
+        (F, (math.nan, 156.0, 264.0, 264.0), "window"),
+        (F, (252.0, 156.0, 0.0, 264.0), "window"),
+    ],
+)
+def test_an_unusable_state_is_answered_with_hold_and_changes_nothing(
+    harness, capfd, focal, window, cause
+):
+    for k in range(3):
+        command = answer(harness, state_msg(k * NS, focal, window), target_msg(k * NS))
+        assert command.mode == PtzCommand.MODE_HOLD and stamp_to_ns(command.header.stamp) == k * NS
+    assert harness.node.problems.total == 3 and len(harness.node.problems.counts) == 1
+    after = good_run(harness, 10)
+    reference = NodeHarness(
+        PtzControllerNode,
+        inputs={"ptz/state": (PtzState, 50), "target": (Target, 50)},
+        outputs={"ptz/command": (PtzCommand, 50)},
+        mode="servo",
+    )
+    try:
+        assert after == good_run(reference, 10)
+    finally:
+        reference.close()
+    logged = [line for line in capfd.readouterr().err.splitlines() if "unusable PtzState" in line]
+    assert len(logged) == 1 and cause in logged[0]
+
+
+def test_a_target_stamped_back_in_time_is_not_paired_with_an_unrelated_state(harness):
+    good_run(harness, 10)
+    # A target from before every state kept: it must not be steered by the state of frame 19.
+    command = answer(harness, None, target_msg(2 * NS, x=700.0))
+    assert command.mode == PtzCommand.MODE_HOLD and stamp_to_ns(command.header.stamp) == 2 * NS
+    assert harness.node.problems.count("no ptz/state for a target") == 1
+
+
+def test_targets_before_any_state_are_answered_with_hold_and_a_warning(harness, capfd):
+    for k in range(3):
+        command = answer(harness, None, target_msg(k * NS))
+        assert command.mode == PtzCommand.MODE_HOLD and stamp_to_ns(command.header.stamp) == k * NS
+    logged = [line for line in capfd.readouterr().err.splitlines() if "no ptz/state" in line]
+    assert len(logged) == 1 and "publishing ptz/state" in logged[0]
+    assert harness.node.problems.count("no ptz/state yet") == 3
+
+
+def test_a_state_that_comes_after_its_target_is_still_used(harness):
+    harness.publish("target", target_msg(5 * NS))
+    harness.spin_for(0.1)
+    assert commands(harness) == []  # waits for the state of its image
+    harness.publish("ptz/state", state_msg(5 * NS))
+    harness.spin_until(lambda: len(commands(harness)) == 1)
+    assert commands(harness)[0].mode == PtzCommand.MODE_VELOCITY
+
+
+def test_a_repeated_target_is_answered_once(harness):
+    answer(harness, state_msg(NS), target_msg(NS))
+    harness.publish("target", target_msg(NS))
+    harness.spin_until(lambda: harness.node.problems.count("repeat target stamp") == 1)
+    harness.spin_for(0.1)
+    assert len(commands(harness)) == 1
+
+
+def test_a_restarted_source_starts_a_new_epoch(harness):
+    first = good_run(harness, 300)
+    # The source restarts at frame 0: states and targets jump back; control starts afresh and
+    # gives what a fresh controller gives.
+    again = good_run(harness, 0)
+    assert harness.node.target_order.epochs == 1
+    assert [mode for _, mode, _ in again] == [mode for _, mode, _ in first]
+    assert [stamp for stamp, _, _ in again] == [k * NS for k in range(10)]

@@ -1,0 +1,145 @@
+"""The ptz_camera node with hostile scenes and commands: one log line per distinct cause, nothing
+outside the scene, and a restarted source (stamps going back) is a new epoch, not a dead camera."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+rclpy = pytest.importorskip("rclpy")
+
+from node_harness import NodeHarness  # noqa: E402
+from sensor_msgs.msg import Image  # noqa: E402
+
+from tracker_msgs.msg import PtzCommand, PtzState  # noqa: E402
+from tracker_msgs_py.conversions import array_to_image, image_qos, ns_to_stamp  # noqa: E402
+from tracker_ptz_sim.ptz_camera_node import PtzCameraNode  # noqa: E402
+
+pytestmark = pytest.mark.ros
+NS = 100_000_000
+
+
+@pytest.fixture
+def harness():
+    h = NodeHarness(
+        PtzCameraNode,
+        inputs={"scene/image_raw": (Image, image_qos(True)), "ptz/command": (PtzCommand, 50)},
+        outputs={"ptz/state": (PtzState, 50), "camera/image_raw": (Image, image_qos(True))},
+        reliable_images=True,
+    )
+    yield h
+    h.close()
+
+
+def scene(stamp_ns, width=320, height=240):
+    pixels = np.random.default_rng(stamp_ns % 1000).integers(0, 255, (height, width, 3), np.uint8)
+    return array_to_image(pixels, "bgr8", ns_to_stamp(stamp_ns), "scene")
+
+
+def send_scene(h, stamp_ns, **size):
+    count = len(h.received["ptz/state"])
+    h.publish("scene/image_raw", scene(stamp_ns, **size))
+    h.spin_until(lambda: len(h.received["ptz/state"]) > count)
+    return h.received["ptz/state"][-1]
+
+
+def command(stamp_ns, mode=PtzCommand.MODE_VELOCITY, pan_rate=0.0):
+    msg = PtzCommand(mode=mode, pan_rate=pan_rate)
+    msg.header.stamp = ns_to_stamp(stamp_ns)
+    return msg
+
+
+def send_command(h, stamp_ns, pan_rate):
+    """A velocity command, delivered before the next scene image is sent."""
+    count = h.node.commands_received
+    h.publish("ptz/command", command(stamp_ns, pan_rate=pan_rate))
+    h.spin_until(lambda: h.node.commands_received > count)
+
+
+def inside(window, width, height):
+    return (
+        window.x >= 0
+        and window.y >= 0
+        and window.x + window.width <= width
+        and window.y + window.height <= height
+    )
+
+
+@pytest.mark.parametrize("size", [(1, 1), (2, 2), (12, 9)])
+def test_a_scene_too_small_for_a_view_is_dropped_with_one_warning(harness, capfd, size):
+    width, height = size
+    for k in range(3):
+        harness.publish("scene/image_raw", scene(k * NS, width, height))
+    harness.spin_until(lambda: harness.node.problems.count("scene too small") == 3)
+    assert harness.received["ptz/state"] == []
+    logged = [line for line in capfd.readouterr().err.splitlines() if "too small" in line]
+    assert len(logged) == 1 and f"{width}x{height}" in logged[0]
+    state = send_scene(harness, 5 * NS)  # a good scene afterwards works as on a fresh camera
+    assert inside(state.window, 320, 240) and state.window.height == 110
+
+
+def test_the_window_stays_inside_small_scenes_at_every_zoom():
+    from tracker_ptz_sim.camera_model import PtzCameraModel, PtzCommand, PtzConfig
+
+    for width, height in [(18, 18), (20, 40), (64, 48)]:
+        model = PtzCameraModel(PtzConfig(max_zoom=50.0), width, height)
+        for zoom in (1.0, 3.0, 50.0):
+            model.command(PtzCommand(0.0, "position", 9.0, -9.0, zoom=zoom))
+            window = model.advance(5.0 + zoom).window
+            assert inside(window, width, height) and window.width >= 2
+
+
+def test_different_bad_commands_each_get_their_own_warning(harness, capfd):
+    send_scene(harness, 0)
+    send_scene(harness, NS)
+    harness.publish("ptz/command", command(0, pan_rate=math.inf))
+    harness.publish("ptz/command", command(0, mode=7))
+    harness.publish("ptz/command", command(0, pan_rate=math.inf))
+    harness.publish("ptz/command", command(50 * NS))  # after the latest image
+    harness.spin_until(lambda: harness.node.problems.total == 4)
+    err = capfd.readouterr().err
+    assert err.count("non-finite values") == 1
+    assert err.count("unknown mode 7") == 1
+    assert err.count("after the latest scene image") == 1
+    assert harness.node.problems.counts == {
+        "non-finite command": 2,
+        "unknown command mode": 1,
+        "command from the future": 1,
+    }
+    # The camera still acts on good commands.
+    send_command(harness, NS, pan_rate=-1.0)
+    before = harness.received["ptz/state"][-1].pan
+    after = send_scene(harness, 2 * NS).pan
+    assert after < before
+
+
+def test_repeated_scene_images_are_dropped_and_a_jump_back_is_a_new_epoch(harness):
+    send_scene(harness, 10 * NS)
+    send_command(harness, 10 * NS, pan_rate=0.5)  # turning left
+    moving = send_scene(harness, 11 * NS)
+    harness.publish("scene/image_raw", scene(11 * NS))  # a lockstep re-send
+    harness.spin_for(0.1)
+    assert len(harness.received["ptz/state"]) == 2 and harness.node.repeated_images == 1
+    # The source restarted: stamps start again at 0. The camera answers, keeps its pose and
+    # drops the old epoch's velocity command.
+    restarted = send_scene(harness, 0)
+    assert moving.moving and moving.pan > 0
+    assert restarted.header.stamp.sec == 0 and restarted.pan == pytest.approx(moving.pan)
+    later = send_scene(harness, NS)
+    assert later.pan == pytest.approx(restarted.pan) and not later.moving
+    send_command(harness, NS, pan_rate=0.5)
+    assert send_scene(harness, 2 * NS).pan > later.pan  # commands of the new epoch act
+
+
+def test_malformed_images_of_one_encoding_are_told_apart(harness, capfd):
+    short = scene(0)
+    short.data = bytes(short.data[:100])
+    narrow = scene(NS)
+    narrow.step = 10
+    for msg in (short, narrow, scene(2 * NS)):
+        harness.publish("scene/image_raw", msg)
+    harness.spin_until(lambda: len(harness.received["ptz/state"]) == 1)
+    err = capfd.readouterr().err
+    assert "fewer bytes than step x height" in err and "step is shorter than a row" in err
