@@ -273,6 +273,7 @@ def test_bag_replays_with_identical_pixels_and_stamps(scene, tmp_path):
         "start_past_end",
         "start_past_end_looping",
         "end_before_start",
+        "mp4_without_index",
     ],
 )
 def test_bad_inputs_exit_with_one_clear_error(case, scene, tmp_path):
@@ -292,6 +293,10 @@ def test_bad_inputs_exit_with_one_clear_error(case, scene, tmp_path):
         BagWriter(path, {"/status": "tracker_msgs/msg/ReplayStatus"}).close()
     elif case == "empty_path":
         path, expected = "", "no input"  # not the current directory
+    elif case == "mp4_without_index":
+        path, expected = clip(tmp_path / "unfinished.mp4", "mp4v", 30), "'moov' atom not found"
+        data = path.read_bytes()
+        path.write_bytes(data[: data.index(b"moov") - 4])  # a recording never finalised
     else:
         path = scene[1].video  # FRAMES frames
         params = {
@@ -316,6 +321,51 @@ def test_bad_inputs_exit_with_one_clear_error(case, scene, tmp_path):
     assert "Traceback" not in output and output.count("[FATAL]") == 1
 
 
+def clip(path, fourcc, count):
+    import cv2
+
+    writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*fourcc), 10.0, (64, 48))
+    for k in range(count):
+        writer.write(np.full((48, 64, 3), (k * 5) % 250, np.uint8))
+    writer.release()
+    return path
+
+
+def test_a_truncated_video_reports_the_frames_it_lost(tmp_path):
+    from node_harness import NodeHarness
+    from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+
+    from tracker_msgs.msg import ReplayStatus
+    from tracker_ptz_sim.video_source_node import VideoSourceNode
+
+    video = clip(tmp_path / "cut.avi", "MJPG", 80)
+    data = video.read_bytes()
+    video.write_bytes(data[: len(data) // 2])  # the recorder died half way
+    status_qos = QoSProfile(
+        depth=10,
+        reliability=ReliabilityPolicy.RELIABLE,
+        durability=DurabilityPolicy.TRANSIENT_LOCAL,
+    )
+    h = NodeHarness(
+        VideoSourceNode,
+        inputs={},
+        outputs={"replay/status": (ReplayStatus, status_qos)},
+        path=str(video),
+        rate=0.0,
+        publish_clock=False,
+    )
+    try:
+        h.spin_until(lambda: h.node.finished.is_set(), timeout=20.0)
+        h.spin_until(lambda: h.received["replay/status"][-1].state == ReplayStatus.STATE_ENDED)
+    finally:
+        h.close()
+    final = h.received["replay/status"][-1]
+    assert h.node.exit_code == 0
+    assert 0 < final.frames_published < 80 and final.frames_lost > 0
+    assert final.frames_published + final.frames_skipped + final.frames_lost == 80
+    assert "could not be read (the file looks truncated)" in final.message
+
+
 def test_changing_the_rate_during_a_replay_neither_bursts_nor_stalls(tmp_path):
     """Pacing continues from the moment of the change (it used to restart from the loop's start:
     a burst of catch-up frames when speeding up, a long stall when slowing down)."""
@@ -327,13 +377,7 @@ def test_changing_the_rate_during_a_replay_neither_bursts_nor_stalls(tmp_path):
     from tracker_msgs_py.conversions import image_qos
     from tracker_ptz_sim.video_source_node import VideoSourceNode
 
-    video = tmp_path / "clip.avi"
-    import cv2
-
-    writer = cv2.VideoWriter(str(video), cv2.VideoWriter_fourcc(*"MJPG"), 10.0, (64, 48))
-    for k in range(200):
-        writer.write(np.full((48, 64, 3), k % 250, np.uint8))
-    writer.release()
+    video = clip(tmp_path / "clip.avi", "MJPG", 200)
     arrivals = []
     h = NodeHarness(
         VideoSourceNode,

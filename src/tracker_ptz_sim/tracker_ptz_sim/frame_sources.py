@@ -7,12 +7,17 @@
 - any other file: a video OpenCV reads (avi, mp4, mkv...), frame i stamped i / fps.
 
 Problems with the input as a whole raise SourceError with a message naming the path. A frame that
-cannot be decoded mid-stream is skipped and counted in `skipped` (the caller warns).
+cannot be decoded mid-stream is skipped and counted in `skipped` (the caller warns); later frames
+keep their index. Frames the input announces but does not hold (a truncated video) are counted in
+`lost`, and `end_note` says why the stream ended early.
 """
 
 from __future__ import annotations
 
+import os
 import re
+import struct
+import threading
 from abc import ABC, abstractmethod
 from collections.abc import Iterator
 from dataclasses import dataclass
@@ -24,7 +29,8 @@ import numpy as np
 IMAGE_SUFFIXES = {".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff", ".ppm", ".pgm", ".webp"}
 IMAGE_TYPES = ("sensor_msgs/msg/Image", "sensor_msgs/msg/CompressedImage")
 DEFAULT_FPS = 10.0
-MAX_CONSECUTIVE_FAILURES = 25  # undecodable video frames in a row taken as the end of the file
+CAPTURE_OPTIONS = "OPENCV_FFMPEG_CAPTURE_OPTIONS"  # FFmpeg options of the captures OpenCV opens
+_OPTIONS_LOCK = threading.Lock()
 
 
 class SourceError(RuntimeError):
@@ -53,9 +59,9 @@ class FrameSource(ABC):
     path: Path
     fps: float
     total: int  # frames in the input, 0 when unknown
-    skipped: int  # frames that could not be decoded so far
-    lost: int = 0  # frames the input announces but that could not be reached
-    end_note: str = ""  # why the stream ended early, if it did
+    skipped: int  # frames of [start, end) held but not decodable, over all passes so far
+    lost: int = 0  # frames of [start, end) announced but not held (the last pass that missed any)
+    end_note: str = ""  # why the stream ended before the announced end, if it did
 
     @abstractmethod
     def frames(self, start: int = 0, end: int | None = None) -> Iterator[Frame]:
@@ -66,44 +72,176 @@ class FrameSource(ABC):
 
 
 class VideoFileSource(FrameSource):
+    """A video file read with OpenCV. A frame that cannot be decoded costs only itself: the reader
+    goes on with the next one, and every frame keeps its position in the file as its index."""
+
     def __init__(self, path: Path, fps: float = 0.0) -> None:
         self.path = path
-        capture = cv2.VideoCapture(str(path))
-        if not capture.isOpened():
-            raise SourceError(f"{path}: not a video OpenCV can read (unknown or unreadable format)")
-        ok, _ = capture.read()
-        capture.release()
-        if not ok:
-            raise SourceError(f"{path}: the video has no readable frames")
-        probe = cv2.VideoCapture(str(path))
-        self.fps = fps or probe.get(cv2.CAP_PROP_FPS) or DEFAULT_FPS
-        self.total = max(0, int(probe.get(cv2.CAP_PROP_FRAME_COUNT)))
-        probe.release()
+        self.index_order = container_kind(path) == "AVI"
+        self.packets: int | None = None  # frames the file holds, counted on the first failed read
+        capture = open_capture(path, self.index_order)
+        try:
+            if not capture.isOpened():
+                raise SourceError(f"{path}: {unreadable_cause(path)}")
+            self.fps = fps or capture.get(cv2.CAP_PROP_FPS) or DEFAULT_FPS
+            self.total = max(0, int(capture.get(cv2.CAP_PROP_FRAME_COUNT)))
+            if not capture.read()[0]:
+                cut = " (the file looks truncated)" if looks_truncated(path) else ""
+                raise SourceError(f"{path}: the video has no readable frames{cut}")
+        finally:
+            capture.release()
         self.skipped = 0
 
     def frames(self, start: int = 0, end: int | None = None) -> Iterator[Frame]:
-        capture = cv2.VideoCapture(str(self.path))
-        index, failures = 0, 0
+        capture = open_capture(self.path, self.index_order)
+        index = 0
         try:
             while end is None or index < end:
                 if index < start:
-                    ok = capture.grab()  # decode-free skip keeps frame indices exact
-                    image = None
+                    ok, image = capture.grab(), None  # skipped frames are not converted
                 else:
                     ok, image = capture.read()
-                if not ok:
-                    if self.total and index < self.total and failures < MAX_CONSECUTIVE_FAILURES:
-                        failures += 1
-                        self.skipped += index >= start
-                        index += 1
-                        continue
+                if ok:
+                    if image is not None:
+                        yield Frame(index, frame_stamp_ns(index, self.fps), image)
+                elif self._holds(index):
+                    self.skipped += index >= start  # the next read goes on with frame index + 1
+                else:
+                    self._note_end(index, start, end)
                     return
-                failures = 0
-                if image is not None:
-                    yield Frame(index, frame_stamp_ns(index, self.fps), image)
                 index += 1
         finally:
             capture.release()
+
+    def _holds(self, index: int) -> bool:
+        """After a failed read of frame `index`: whether the file holds it (damaged: skip it) rather
+        than ending before it. A failed read consumes one packet (measured with FFmpeg on AVI read
+        in index order and on MP4), so counting the packets once tells damage from the end."""
+        if index >= self.total:
+            return False
+        if self.packets is None:
+            self.packets = count_packets(self.path, self.index_order, self.total)
+        return index < self.packets
+
+    def _note_end(self, index: int, start: int, end: int | None) -> None:
+        """The data ends at frame `index`: record the announced frames of [start, end) after it."""
+        last = self.total if end is None else min(end, self.total)
+        lost = last - max(index, start)
+        if lost <= 0:
+            return
+        self.lost = lost
+        why = "the file looks truncated" if looks_truncated(self.path) else "the file holds no more"
+        self.end_note = (
+            f"the video ends at frame {index} of {self.total}: {lost} frame{'s' * (lost != 1)} "
+            f"could not be read ({why})"
+        )
+
+
+def open_capture(path: Path, index_order: bool) -> cv2.VideoCapture:
+    """OpenCV's reader of `path`; `index_order` makes FFmpeg read an AVI in its index's order.
+
+    Read front to back, an AVI whose chunk headers are damaged is resynchronised on the next
+    intact chunk without a word: the frames in between vanish and every later frame comes out
+    under a smaller index. Read in index order (demuxer flag sortdts), each damaged frame is one
+    failed read instead. OpenCV takes demuxer options only from this environment variable, read
+    when a file is opened; it is restored at once (another thread opening a capture meanwhile
+    would get the flag too, which only ever changes how AVI files are read)."""
+    if not index_order:
+        return cv2.VideoCapture(str(path))
+    with _OPTIONS_LOCK:
+        saved = os.environ.get(CAPTURE_OPTIONS)
+        os.environ[CAPTURE_OPTIONS] = "|".join(filter(None, (saved, "fflags;+sortdts")))
+        try:
+            return cv2.VideoCapture(str(path))
+        finally:
+            if saved is None:
+                del os.environ[CAPTURE_OPTIONS]
+            else:
+                os.environ[CAPTURE_OPTIONS] = saved
+
+
+def count_packets(path: Path, index_order: bool, total: int) -> int:
+    """Video packets (frames) the demuxer finds in `path`, without decoding them; `total` when
+    the backend cannot hand out raw packets."""
+    capture = open_capture(path, index_order)
+    try:
+        if not capture.set(cv2.CAP_PROP_FORMAT, -1):  # raw packets: FFmpeg backend only
+            return total
+        count = 0
+        while capture.grab():
+            count += 1
+        return count
+    finally:
+        capture.release()
+
+
+def container_kind(path: Path) -> str:
+    """The container of `path` from its first bytes: AVI, MP4 (ISO-BMFF: MP4, MOV...), Matroska
+    (MKV, WebM), or "" when none of these."""
+    with path.open("rb") as file:
+        head = file.read(12)
+    if head[:4] == b"RIFF" and head[8:12] == b"AVI ":
+        return "AVI"
+    if head[4:8] == b"ftyp":
+        return "MP4"
+    if head[:4] == b"\x1a\x45\xdf\xa3":
+        return "Matroska"
+    return ""
+
+
+def top_level_boxes(path: Path) -> Iterator[tuple[bytes, int, int]]:
+    """(type, offset, length) of the top-level boxes of an ISO-BMFF file or chunks of an AVI (RIFF)
+    file, as their headers announce them; stops at a header that makes no sense."""
+    riff = container_kind(path) == "AVI"
+    size = path.stat().st_size
+    offset = 0
+    with path.open("rb") as file:
+        while offset + 8 <= size:
+            file.seek(offset)
+            header = file.read(16)
+            if riff:
+                kind, length = struct.unpack("<4sI", header[:8])
+                length += 8 + (length & 1)  # header, data, pad byte
+            else:
+                length, kind = struct.unpack(">I4s", header[:8])
+                if length == 1 and len(header) == 16:  # 64-bit length after the type
+                    length = struct.unpack(">Q", header[8:])[0]
+                elif length == 0:  # the box runs to the end of the file
+                    length = size - offset
+            if length < 8:
+                return
+            yield kind, offset, length
+            offset += length
+
+
+def looks_truncated(path: Path) -> bool:
+    """Whether the last top-level box or chunk of an AVI or ISO-BMFF file runs past its end."""
+    if container_kind(path) not in ("AVI", "MP4"):
+        return False
+    size = path.stat().st_size
+    return any(offset + length > size for _, offset, length in top_level_boxes(path))
+
+
+def unreadable_cause(path: Path) -> str:
+    """Why OpenCV cannot open `path`, as far as its first bytes and top-level boxes tell."""
+    if path.stat().st_size == 0:
+        return "the file is empty"
+    kind = container_kind(path)
+    if kind == "MP4" and all(box != b"moov" for box, _, _ in top_level_boxes(path)):
+        name = "MOV" if path.suffix.lower() == ".mov" else "MP4"
+        return (
+            f"the {name} has no index ('moov' atom not found): the recording was not finalised "
+            "(the recorder was stopped before closing the file) or the file was cut short. "
+            "Remuxing cannot fix that; untrunc, given a complete recording from the same camera, "
+            "can sometimes rebuild the index"
+        )
+    if kind:
+        cut = ", and the file looks truncated" if looks_truncated(path) else ""
+        return (
+            f"not a video OpenCV can read: {'a' if kind == 'Matroska' else 'an'} {kind} file it "
+            f"cannot open (damaged header, or a codec this OpenCV build lacks{cut})"
+        )
+    return "not a video OpenCV can read (not a video format it recognises)"
 
 
 class ImageFolderSource(FrameSource):
@@ -206,9 +344,12 @@ def decode_image_message(msg: object, msgtype: str) -> np.ndarray | None:
 def open_source(path: str | Path, fps: float = 0.0, bag_topic: str = "") -> FrameSource:
     """The reader for `path` (see the module docstring). `fps` overrides the stamps' frame rate
     for videos and folders (0 = the video's own, or 10 for folders)."""
+    if not str(path).strip():  # Path("") would be the current directory
+        raise SourceError(
+            "no input given: the 'path' parameter is empty; it must name a video file, an image "
+            "folder or a rosbag2"
+        )
     path = Path(path).expanduser()
-    if not str(path):
-        raise SourceError("no input: set the 'path' parameter to a video, image folder or rosbag2")
     if not path.exists():
         raise SourceError(f"{path}: no such file or directory")
     if (

@@ -306,9 +306,9 @@ class VideoSourceNode(SuiteNode):
         self.status_pub.publish(self.status)
         self.status_pub.wait_for_all_acked(Duration(seconds=0.5))
         line = (
-            f"{message}: {self.status.frames_published} frames published, "
+            f"{message} ({self.status.frames_published} frames published, "
             f"{self.status.frames_skipped} skipped, {self.status.frames_lost} lost, "
-            f"{self.status.lockstep_timeouts} lockstep timeouts"
+            f"{self.status.lockstep_timeouts} lockstep timeouts)"
         )
         damaged = self.status.frames_skipped or self.status.frames_lost
         (self.get_logger().warning if damaged else self.get_logger().info)(line)
