@@ -187,4 +187,6 @@ def test_launch_file_builds_the_same_graph(monkeypatch):
     ]
     source = created[0]
     assert source["parameters"][1] == {"path": "$(video)"}
+    assert ("arg", "respawn") in entities and "respawn" not in source  # a replay ends: no respawn
+    assert all(n["respawn"] == "$(respawn)" and n["respawn_max_retries"] == 5 for n in created[1:])
     assert source["parameters"][0].endswith("surveillance.yaml")

@@ -1,10 +1,12 @@
 """Stop requests (SIGINT, SIGTERM) as a flag the process polls, installed before any heavy import.
 
 A suite executable calls `guarded_main("package.module")` from a module that imports nothing else:
-the handlers are in place about 50 ms after exec, before rclpy, NumPy or OpenCV load, so Ctrl-C or
-`kill` at any later moment of start-up, work or shutdown ends the process through its normal,
-clean path instead of a KeyboardInterrupt raised wherever the main thread happens to be. (Before
-the handlers exist the interpreter's defaults apply, as for any process.)
+the handlers are in place about 50 ms after exec, before rclpy, NumPy or OpenCV load. A stop that
+arrives while those imports run (they are most of a node's start-up, seconds on a loaded machine)
+ends the process at once with exit code 0: nothing has started that needs stopping. From then on
+a stop only sets the flag, and the node ends through its normal, ordered path instead of a
+KeyboardInterrupt raised wherever the main thread happens to be. (Before the handlers exist the
+interpreter's defaults apply, as for any process.)
 
 This module imports only the standard library and no rclpy: the signal handling stays ours, so a
 node can stop its threads before its publishers and the ROS context go away.
@@ -23,11 +25,14 @@ STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM)
 _requested = threading.Event()
 _received: list[str] = []
 _listeners: list[Callable[[], None]] = []
+_exit_at_once = False  # while guarded_main imports the node: nothing to stop yet
 
 
 def _on_signal(signum: int, _frame: FrameType | None) -> None:
     _received.append(signal.Signals(signum).name)
     _requested.set()
+    if _exit_at_once:
+        raise SystemExit(0)
     for listener in list(_listeners):
         listener()
 
@@ -70,10 +75,15 @@ def guarded_main(module: str, function: str = "main") -> int:
     """Install the handlers, then import `module` and return `module.function()`.
 
     The import (rclpy, OpenCV...) is most of a node's start-up; a stop requested during it ends
-    the process with 0 before anything was started.
+    the process with 0 at once, before anything was started.
     """
+    global _exit_at_once
     install()
-    entry = getattr(importlib.import_module(module), function)
+    _exit_at_once = True
+    try:
+        entry = getattr(importlib.import_module(module), function)
+    finally:
+        _exit_at_once = False
     if requested():
         return 0
     return entry()

@@ -1,7 +1,12 @@
-"""ros2 launch tracker_ptz_sim surveillance.launch.py video:=/path/to/video.mp4 [controller_mode:=servo]
+"""ros2 launch tracker_ptz_sim surveillance.launch.py video:=/path/to/video.mp4
+    [controller_mode:=servo] [respawn:=true]
 
 The whole surveillance graph, built from the same config/graph.yaml + config/surveillance.yaml the
 demo runner (make demo) uses, so both run exactly the same nodes with the same parameters.
+With respawn:=true a processing node that exits is started again (after 1 s, at most 5 times).
+video_source is not respawned: it exits 0 at the end of the stream, which launch cannot tell from
+a crash (`run_demo --respawn` restarts it where it left off; a source restarted from its first
+frame is taken as a new replay epoch by every node).
 """
 
 import os
@@ -23,7 +28,17 @@ def generate_launch_description():
             default_value="servo",
             description="ptz_controller mode: direct or servo",
         ),
+        DeclareLaunchArgument(
+            "respawn",
+            default_value="false",
+            description="restart a processing node that exits (not video_source)",
+        ),
     ]
+    respawn = {
+        "respawn": LaunchConfiguration("respawn"),
+        "respawn_delay": 1.0,
+        "respawn_max_retries": 5,
+    }
     overrides = {
         "video_source": {"path": LaunchConfiguration("video")},
         "ptz_controller": {"mode": LaunchConfiguration("controller_mode")},
@@ -36,6 +51,7 @@ def generate_launch_description():
             parameters=[str(graph.params_file), overrides.get(node.name, {})],
             remappings=list(node.remappings.items()),
             output="screen",
+            **(respawn if node.name != "video_source" else {}),
         )
         for node in graph.nodes
     ]

@@ -476,6 +476,14 @@ def main(argv: list[str] | None = None) -> int:
         print(f"\nrendering interrupted; {args.out}/summary.json and tracks.txt are written")
         return 130
     print(f"\nRun summary ({video}):\n{run_report.format_summary(summary)}")
+    if run.replay:
+        replay = run.replay
+        print(
+            f"  replay: {replay['frames_published']}/{replay['frames_total'] or '?'} frames "
+            f"published, {replay['frames_skipped']} skipped, {replay['frames_lost']} lost, "
+            f"{replay['lockstep_timeouts']} lockstep timeouts"
+            + (f" ({replay['message']})" if replay["message"] else "")
+        )
     products = "bag/, tracks.txt, summary.json, logs/" + (
         "" if args.no_video or not summary.frames else ", annotated.mp4"
     )

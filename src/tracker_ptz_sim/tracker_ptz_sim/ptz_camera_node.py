@@ -17,6 +17,7 @@ import time
 from dataclasses import fields
 from typing import Any
 
+from rclpy.clock import Clock, ClockType
 from sensor_msgs.msg import CameraInfo, Image, JointState
 
 from tracker_msgs.msg import PtzCommand as PtzCommandMsg
@@ -139,7 +140,10 @@ class PtzCameraNode(SuiteNode):
         self.create_subscription(Image, "scene/image_raw", self._on_scene, qos)
         self.create_subscription(PtzCommandMsg, "ptz/command", self._on_command, 10)
         if self.params["lockstep"]:
-            self.create_timer(0.05, self._on_lockstep_timer)
+            # Wall time: with use_sim_time the node's clock stands still while the replay waits.
+            self.create_timer(
+                0.05, self._on_lockstep_timer, clock=Clock(clock_type=ClockType.STEADY_TIME)
+            )
 
     def _check_parameters(self, values: dict[str, Any]) -> str | None:
         model = getattr(self, "model", None)
