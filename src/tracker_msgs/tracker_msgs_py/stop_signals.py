@@ -82,6 +82,12 @@ def guarded_main(module: str, function: str = "main") -> int:
     _exit_at_once = True
     try:
         entry = getattr(importlib.import_module(module), function)
+    except BaseException:
+        # The SystemExit may surface as another error: a C extension being initialised when the
+        # signal came (rclpy's) reports it as an ImportError.
+        if requested():
+            return 0
+        raise
     finally:
         _exit_at_once = False
     if requested():
