@@ -120,6 +120,15 @@ def test_demo_outputs_bag_mot_and_video(one_walker):
 
     capture = cv2.VideoCapture(str(out / "annotated.mp4"))
     assert int(capture.get(cv2.CAP_PROP_FRAME_COUNT)) == frames
+    # The camera view is drawn beside the scene (the right part of the canvas) in every frame.
+    scene_width = 640
+    blank_views = 0
+    while True:
+        ok, canvas = capture.read()
+        if not ok:
+            break
+        blank_views += int(canvas[:, scene_width + 8 :].max() < 10)
+    assert blank_views == 0
     # Lockstep replays are reproducible: another run of the same input gives the same tracks.
     again = root / "servo"
     if not (again / "tracks.txt").exists():

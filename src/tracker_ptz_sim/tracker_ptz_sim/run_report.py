@@ -180,6 +180,9 @@ def write_mot(frames: dict[int, FrameRecord], path: Path) -> int:
     return len(lines)
 
 
+PAIRING_WINDOW = 3  # scene frames kept waiting for their camera image while rendering
+
+
 def render_video(
     bag: Path,
     frames: dict[int, FrameRecord],
@@ -187,38 +190,55 @@ def render_video(
     fps: float,
     progress: Callable[[int], None] | None = None,
 ) -> int:
-    """The annotated run: the scene with window, blobs, tracks and target; the camera view beside."""
-    writer = None
-    written = 0
-    cameras: dict[int, np.ndarray] = {}
+    """The annotated run: the scene with window, blobs, tracks and target; the camera view beside.
+
+    The camera image of a frame is recorded after or before its scene image (they come from
+    different nodes), so a scene frame waits until its camera image is read, or until
+    PAIRING_WINDOW later scene frames are (then it is drawn without one). A scene image repeating
+    the one before (a lockstep re-send) is drawn once."""
+    writer: cv2.VideoWriter | None = None
+    waiting: dict[int, Any] = {}  # scene messages by stamp, in the order they were recorded
+    cameras: dict[int, Any] = {}
+    last_scene: int | None = None
+    drawn = 0
+
+    def draw(stamp: int) -> None:
+        nonlocal writer, drawn
+        canvas = annotate_scene(decode_image_message(waiting.pop(stamp), IMAGE), frames.get(stamp))
+        camera = cameras.pop(stamp, None)
+        view = None if camera is None else decode_image_message(camera, IMAGE)
+        canvas = side_by_side(canvas, annotate_view(view, canvas.shape[0]))
+        if writer is None:
+            size = (canvas.shape[1], canvas.shape[0])
+            writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"mp4v"), fps, size)
+            if not writer.isOpened():
+                raise OSError(f"OpenCV cannot write {path}")
+        writer.write(canvas)
+        drawn += 1
+        if progress:
+            progress(drawn)
+
     try:
         for topic, _, msg in read_bag(bag, {SCENE, CAMERA}):
             stamp = stamp_ns(msg)
             if topic == CAMERA:
-                cameras[stamp] = decode_image_message(msg, IMAGE)
-                continue
-            record = frames.get(stamp)
-            canvas = annotate_scene(decode_image_message(msg, IMAGE), record)
-            canvas = side_by_side(canvas, annotate_view(cameras.pop(stamp, None), canvas.shape[0]))
-            if writer is None:
-                writer = cv2.VideoWriter(
-                    str(path),
-                    cv2.VideoWriter_fourcc(*"mp4v"),
-                    fps,
-                    (canvas.shape[1], canvas.shape[0]),
-                )
-                if not writer.isOpened():
-                    raise OSError(f"OpenCV cannot write {path}")
-            writer.write(canvas)
-            written += 1
-            if progress:
-                progress(written)
-            for old in [s for s in cameras if s < stamp]:
-                del cameras[old]
+                cameras[stamp] = msg
+            elif stamp != last_scene:
+                waiting[stamp] = msg
+                last_scene = stamp
+            while waiting:
+                oldest = next(iter(waiting))
+                if oldest not in cameras and len(waiting) <= PAIRING_WINDOW:
+                    break
+                draw(oldest)
+            while len(cameras) > 4 * PAIRING_WINDOW:  # camera images whose scene never came
+                del cameras[next(iter(cameras))]
+        for stamp in list(waiting):
+            draw(stamp)
     finally:
         if writer is not None:
             writer.release()
-    return written
+    return drawn
 
 
 def annotate_scene(image: np.ndarray, record: FrameRecord | None) -> np.ndarray:
