@@ -102,6 +102,15 @@ class TestConversions:
         with pytest.raises(ValueError, match="invalid rectangle"):
             msg_to_rect(bad)
 
+    def test_a_camera_window_is_a_finite_rectangle_of_positive_size(self):
+        from tracker_msgs_py.conversions import msg_to_window, rect_to_msg
+
+        assert msg_to_window(rect_to_msg(Rect(10.0, 20.0, 264.0, 264.0))).center == (142.0, 152.0)
+        with pytest.raises(ValueError, match="empty rectangle"):
+            msg_to_window(rect_to_msg(Rect(10.0, 20.0, 0.0, 264.0)))
+        with pytest.raises(ValueError, match="invalid rectangle"):
+            msg_to_window(rect_to_msg(Rect(float("inf"), 20.0, 264.0, 264.0)))
+
 
 @pytest.mark.ros
 def test_parameters_are_validated_at_startup_and_on_change():

@@ -40,7 +40,7 @@ from tracker_msgs_py.conversions import (
     array_to_image,
     image_qos,
     image_to_gray,
-    msg_to_rect,
+    msg_to_window,
     rect_to_msg,
     stamp_to_ns,
 )
@@ -333,14 +333,9 @@ class SsimDetectorNode(SuiteNode):
 
     def _on_ptz_state(self, msg: PtzState) -> None:
         try:
-            window = msg_to_rect(msg.window)
+            window = msg_to_window(msg.window)
         except ValueError as error:
-            self.problems.report("invalid PtzState window", f"ignored a PtzState: {error}")
-            return
-        if window.width <= 0 or window.height <= 0:
-            self.problems.report(
-                "empty PtzState window", f"ignored a PtzState with an empty window {window}"
-            )
+            self.problems.report("invalid PtzState window", f"ignored a PtzState window: {error}")
             return
         self._add_pose(
             stamp_to_ns(msg.header.stamp), (window.x, window.y, window.width, window.height)

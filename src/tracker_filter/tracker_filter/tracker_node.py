@@ -9,7 +9,6 @@ the core modules; this file declares parameters, converts messages and wires top
 from __future__ import annotations
 
 import array
-import math
 from typing import Any
 
 import numpy as np
@@ -21,7 +20,7 @@ from tracker_filter.models import extrapolate_positions
 from tracker_filter.selection import SelectionPolicy, TargetSelector
 from tracker_msgs.msg import BlobArray, PtzState, Rect, Target, Track, TrackArray
 from tracker_msgs.srv import ResetTracker, SelectTarget
-from tracker_msgs_py.conversions import msg_to_rect, stamp_to_ns
+from tracker_msgs_py.conversions import msg_to_rect, msg_to_window, stamp_to_ns
 from tracker_msgs_py.node_main import SuiteNode, run_node
 from tracker_msgs_py.params import ParamSpec, declare_parameters
 from tracker_msgs_py.stamps import Order, StampOrder
@@ -74,20 +73,19 @@ def track_to_msg(tracks: TrackSet, i: int) -> Track:
     )
 
 
-def tracks_to_msg(tracks: TrackSet | None, header: Header) -> TrackArray:
-    count = 0 if tracks is None else len(tracks)
-    return TrackArray(header=header, tracks=[track_to_msg(tracks, i) for i in range(count)])
+def tracks_to_msg(tracks: TrackSet, header: Header) -> TrackArray:
+    return TrackArray(header=header, tracks=[track_to_msg(tracks, i) for i in range(len(tracks))])
 
 
 def target_to_msg(
     header: Header,
     mode: SelectionPolicy,
-    tracks: TrackSet | None,
+    tracks: TrackSet,
     track_id: int | None,
     lead_time: float,
 ) -> Target:
     """The Target message; locked only when track_id names a track of `tracks`."""
-    index = None if tracks is None or track_id is None else tracks.index_of(track_id)
+    index = None if track_id is None else tracks.index_of(track_id)
     target = Target(
         header=header, locked=index is not None, selection=int(mode), lead_time=float(lead_time)
     )
@@ -168,10 +166,8 @@ class TrackerNode(SuiteNode):
         )
         rebuilt = set(changed) - LIVE_PARAMETERS - {"scene_frame_id"}
         if rebuilt:
-            cleared = self._tracker.reset()
+            cleared = self._forget_tracks()
             self._tracker = config.build_tracker(first_id=self._tracker.next_id)
-            self._selector.reset()
-            self._epoch_ns = None
             self.get_logger().info(
                 f"{', '.join(sorted(rebuilt))} changed: tracker rebuilt, {cleared} track(s) cleared"
             )
@@ -179,15 +175,12 @@ class TrackerNode(SuiteNode):
     # --- topics -------------------------------------------------------------------------------
 
     def _on_ptz_state(self, msg: PtzState) -> None:
-        w = msg.window
-        centre = (w.x + w.width / 2.0, w.y + w.height / 2.0)
-        if not (all(math.isfinite(c) for c in centre) and w.width > 0.0 and w.height > 0.0):
+        try:
+            self._view_centre = msg_to_window(msg.window).center
+        except ValueError as error:
             self.problems.report(
-                "invalid PtzState window",
-                f"ignored a PtzState window {(w.x, w.y, w.width, w.height)} for the view centre",
+                "invalid PtzState window", f"ignored a PtzState window for the view centre: {error}"
             )
-            return
-        self._view_centre = centre
 
     def _on_detections(self, msg: BlobArray) -> None:
         header = Header(stamp=msg.header.stamp, frame_id=self._params["scene_frame_id"])
@@ -217,19 +210,24 @@ class TrackerNode(SuiteNode):
             self.problems.report(cause, f"dropped a detection: {cause}", count)
         self._publish(header, tracks)
 
-    def _start_epoch(self) -> None:
-        """Time jumped back (a restarted or looping source): the tracks of the old time base go."""
-        cleared = self._tracker.reset()
+    def _forget_tracks(self, reset_ids: bool = False) -> int:
+        """Clear the tracks, the selection and the time base; how many tracks there were."""
+        cleared = self._tracker.reset(reset_ids=reset_ids)
         self._selector.reset()
         self._epoch_ns = None
+        return cleared
+
+    def _start_epoch(self) -> None:
+        """Time jumped back (a restarted or looping source): the tracks of the old time base go."""
+        cleared = self._forget_tracks()
         self.get_logger().info(
             f"detections: {self._order.describe_jump()}; a new replay epoch: {cleared} track(s) "
             f"cleared, ids continue from {self._tracker.next_id}"
         )
 
-    def _publish(self, header: Header, tracks: TrackSet | None) -> None:
+    def _publish(self, header: Header, tracks: TrackSet) -> None:
         """One TrackArray and one Target per input frame (lockstep), even without tracks."""
-        selection = self._selector.update(tracks, self._view_centre) if tracks is not None else None
+        selection = self._selector.update(tracks, self._view_centre)  # None: nothing to follow
         self._tracks_pub.publish(tracks_to_msg(tracks, header))
         track_id = selection.track_id if selection is not None else None
         mode = selection.mode if selection is not None else self._selector.mode
@@ -263,9 +261,7 @@ class TrackerNode(SuiteNode):
     def _on_reset_tracker(
         self, request: ResetTracker.Request, response: ResetTracker.Response
     ) -> ResetTracker.Response:
-        response.tracks_cleared = self._tracker.reset(reset_ids=request.reset_ids)
-        self._selector.reset()
-        self._epoch_ns = None
+        response.tracks_cleared = self._forget_tracks(reset_ids=request.reset_ids)
         self._order.reset()
         response.success = True
         response.message = f"cleared {response.tracks_cleared} track(s)" + (

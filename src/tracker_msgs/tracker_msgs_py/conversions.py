@@ -145,6 +145,14 @@ def msg_to_rect(msg: RectMsg) -> Rect:
     return Rect(*values)
 
 
+def msg_to_window(msg: RectMsg) -> Rect:
+    """A camera window (PtzState.window): a finite rectangle of positive size, else ValueError."""
+    window = msg_to_rect(msg)
+    if window.width <= 0 or window.height <= 0:
+        raise ValueError(f"empty rectangle {(window.x, window.y, window.width, window.height)}")
+    return window
+
+
 def camera_info(
     width: int,
     height: int,

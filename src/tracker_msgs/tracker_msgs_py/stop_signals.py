@@ -17,14 +17,12 @@ from __future__ import annotations
 import importlib
 import signal
 import threading
-from collections.abc import Callable
 from types import FrameType
 
 STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM)
 
 _requested = threading.Event()
 _received: list[str] = []
-_listeners: list[Callable[[], None]] = []
 _exit_at_once = False  # while guarded_main imports the node: nothing to stop yet
 
 
@@ -33,8 +31,6 @@ def _on_signal(signum: int, _frame: FrameType | None) -> None:
     _requested.set()
     if _exit_at_once:
         raise SystemExit(0)
-    for listener in list(_listeners):
-        listener()
 
 
 def install() -> None:
@@ -56,19 +52,6 @@ def received() -> str | None:
 def wait(timeout: float | None = None) -> bool:
     """Block until a stop signal arrives or `timeout` s pass; True if one arrived."""
     return _requested.wait(timeout)
-
-
-def add_listener(listener: Callable[[], None]) -> None:
-    """Call `listener()` (in the main thread, from the handler) when a stop signal arrives.
-
-    Use it to wake a wait that would otherwise sleep through the request; it must be quick and
-    must not take locks the interrupted main-thread code may hold."""
-    _listeners.append(listener)
-
-
-def remove_listener(listener: Callable[[], None]) -> None:
-    if listener in _listeners:
-        _listeners.remove(listener)
 
 
 def guarded_main(module: str, function: str = "main") -> int:

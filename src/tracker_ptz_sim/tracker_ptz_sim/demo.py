@@ -272,7 +272,7 @@ def run_graph(
             stop_signals.wait(1.0)
             _replay(nodes, recorder, supervisor, source_overrides, timeout, during)
     finally:
-        result.exit_codes = nodes.stop_all()
+        _stop_nodes(nodes, result)
         executor.shutdown()
         spinner.join(timeout=5.0)
         recorder.destroy_node()
@@ -280,6 +280,16 @@ def run_graph(
         bag.close()
         result.replay = _replay_summary(recorder.status)
     return result
+
+
+def _stop_nodes(nodes: GraphProcesses, result: RunResult) -> None:
+    """Stop every node; one that was still running and does not exit 0 makes the run incomplete
+    (the ones that died before were reported when they did)."""
+    ended = nodes.exited()
+    result.exit_codes = nodes.stop_all()
+    for name, code in result.exit_codes.items():
+        if code != 0 and name not in ended:
+            result.fail(f"{name} {describe_exit(code)} when stopped (see logs/{name}.log)")
 
 
 def _spin_recorder(executor: SingleThreadedExecutor, result: RunResult) -> None:
@@ -467,9 +477,6 @@ def main(argv: list[str] | None = None) -> int:
         args.storage,
         respawn_limit=RESPAWN_LIMIT if args.respawn else 0,
     )
-    for name, code in run.exit_codes.items():
-        if code != 0:
-            run.fail(f"{name} {describe_exit(code)} when stopped (see {args.out}/logs)")
     try:
         summary = report(run.bag, args.out, render=not args.no_video, run=run)
     except RenderingInterruptedError:

@@ -18,7 +18,7 @@ from rclpy.clock import Clock, ClockType
 from sensor_msgs.msg import JointState
 
 from tracker_msgs.msg import PtzCommand, PtzState, Target
-from tracker_msgs_py.conversions import stamp_to_ns
+from tracker_msgs_py.conversions import msg_to_window, stamp_to_ns
 from tracker_msgs_py.node_main import SuiteNode, run_node
 from tracker_msgs_py.params import ParamSpec, declare_parameters
 from tracker_msgs_py.stamps import Order, StampOrder
@@ -293,16 +293,14 @@ class PtzControllerNode(SuiteNode):
 
 def pose_of(state: PtzState) -> tuple[CameraPose | None, str | None]:
     """The camera pose a PtzState describes, or None and the reason it cannot be used."""
-    window = state.window
     if not (math.isfinite(state.focal_length) and state.focal_length > 0.0):
         return None, "focal_length is not a positive number (unset by the driver?)"
     if not (math.isfinite(state.pan) and math.isfinite(state.tilt)):
         return None, "non-finite pan or tilt"
-    corners = (window.x, window.y, window.width, window.height)
-    if not all(math.isfinite(v) for v in corners) or window.width <= 0 or window.height <= 0:
+    try:
+        center_x, center_y = msg_to_window(state.window).center
+    except ValueError:
         return None, "window is not a finite rectangle of positive size"
-    center_x = window.x + window.width / 2.0
-    center_y = window.y + window.height / 2.0
     return CameraPose(state.pan, state.tilt, center_x, center_y, state.focal_length), None
 
 
