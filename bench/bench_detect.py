@@ -44,7 +44,7 @@ from tracker_detect.registration import (  # noqa: E402
 )
 from tracker_detect.ssim import ssim_map  # noqa: E402
 from tracker_msgs_py.geometry import Rect  # noqa: E402
-from tracker_ptz_sim.scenes import SceneConfig, generate_scene  # noqa: E402
+from tracker_ptz_sim.simulation.scenes import SceneConfig, generate_scene  # noqa: E402
 
 OUT = ROOT / "out" / "bench" / "detect.json"
 

@@ -12,9 +12,10 @@ import sys
 from dataclasses import asdict
 from pathlib import Path
 
-from tracker_ptz_sim import demo, run_report
-from tracker_ptz_sim.graph import load_graph
-from tracker_ptz_sim.sample import sample_or_synthetic
+from tracker_ptz_sim.bringup import demo
+from tracker_ptz_sim.bringup.graph import load_graph
+from tracker_ptz_sim.bringup.sample import sample_or_synthetic
+from tracker_ptz_sim.evaluation import run_report
 
 OUT = Path("out/bench")
 

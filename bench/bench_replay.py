@@ -22,11 +22,11 @@ from rclpy.node import Node
 from sensor_msgs.msg import Image
 
 from tracker_msgs.msg import PtzCommand
-from tracker_msgs_py.conversions import image_qos, stamp_to_ns
-from tracker_ptz_sim.demo import install_space
-from tracker_ptz_sim.graph import load_graph
-from tracker_ptz_sim.processes import GraphProcesses
-from tracker_ptz_sim.sample import sample_or_synthetic
+from tracker_msgs_py.codec import image_qos, stamp_to_ns
+from tracker_ptz_sim.bringup.demo import install_space
+from tracker_ptz_sim.bringup.graph import load_graph
+from tracker_ptz_sim.bringup.processes import GraphProcesses
+from tracker_ptz_sim.bringup.sample import sample_or_synthetic
 
 OUT = Path("out/bench")
 

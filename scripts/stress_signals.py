@@ -25,10 +25,10 @@ import time
 from collections import Counter
 from pathlib import Path
 
-from tracker_ptz_sim.demo import install_space
-from tracker_ptz_sim.graph import load_graph
-from tracker_ptz_sim.processes import GraphProcesses
-from tracker_ptz_sim.scenes import SceneConfig, generate_scene, write_scene
+from tracker_ptz_sim.bringup.demo import install_space
+from tracker_ptz_sim.bringup.graph import load_graph
+from tracker_ptz_sim.bringup.processes import GraphProcesses
+from tracker_ptz_sim.simulation.scenes import SceneConfig, generate_scene, write_scene
 
 CLEAN_EXIT_S = 2.0
 HANDLER_TIMEOUT_S = 10.0

@@ -6,7 +6,7 @@ import math
 
 import pytest
 
-from tracker_ptz_sim.controller import (
+from tracker_ptz_sim.control.controller import (
     CameraPose,
     CommandMode,
     ControllerConfig,

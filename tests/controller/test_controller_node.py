@@ -12,8 +12,8 @@ rclpy = pytest.importorskip("rclpy")
 from node_harness import NodeHarness  # noqa: E402
 
 from tracker_msgs.msg import PtzCommand, PtzState, Target  # noqa: E402
-from tracker_msgs_py.conversions import ns_to_stamp, stamp_to_ns  # noqa: E402
-from tracker_ptz_sim.ptz_controller_node import PtzControllerNode  # noqa: E402
+from tracker_msgs_py.codec import ns_to_stamp, stamp_to_ns  # noqa: E402
+from tracker_ptz_sim.control.ptz_controller_node import PtzControllerNode  # noqa: E402
 
 pytestmark = pytest.mark.ros
 NS = 100_000_000  # 10 fps

@@ -7,7 +7,7 @@ import math
 import pytest
 
 from tracker_msgs_py.geometry import Rect
-from tracker_ptz_sim.metrics import clear_mot, follow_scores, in_view, load_mot
+from tracker_ptz_sim.evaluation.metrics import clear_mot, follow_scores, in_view, load_mot
 
 
 def _two_walkers(frames: int = 10):
@@ -90,7 +90,7 @@ def test_load_mot_reads_gt_and_tracker_files(tmp_path):
 def test_iou_distances_match_rect_iou():
     import numpy as np
 
-    from tracker_ptz_sim.metrics import iou_distances
+    from tracker_ptz_sim.evaluation.metrics import iou_distances
 
     a = [Rect(0, 0, 10, 10), Rect(50, 50, 4, 4)]
     b = [Rect(5, 5, 10, 10), Rect(0, 0, 10, 10), Rect(100, 0, 1, 1)]

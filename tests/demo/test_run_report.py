@@ -16,7 +16,7 @@ MS = 1_000_000
 
 def _messages(k: int):
     from tracker_msgs.msg import Blob, BlobArray, PtzCommand, PtzState, Target, Track, TrackArray
-    from tracker_msgs_py.conversions import array_to_image, ns_to_stamp, rect_to_msg
+    from tracker_msgs_py.codec import array_to_image, ns_to_stamp, rect_to_msg
     from tracker_msgs_py.geometry import Rect
 
     stamp = ns_to_stamp(k * 100 * MS)  # frame k of a 10 fps recording
@@ -61,8 +61,8 @@ def _messages(k: int):
 def bag(tmp_path_factory):
     from rclpy.serialization import serialize_message
 
-    from tracker_ptz_sim.graph import load_graph
-    from tracker_ptz_sim.recording import BagWriter
+    from tracker_ptz_sim.bringup.graph import load_graph
+    from tracker_ptz_sim.evaluation.recording import BagWriter
 
     path = tmp_path_factory.mktemp("run") / "bag"
     writer = BagWriter(path, {t.name: t.type for t in load_graph().topics})
@@ -75,7 +75,7 @@ def bag(tmp_path_factory):
 
 
 def test_bag_round_trips_every_type(bag):
-    from tracker_ptz_sim.recording import read_bag, topic_counts
+    from tracker_ptz_sim.evaluation.recording import read_bag, topic_counts
 
     counts = topic_counts(bag)
     assert counts["/scene/image_raw"] == FRAMES and counts["/target"] == FRAMES
@@ -85,7 +85,7 @@ def test_bag_round_trips_every_type(bag):
 
 
 def test_summary_figures(bag):
-    from tracker_ptz_sim import run_report
+    from tracker_ptz_sim.evaluation import run_report
 
     frames = run_report.collect(bag)
     summary = run_report.summarize(frames, run_report.message_counts(frames))
@@ -103,7 +103,7 @@ def test_summary_figures(bag):
 
 
 def test_mot_file_lists_confirmed_tracks(bag, tmp_path):
-    from tracker_ptz_sim import run_report
+    from tracker_ptz_sim.evaluation import run_report
 
     frames = run_report.collect(bag)
     path = tmp_path / "tracks.txt"
@@ -115,7 +115,7 @@ def test_mot_file_lists_confirmed_tracks(bag, tmp_path):
 
 
 def test_annotated_video_has_every_frame(bag, tmp_path):
-    from tracker_ptz_sim import run_report
+    from tracker_ptz_sim.evaluation import run_report
 
     frames = run_report.collect(bag)
     path = tmp_path / "annotated.mp4"
@@ -130,7 +130,7 @@ def test_annotated_video_has_every_frame(bag, tmp_path):
 
 
 def test_graph_description_is_consistent():
-    from tracker_ptz_sim.graph import format_value, load_graph, node_parameters, ros_args
+    from tracker_ptz_sim.bringup.graph import format_value, load_graph, node_parameters, ros_args
 
     graph = load_graph()
     names = [n.name for n in graph.nodes]

@@ -1,4 +1,4 @@
-"""The detector against the ground truth of synthetic scenes (tracker_ptz_sim.scenes).
+"""The detector against the ground truth of synthetic scenes (tracker_ptz_sim.simulation.scenes).
 
 A camera window is sliced from each scene frame along a known path, so the true window shift is
 exact. Scores, pooled over all compared frames:
@@ -23,7 +23,7 @@ import pytest
 from tracker_detect.motion import DetectorConfig, MotionDetector
 from tracker_detect.registration import View
 from tracker_msgs_py.geometry import Rect
-from tracker_ptz_sim.scenes import SceneConfig, generate_scene
+from tracker_ptz_sim.simulation.scenes import SceneConfig, generate_scene
 
 MIN_PIXELS = 30
 NEAR_PX = 7

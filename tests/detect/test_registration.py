@@ -19,7 +19,7 @@ from tracker_detect.registration import (
     view_from_pan_tilt,
 )
 from tracker_msgs_py.geometry import Rect, SceneGeometry
-from tracker_ptz_sim.scenes import SceneConfig, generate_scene
+from tracker_ptz_sim.simulation.scenes import SceneConfig, generate_scene
 
 
 @pytest.fixture(scope="module")

@@ -15,7 +15,7 @@ from sensor_msgs.msg import CameraInfo, Image, JointState
 
 from tracker_detect.ssim_detector_node import SsimDetectorNode
 from tracker_msgs.msg import BlobArray, PtzState
-from tracker_msgs_py.conversions import array_to_image, camera_info, ns_to_stamp
+from tracker_msgs_py.codec import array_to_image, camera_info, ns_to_stamp
 from tracker_msgs_py.params import ParameterError
 
 pytestmark = pytest.mark.ros

@@ -48,7 +48,7 @@ def test_rect_operations():
 @pytest.mark.ros
 class TestConversions:
     def test_image_round_trip_all_encodings(self):
-        from tracker_msgs_py.conversions import (
+        from tracker_msgs_py.codec import (
             array_to_image,
             image_to_array,
             image_to_bgr,
@@ -73,7 +73,7 @@ class TestConversions:
     def test_padded_rows_are_read_correctly(self):
         from sensor_msgs.msg import Image
 
-        from tracker_msgs_py.conversions import image_to_array
+        from tracker_msgs_py.codec import image_to_array
 
         msg = Image(height=2, width=3, encoding="mono8", step=4)
         msg.data = bytes([1, 2, 3, 99, 4, 5, 6, 99])
@@ -82,7 +82,7 @@ class TestConversions:
     def test_unsupported_and_malformed_images_are_named(self):
         from sensor_msgs.msg import Image
 
-        from tracker_msgs_py.conversions import UnsupportedEncodingError, image_to_array
+        from tracker_msgs_py.codec import UnsupportedEncodingError, image_to_array
 
         with pytest.raises(UnsupportedEncodingError, match="'16UC1'"):
             image_to_array(Image(height=1, width=1, encoding="16UC1", step=2, data=b"\0\0"))
@@ -90,7 +90,7 @@ class TestConversions:
             image_to_array(Image(height=2, width=2, encoding="bgr8", step=6, data=b"\0" * 6))
 
     def test_stamps_and_rects(self):
-        from tracker_msgs_py.conversions import msg_to_rect, ns_to_stamp, rect_to_msg, stamp_to_ns
+        from tracker_msgs_py.codec import msg_to_rect, ns_to_stamp, rect_to_msg, stamp_to_ns
 
         assert stamp_to_ns(ns_to_stamp(12_345_678_901)) == 12_345_678_901
         with pytest.raises(ValueError):
@@ -103,7 +103,7 @@ class TestConversions:
             msg_to_rect(bad)
 
     def test_a_camera_window_is_a_finite_rectangle_of_positive_size(self):
-        from tracker_msgs_py.conversions import msg_to_window, rect_to_msg
+        from tracker_msgs_py.codec import msg_to_window, rect_to_msg
 
         assert msg_to_window(rect_to_msg(Rect(10.0, 20.0, 264.0, 264.0))).center == (142.0, 152.0)
         with pytest.raises(ValueError, match="empty rectangle"):

@@ -21,7 +21,7 @@ pytestmark = [pytest.mark.ros, pytest.mark.slow]
 @pytest.fixture(scope="module")
 def walker(tmp_path_factory):
     """One object walking for 120 frames (12 s at 10 fps) on a 480x360 scene."""
-    from tracker_ptz_sim.scenes import SceneConfig, generate_scene, write_scene
+    from tracker_ptz_sim.simulation.scenes import SceneConfig, generate_scene, write_scene
 
     root = tmp_path_factory.mktemp("walker")
     config = SceneConfig(
@@ -52,8 +52,8 @@ def killer(name, at_frame, sig=signal.SIGKILL):
 
 
 def run(paths, out, during=None, respawn_limit=0, **overrides):
-    from tracker_ptz_sim import demo
-    from tracker_ptz_sim.graph import load_graph
+    from tracker_ptz_sim.bringup import demo
+    from tracker_ptz_sim.bringup.graph import load_graph
 
     settings = {"video_source": {"rate": 0.0}, **overrides}
     return demo.run_graph(
@@ -69,10 +69,10 @@ def run(paths, out, during=None, respawn_limit=0, **overrides):
 
 
 def stamps_of(bag, topic):
-    from tracker_ptz_sim.recording import read_bag
-    from tracker_ptz_sim.run_report import stamp_ns
+    from tracker_msgs_py.codec import stamp_to_ns
+    from tracker_ptz_sim.evaluation.recording import read_bag
 
-    return [stamp_ns(msg) for _, _, msg in read_bag(bag, {topic})]
+    return [stamp_to_ns(msg.header.stamp) for _, _, msg in read_bag(bag, {topic})]
 
 
 def test_a_restarted_video_source_starts_a_new_epoch_the_graph_accepts(walker, tmp_path):

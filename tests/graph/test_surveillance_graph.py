@@ -16,7 +16,7 @@ SWEEP_RATE = 0.6  # rad/s: 170 px/s, the search crosses the scene in about 3 s
 
 
 def _scene(root, **config):
-    from tracker_ptz_sim.scenes import SceneConfig, generate_scene, write_scene
+    from tracker_ptz_sim.simulation.scenes import SceneConfig, generate_scene, write_scene
 
     scene = generate_scene(SceneConfig(**config))
     return scene, write_scene(scene, root)
@@ -61,8 +61,8 @@ def one_walker(tmp_path_factory):
 
 @pytest.mark.parametrize("mode", ["direct", "servo"])
 def test_one_moving_target_stays_in_view_and_centred(one_walker, mode):
-    from tracker_ptz_sim import metrics, run_report
-    from tracker_ptz_sim.evaluate import windows_and_targets
+    from tracker_ptz_sim.evaluation import metrics, run_report
+    from tracker_ptz_sim.evaluation.scoring import windows_and_targets
 
     _, paths, root = one_walker
     out = root / mode
@@ -80,9 +80,10 @@ def test_demo_outputs_bag_mot_and_video(one_walker):
     """The servo run's bag has every topic, one message per frame on frame-level topics,
     tracks.txt is exactly the confirmed tracks the tracker published, and a second run of the same
     input gives the same tracks."""
-    from tracker_ptz_sim import metrics, run_report
-    from tracker_ptz_sim.graph import load_graph
-    from tracker_ptz_sim.recording import read_bag, topic_counts
+    from tracker_msgs_py.codec import stamp_to_ns
+    from tracker_ptz_sim.bringup.graph import load_graph
+    from tracker_ptz_sim.evaluation import metrics, run_report
+    from tracker_ptz_sim.evaluation.recording import read_bag, topic_counts
 
     scene, paths, root = one_walker
     out = root / "demo"
@@ -108,7 +109,7 @@ def test_demo_outputs_bag_mot_and_video(one_walker):
     published = {}
     numbers = run_report.frame_numbers(run_report.collect(out / "bag"))
     for _, _, msg in read_bag(out / "bag", {"/tracks"}):
-        number = numbers[run_report.stamp_ns(msg)]
+        number = numbers[stamp_to_ns(msg.header.stamp)]
         for track in msg.tracks:
             if track.status in run_report.CONFIRMED_STATUSES:
                 published.setdefault(number, {})[track.id] = (track.bbox.x, track.bbox.y)
@@ -139,9 +140,9 @@ def test_demo_outputs_bag_mot_and_video(one_walker):
 def test_search_locks_a_newcomer_then_scans_and_returns_home(tmp_path):
     """An object enters while the camera sweeps: locked within 2 s of entering the view. After it
     leaves, the camera scans the last region for lost_scan_time, then goes home."""
-    from tracker_ptz_sim import run_report
-    from tracker_ptz_sim.evaluate import windows_and_targets
-    from tracker_ptz_sim.metrics import load_mot
+    from tracker_ptz_sim.evaluation import run_report
+    from tracker_ptz_sim.evaluation.metrics import load_mot
+    from tracker_ptz_sim.evaluation.scoring import windows_and_targets
 
     scene, paths = _scene(
         tmp_path / "scene",
@@ -188,8 +189,9 @@ def test_search_locks_a_newcomer_then_scans_and_returns_home(tmp_path):
 
 
 def test_killing_the_detector_stops_the_camera_and_tracking_resumes(one_walker, tmp_path):
-    from tracker_ptz_sim import demo, run_report
-    from tracker_ptz_sim.graph import load_graph
+    from tracker_ptz_sim.bringup import demo
+    from tracker_ptz_sim.bringup.graph import load_graph
+    from tracker_ptz_sim.evaluation import run_report
 
     scene, paths, _ = one_walker
     events = {}

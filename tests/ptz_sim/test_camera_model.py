@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from tracker_ptz_sim.camera_model import PtzCameraModel, PtzCommand, PtzConfig
+from tracker_ptz_sim.simulation.camera_model import PtzCameraModel, PtzCommand, PtzConfig
 
 W, H = 320, 240
 DT = 0.1

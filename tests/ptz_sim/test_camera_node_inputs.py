@@ -14,8 +14,8 @@ from node_harness import NodeHarness  # noqa: E402
 from sensor_msgs.msg import Image  # noqa: E402
 
 from tracker_msgs.msg import PtzCommand, PtzState  # noqa: E402
-from tracker_msgs_py.conversions import array_to_image, image_qos, ns_to_stamp  # noqa: E402
-from tracker_ptz_sim.ptz_camera_node import PtzCameraNode  # noqa: E402
+from tracker_msgs_py.codec import array_to_image, image_qos, ns_to_stamp  # noqa: E402
+from tracker_ptz_sim.simulation.ptz_camera_node import PtzCameraNode  # noqa: E402
 
 pytestmark = pytest.mark.ros
 NS = 100_000_000
@@ -81,7 +81,7 @@ def test_a_scene_too_small_for_a_view_is_dropped_with_one_warning(harness, capfd
 
 
 def test_the_window_stays_inside_small_scenes_at_every_zoom():
-    from tracker_ptz_sim.camera_model import PtzCameraModel, PtzCommand, PtzConfig
+    from tracker_ptz_sim.simulation.camera_model import PtzCameraModel, PtzCommand, PtzConfig
 
     for width, height in [(18, 18), (20, 40), (64, 48)]:
         model = PtzCameraModel(PtzConfig(max_zoom=50.0), width, height)

@@ -13,8 +13,9 @@ import cv2
 import numpy as np
 import pytest
 
-from tracker_ptz_sim import frame_sources
-from tracker_ptz_sim.frame_sources import SourceError, frame_stamp_ns, open_source
+from tracker_msgs_py.codec import frame_stamp_ns
+from tracker_ptz_sim.simulation import frame_sources
+from tracker_ptz_sim.simulation.frame_sources import SourceError, open_source
 
 W, H, FPS = 160, 120, 10.0
 FORMATS = {"mjpg.avi": "MJPG", "xvid.avi": "XVID", "mp4v.mp4": "mp4v"}

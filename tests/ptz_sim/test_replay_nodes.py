@@ -25,7 +25,7 @@ PLAN = {
 
 @pytest.fixture(scope="module")
 def scene(tmp_path_factory):
-    from tracker_ptz_sim.scenes import SceneConfig, generate_scene, write_scene
+    from tracker_ptz_sim.simulation.scenes import SceneConfig, generate_scene, write_scene
 
     scene = generate_scene(
         SceneConfig(width=320, height=240, num_frames=FRAMES, num_objects=2, seed=3)
@@ -47,8 +47,8 @@ class Controller:
         from sensor_msgs.msg import Image, JointState
 
         from tracker_msgs.msg import PtzCommand, PtzState, ReplayStatus
-        from tracker_msgs_py.conversions import image_qos
-        from tracker_ptz_sim.video_source_node import STATUS_QOS
+        from tracker_msgs_py.codec import image_qos
+        from tracker_ptz_sim.simulation.video_source_node import STATUS_QOS
 
         self.context = rclpy.Context()
         rclpy.init(context=self.context)
@@ -65,19 +65,19 @@ class Controller:
         self.pending: list = []
 
     def _on_view(self, msg):
-        from tracker_msgs_py.conversions import image_to_array, stamp_to_ns
+        from tracker_msgs_py.codec import image_to_array, stamp_to_ns
 
         stamp = stamp_to_ns(msg.header.stamp)
         self.views[stamp] = image_to_array(msg).copy()
         self.pending.append(msg.header.stamp)
 
     def _on_state(self, msg):
-        from tracker_msgs_py.conversions import stamp_to_ns
+        from tracker_msgs_py.codec import stamp_to_ns
 
         self.states[stamp_to_ns(msg.header.stamp)] = msg
 
     def _on_joints(self, msg):
-        from tracker_msgs_py.conversions import stamp_to_ns
+        from tracker_msgs_py.codec import stamp_to_ns
 
         self.joints[stamp_to_ns(msg.header.stamp)] = msg
 
@@ -211,8 +211,8 @@ def test_two_lockstep_replays_are_identical(scene, tmp_path):
 def test_bag_replays_with_identical_pixels_and_stamps(scene, tmp_path):
     from rclpy.serialization import serialize_message
 
-    from tracker_msgs_py.conversions import array_to_image, ns_to_stamp
-    from tracker_ptz_sim.recording import BagWriter
+    from tracker_msgs_py.codec import array_to_image, ns_to_stamp
+    from tracker_ptz_sim.evaluation.recording import BagWriter
 
     scene, _ = scene
     bag = tmp_path / "bag"
@@ -231,7 +231,7 @@ def test_bag_replays_with_identical_pixels_and_stamps(scene, tmp_path):
     controller = Controller()
 
     def on_scene(msg):
-        from tracker_msgs_py.conversions import image_to_array, stamp_to_ns
+        from tracker_msgs_py.codec import image_to_array, stamp_to_ns
 
         received[stamp_to_ns(msg.header.stamp)] = image_to_array(msg).copy()
         ack = controller.PtzCommand()
@@ -240,7 +240,7 @@ def test_bag_replays_with_identical_pixels_and_stamps(scene, tmp_path):
 
     from sensor_msgs.msg import Image
 
-    from tracker_msgs_py.conversions import image_qos
+    from tracker_msgs_py.codec import image_qos
 
     controller.node.create_subscription(Image, "scene/image_raw", on_scene, image_qos(True))
     source = RosProcess(
@@ -287,7 +287,7 @@ def test_bad_inputs_exit_with_one_clear_error(case, scene, tmp_path):
         path, expected = tmp_path / "frames", "no images"
         path.mkdir()
     elif case == "empty_bag_topic":
-        from tracker_ptz_sim.recording import BagWriter
+        from tracker_ptz_sim.evaluation.recording import BagWriter
 
         path, expected = tmp_path / "bag", "no Image or CompressedImage topic"
         BagWriter(path, {"/status": "tracker_msgs/msg/ReplayStatus"}).close()
@@ -336,7 +336,7 @@ def test_a_truncated_video_reports_the_frames_it_lost(tmp_path):
     from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 
     from tracker_msgs.msg import ReplayStatus
-    from tracker_ptz_sim.video_source_node import VideoSourceNode
+    from tracker_ptz_sim.simulation.video_source_node import VideoSourceNode
 
     video = clip(tmp_path / "cut.avi", "MJPG", 80)
     data = video.read_bytes()
@@ -374,8 +374,8 @@ def test_changing_the_rate_during_a_replay_neither_bursts_nor_stalls(tmp_path):
     from rclpy.parameter import Parameter
     from sensor_msgs.msg import Image
 
-    from tracker_msgs_py.conversions import image_qos
-    from tracker_ptz_sim.video_source_node import VideoSourceNode
+    from tracker_msgs_py.codec import image_qos
+    from tracker_ptz_sim.simulation.video_source_node import VideoSourceNode
 
     video = clip(tmp_path / "clip.avi", "MJPG", 200)
     arrivals = []
@@ -425,7 +425,7 @@ def test_corrupt_frame_is_skipped_and_counted(scene, tmp_path):
     for i in range(6):
         cv2.imwrite(str(folder / f"img{i + 1}.png"), scene.frames[i])
     (folder / "img3.png").write_bytes(b"\x89PNG broken")
-    from tracker_ptz_sim.frame_sources import open_source
+    from tracker_ptz_sim.simulation.frame_sources import open_source
 
     source = open_source(folder)
     frames = list(source.frames())

@@ -9,8 +9,8 @@ import time
 import numpy as np
 import pytest
 
-from tracker_ptz_sim.frame_sources import Frame
-from tracker_ptz_sim.replay import Pacer, Prefetcher
+from tracker_ptz_sim.simulation.frame_sources import Frame
+from tracker_ptz_sim.simulation.replay import Pacer, Prefetcher
 
 FRAME_NS = 100_000_000  # 10 fps
 

@@ -5,8 +5,14 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from tracker_ptz_sim.metrics import load_mot
-from tracker_ptz_sim.scenes import SceneConfig, generate_scene, load_scene, scene_video, write_scene
+from tracker_ptz_sim.evaluation.metrics import load_mot
+from tracker_ptz_sim.simulation.scenes import (
+    SceneConfig,
+    generate_scene,
+    load_scene,
+    scene_video,
+    write_scene,
+)
 
 
 def test_same_config_same_scene_other_seed_other_scene():

@@ -35,7 +35,7 @@ from tracker_detect.pose_buffer import PoseBuffer, PoseStatus
 from tracker_detect.registration import CameraIntrinsics, View, view_from_pan_tilt
 from tracker_msgs.msg import Blob as BlobMsg
 from tracker_msgs.msg import BlobArray, PtzState
-from tracker_msgs_py.conversions import (
+from tracker_msgs_py.codec import (
     UnsupportedEncodingError,
     array_to_image,
     image_qos,

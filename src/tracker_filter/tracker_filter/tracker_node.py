@@ -20,7 +20,7 @@ from tracker_filter.models import extrapolate_positions
 from tracker_filter.selection import SelectionPolicy, TargetSelector
 from tracker_msgs.msg import BlobArray, PtzState, Rect, Target, Track, TrackArray
 from tracker_msgs.srv import ResetTracker, SelectTarget
-from tracker_msgs_py.conversions import msg_to_rect, msg_to_window, stamp_to_ns
+from tracker_msgs_py.codec import msg_to_rect, msg_to_window, stamp_to_ns
 from tracker_msgs_py.node_main import SuiteNode, run_node
 from tracker_msgs_py.params import ParamSpec, declare_parameters
 from tracker_msgs_py.stamps import Order, StampOrder

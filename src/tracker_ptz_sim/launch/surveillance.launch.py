@@ -16,7 +16,7 @@ from launch.actions import DeclareLaunchArgument, SetEnvironmentVariable
 from launch.substitutions import LaunchConfiguration
 from launch_ros.actions import Node
 
-from tracker_ptz_sim.graph import load_graph
+from tracker_ptz_sim.bringup.graph import load_graph
 
 
 def generate_launch_description():

@@ -9,20 +9,20 @@ from tracker_msgs_py.stop_signals import guarded_main
 
 
 def video_source() -> int:
-    return guarded_main("tracker_ptz_sim.video_source_node")
+    return guarded_main("tracker_ptz_sim.simulation.video_source_node")
 
 
 def ptz_camera() -> int:
-    return guarded_main("tracker_ptz_sim.ptz_camera_node")
+    return guarded_main("tracker_ptz_sim.simulation.ptz_camera_node")
 
 
 def ptz_controller() -> int:
-    return guarded_main("tracker_ptz_sim.ptz_controller_node")
+    return guarded_main("tracker_ptz_sim.control.ptz_controller_node")
 
 
 def run_demo() -> int:
-    return guarded_main("tracker_ptz_sim.demo")
+    return guarded_main("tracker_ptz_sim.bringup.demo")
 
 
 def evaluate() -> int:
-    return guarded_main("tracker_ptz_sim.evaluate")
+    return guarded_main("tracker_ptz_sim.bringup.evaluate")

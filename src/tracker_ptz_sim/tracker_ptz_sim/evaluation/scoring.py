@@ -1,25 +1,19 @@
-"""evaluate: replay a scene with ground truth through the graph and score it.
+"""Scores of a recorded run against MOTChallenge ground truth (no rclpy).
 
-    evaluate --scene DIR                  a synthetic scene written by make_scene (video + gt/gt.txt)
-    evaluate --video FILE --gt gt.txt     any video with MOTChallenge ground truth
-    evaluate --bag out/bag --gt gt.txt    score a run recorded before, without replaying
-
-Reports CLEAR MOT (MOTA, MOTP, id switches) and IDF1 via motmetrics, for the objects inside the
-camera view (what the camera could see) and for the whole scene, plus the pan-tilt figures: share of
+CLEAR MOT (MOTA, MOTP, id switches) and IDF1 via `metrics`, for the objects inside the camera
+view (what the camera could see) and for the whole scene, plus the pan-tilt figures: share of
 frames (after the first lock) with the followed object inside the view, and its centring error.
-Writes summary.json (the run) and evaluation.json (the scores) to --out.
 """
 
 from __future__ import annotations
 
-import argparse
 import json
 import math
 from dataclasses import asdict
 from pathlib import Path
 
 from tracker_msgs_py.geometry import Rect
-from tracker_ptz_sim import metrics, run_report
+from tracker_ptz_sim.evaluation import metrics, run_report
 
 
 def windows_and_targets(
@@ -92,48 +86,3 @@ def format_scores(result: dict) -> str:
         ]
     width = max(len(n) for n, _ in rows)
     return "\n".join(f"  {n:<{width}}  {v}" for n, v in rows)
-
-
-def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(
-        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
-    )
-    source = parser.add_mutually_exclusive_group(required=True)
-    source.add_argument("--scene", type=Path, help="scene directory from make_scene")
-    source.add_argument("--video", type=Path, help="video (with --gt)")
-    source.add_argument("--bag", type=Path, help="a recorded run's bag directory (with --gt)")
-    parser.add_argument("--gt", type=Path, help="MOTChallenge gt.txt")
-    parser.add_argument("--out", type=Path, default=Path("out/eval"))
-    parser.add_argument("--mode", choices=("servo", "direct"), help="ptz_controller mode")
-    parser.add_argument("--set", action="append", default=[], metavar="NODE.PARAM=VALUE")
-    parser.add_argument("--timeout", type=float, default=1800.0)
-    args = parser.parse_args(argv)
-
-    gt = args.gt or (args.scene / "gt" / "gt.txt" if args.scene else None)
-    if gt is None or not gt.exists():
-        parser.error(f"ground truth not found: {gt} (pass --gt)")
-    args.out.mkdir(parents=True, exist_ok=True)
-    bag = args.bag
-    if bag is None:
-        from tracker_ptz_sim import demo
-        from tracker_ptz_sim.graph import load_graph
-        from tracker_ptz_sim.scenes import scene_video
-
-        video = args.video or scene_video(args.scene)
-        overrides = demo.parse_overrides(args.set)
-        if args.mode:
-            overrides.setdefault("ptz_controller", {})["mode"] = args.mode
-        run = demo.run_graph(
-            load_graph(), video, args.out, overrides, demo.install_space(), args.timeout
-        )
-        bag = run.bag
-        if not run.complete:
-            print(f"the run is incomplete: {'; '.join(run.problems)} (see {args.out}/logs)")
-            return 130 if run.interrupted_by else 1
-    result = score(bag, gt, args.out)
-    print(f"Evaluation against {gt}:\n{format_scores(result)}")
-    return 0
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())

@@ -13,6 +13,8 @@ from typing import Any
 
 import yaml
 
+from tracker_msgs_py.package_files import package_data
+
 
 @dataclass(frozen=True)
 class NodeSpec:
@@ -39,22 +41,6 @@ class Graph:
             if node.name == name:
                 return node
         raise KeyError(f"no node '{name}' in the graph")
-
-
-SOURCE_DIR = Path(__file__).resolve().parents[2]  # src/ when running from the source tree
-
-
-def package_data(package: str, subdir: str) -> Path:
-    """share/<package>/<subdir> of the installed package, else src/<package>/<subdir>."""
-    try:
-        from ament_index_python.packages import get_package_share_directory
-
-        installed = Path(get_package_share_directory(package)) / subdir
-        if installed.is_dir():
-            return installed
-    except (ImportError, LookupError, ValueError):
-        pass
-    return SOURCE_DIR / package / subdir
 
 
 def config_dir() -> Path:

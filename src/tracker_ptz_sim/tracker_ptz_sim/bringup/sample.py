@@ -110,7 +110,7 @@ def _extract_clip(deb: Path, target: Path) -> None:
 
 def synthetic_fallback(directory: Path | None = None) -> Path:
     """A generated surveillance-like scene (people-sized objects walking in and out), cached."""
-    from tracker_ptz_sim.scenes import (
+    from tracker_ptz_sim.simulation.scenes import (
         META_NAME,
         SceneConfig,
         generate_scene,

@@ -1,24 +1,41 @@
-"""Conversions between ROS messages and plain Python / NumPy values, and the suite's QoS profiles.
+"""The suite's one codec between messages and plain values, as cv_bridge is for C++ (no node logic).
 
-Imports message types and rclpy.qos only; no node logic lives here.
+- pixels: `image_to_array` / `image_to_bgr` / `image_to_gray` read an Image (mono8, bgr8, rgb8,
+  bgra8, rgba8; anything else raises `UnsupportedEncodingError`), `decode_image` also a
+  CompressedImage, from rclpy or from a rosbags-deserialized message alike; `array_to_image` writes;
+- stamps: `stamp_to_ns`, `ns_to_stamp`, `stamp_to_sec`, `frame_stamp_ns` (frame index at a rate);
+- rectangles: `rect_to_msg`, `msg_to_rect`, `msg_to_window` (a camera window of positive size);
+- `camera_info` for a pinhole camera, `image_qos` for image streams, `typestore` for rosbags.
+
+Message classes and rclpy are imported where a function builds them, so the functional core
+(frame readers, reports) decodes through this module without importing rclpy.
 """
 
 from __future__ import annotations
 
 import math
+from functools import cache
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
-from builtin_interfaces.msg import Time
-from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
-from sensor_msgs.msg import CameraInfo, Image
 
-from tracker_msgs.msg import Rect as RectMsg
 from tracker_msgs_py.geometry import Rect
 
+if TYPE_CHECKING:
+    from builtin_interfaces.msg import Time
+    from rclpy.qos import QoSProfile
+    from rosbags.typesys.store import Typestore
+    from sensor_msgs.msg import CameraInfo, Image
+
+    from tracker_msgs.msg import Rect as RectMsg
+
 #: Encodings the suite reads and writes: number of channels of each.
-SUPPORTED_ENCODINGS: dict[str, int] = {"mono8": 1, "bgr8": 3, "rgb8": 3}
+SUPPORTED_ENCODINGS: dict[str, int] = {"mono8": 1, "bgr8": 3, "rgb8": 3, "bgra8": 4, "rgba8": 4}
 
 NS_PER_S = 1_000_000_000
+
+#: rosbags type names of the messages `decode_image` reads.
+IMAGE_TYPES = frozenset({"sensor_msgs/msg/Image", "sensor_msgs/msg/CompressedImage"})
 
 
 class UnsupportedEncodingError(ValueError):
@@ -33,6 +50,8 @@ class UnsupportedEncodingError(ValueError):
 def image_qos(reliable: bool = False, depth: int | None = None) -> QoSProfile:
     """Sensor-data QoS for image streams (best effort, keep last 5), or reliable for lockstep
     replays, with a deeper history (30) so a slower reader such as a recorder loses nothing."""
+    from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+
     return QoSProfile(
         history=HistoryPolicy.KEEP_LAST,
         depth=depth or (30 if reliable else 5),
@@ -42,10 +61,13 @@ def image_qos(reliable: bool = False, depth: int | None = None) -> QoSProfile:
 
 
 def stamp_to_ns(stamp: Time) -> int:
+    """Nanoseconds of a builtin_interfaces/Time (rclpy or rosbags message)."""
     return int(stamp.sec) * NS_PER_S + int(stamp.nanosec)
 
 
 def ns_to_stamp(ns: int) -> Time:
+    from builtin_interfaces.msg import Time
+
     if ns < 0:
         raise ValueError(f"negative stamp {ns} ns")
     return Time(sec=int(ns // NS_PER_S), nanosec=int(ns % NS_PER_S))
@@ -53,6 +75,11 @@ def ns_to_stamp(ns: int) -> Time:
 
 def stamp_to_sec(stamp: Time) -> float:
     return stamp_to_ns(stamp) / NS_PER_S
+
+
+def frame_stamp_ns(index: int, fps: float) -> int:
+    """Stamp of frame `index` of a recording at `fps` (frame 0 at t = 0)."""
+    return round(index * NS_PER_S / fps)
 
 
 def image_to_array(msg: Image) -> np.ndarray:
@@ -84,17 +111,19 @@ def image_to_array(msg: Image) -> np.ndarray:
         )
     rows = np.frombuffer(msg.data, dtype=np.uint8, count=step * height).reshape(height, step)
     pixels = rows[:, :row_bytes]
-    return pixels.reshape(height, width) if channels == 1 else pixels.reshape(height, width, 3)
+    if channels == 1:
+        return pixels.reshape(height, width)
+    return pixels.reshape(height, width, channels)
 
 
 def image_to_bgr(msg: Image) -> np.ndarray:
-    """The image as BGR (H, W, 3) uint8; mono8 is replicated into three channels."""
+    """The image as BGR (H, W, 3) uint8; mono8 is replicated into three channels, alpha dropped."""
     pixels = image_to_array(msg)
-    if msg.encoding == "rgb8":
-        return np.ascontiguousarray(pixels[:, :, ::-1])
+    if msg.encoding in ("rgb8", "rgba8"):
+        return np.ascontiguousarray(pixels[:, :, 2::-1])
     if msg.encoding == "mono8":
         return np.repeat(pixels[:, :, None], 3, axis=2)
-    return pixels
+    return pixels if msg.encoding == "bgr8" else np.ascontiguousarray(pixels[:, :, :3])
 
 
 def image_to_gray(msg: Image) -> np.ndarray:
@@ -104,8 +133,31 @@ def image_to_gray(msg: Image) -> np.ndarray:
         return pixels
     import cv2  # local import: keeps this module light for nodes that never convert colour
 
-    code = cv2.COLOR_RGB2GRAY if msg.encoding == "rgb8" else cv2.COLOR_BGR2GRAY
+    code = {
+        "rgb8": cv2.COLOR_RGB2GRAY,
+        "bgr8": cv2.COLOR_BGR2GRAY,
+        "rgba8": cv2.COLOR_RGBA2GRAY,
+        "bgra8": cv2.COLOR_BGRA2GRAY,
+    }[msg.encoding]
     return cv2.cvtColor(np.ascontiguousarray(pixels), code)
+
+
+def decode_image(msg: Any) -> np.ndarray:
+    """BGR (H, W, 3) uint8 pixels of an Image or a CompressedImage (JPEG, PNG...).
+
+    Raises UnsupportedEncodingError for an encoding or a compressed payload it cannot read.
+    """
+    if hasattr(msg, "encoding"):
+        return image_to_bgr(msg)
+    import cv2
+
+    pixels = cv2.imdecode(np.asarray(msg.data, dtype=np.uint8).reshape(-1), cv2.IMREAD_COLOR)
+    if pixels is None:
+        raise UnsupportedEncodingError(
+            f"undecodable CompressedImage (format '{msg.format}', {len(msg.data)} bytes)",
+            "undecodable compressed image",
+        )
+    return pixels
 
 
 def array_to_image(pixels: np.ndarray, encoding: str, stamp: Time, frame_id: str) -> Image:
@@ -115,12 +167,13 @@ def array_to_image(pixels: np.ndarray, encoding: str, stamp: Time, frame_id: str
         raise UnsupportedEncodingError(
             f"cannot publish encoding '{encoding}'", f"unsupported encoding '{encoding}'"
         )
-    expected_ndim = 2 if channels == 1 else 3
-    if pixels.dtype != np.uint8 or pixels.ndim != expected_ndim:
+    expected_shape = "(H, W)" if channels == 1 else f"(H, W, {channels})"
+    if pixels.dtype != np.uint8 or pixels.shape[2:] != (() if channels == 1 else (channels,)):
         raise ValueError(
-            f"{encoding} needs a uint8 array of {expected_ndim} dims, got "
-            f"{pixels.dtype} {pixels.shape}"
+            f"{encoding} needs a uint8 array {expected_shape}, got {pixels.dtype} {pixels.shape}"
         )
+    from sensor_msgs.msg import Image
+
     msg = Image()
     msg.header.stamp = stamp
     msg.header.frame_id = frame_id
@@ -133,6 +186,8 @@ def array_to_image(pixels: np.ndarray, encoding: str, stamp: Time, frame_id: str
 
 
 def rect_to_msg(rect: Rect) -> RectMsg:
+    from tracker_msgs.msg import Rect as RectMsg
+
     return RectMsg(
         x=float(rect.x), y=float(rect.y), width=float(rect.width), height=float(rect.height)
     )
@@ -164,6 +219,8 @@ def camera_info(
     frame_id: str,
 ) -> CameraInfo:
     """A CameraInfo for an undistorted pinhole camera (plumb_bob model with zero distortion)."""
+    from sensor_msgs.msg import CameraInfo
+
     info = CameraInfo()
     info.header.stamp = stamp
     info.header.frame_id = frame_id
@@ -174,3 +231,19 @@ def camera_info(
     info.r = [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0]
     info.p = [fx, 0.0, cx, 0.0, 0.0, fy, cy, 0.0, 0.0, 0.0, 1.0, 0.0]
     return info
+
+
+@cache
+def typestore() -> Typestore:
+    """rosbags' type store for reading and writing bags: ROS 2 Jazzy's standard types plus
+    tracker_msgs (from the installed .msg files)."""
+    from rosbags.typesys import Stores, get_types_from_msg, get_typestore
+
+    from tracker_msgs_py.package_files import package_data
+
+    store = get_typestore(Stores.ROS2_JAZZY)
+    types: dict[str, Any] = {}
+    for path in sorted(package_data("tracker_msgs", "msg").glob("*.msg")):
+        types.update(get_types_from_msg(path.read_text(), f"tracker_msgs/msg/{path.stem}"))
+    store.register(types)
+    return store

@@ -41,10 +41,10 @@ from rclpy.signals import SignalHandlerOptions
 
 from tracker_msgs.msg import ReplayStatus
 from tracker_msgs_py import stop_signals
-from tracker_ptz_sim import run_report
-from tracker_ptz_sim.graph import Graph, load_graph
-from tracker_ptz_sim.processes import GraphProcesses, describe_exit
-from tracker_ptz_sim.recording import BagWriter
+from tracker_ptz_sim.bringup.graph import Graph, load_graph
+from tracker_ptz_sim.bringup.processes import GraphProcesses, describe_exit
+from tracker_ptz_sim.evaluation import run_report
+from tracker_ptz_sim.evaluation.recording import BagWriter
 
 RESPAWN_LIMIT = 5  # --respawn: restarts per node before the run gives up on it
 
@@ -510,7 +510,7 @@ def resolve_video(video: Path | None) -> tuple[Path, str]:
         if not video.exists():
             raise SystemExit(f"error: {video} does not exist")
         return video, f"Replaying {video}"
-    from tracker_ptz_sim.sample import sample_or_synthetic
+    from tracker_ptz_sim.bringup.sample import sample_or_synthetic
 
     return sample_or_synthetic()
 
@@ -520,7 +520,9 @@ def install_space() -> Path:
     prefix = os.environ.get("COLCON_PREFIX_PATH", "").split(os.pathsep)[0]
     if prefix:
         return Path(prefix)
-    return Path(__file__).resolve().parents[5]
+    return (
+        Path(__file__).resolve().parents[6]
+    )  # .../install/<pkg>/lib/pythonX/site-packages/tracker_ptz_sim/bringup/demo.py
 
 
 if __name__ == "__main__":

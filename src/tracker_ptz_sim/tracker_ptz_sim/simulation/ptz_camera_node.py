@@ -22,7 +22,7 @@ from sensor_msgs.msg import CameraInfo, Image, JointState
 
 from tracker_msgs.msg import PtzCommand as PtzCommandMsg
 from tracker_msgs.msg import PtzState
-from tracker_msgs_py.conversions import (
+from tracker_msgs_py.codec import (
     UnsupportedEncodingError,
     array_to_image,
     camera_info,
@@ -34,7 +34,7 @@ from tracker_msgs_py.conversions import (
 from tracker_msgs_py.node_main import SuiteNode, run_node
 from tracker_msgs_py.params import ParamSpec, declare_parameters
 from tracker_msgs_py.stamps import Order, StampOrder
-from tracker_ptz_sim.camera_model import (
+from tracker_ptz_sim.simulation.camera_model import (
     PtzCameraModel,
     PtzCommand,
     PtzConfig,

@@ -20,7 +20,7 @@ from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import CameraInfo, Image
 
 from tracker_msgs.msg import PtzCommand, ReplayStatus
-from tracker_msgs_py.conversions import (
+from tracker_msgs_py.codec import (
     array_to_image,
     camera_info,
     image_qos,
@@ -29,8 +29,8 @@ from tracker_msgs_py.conversions import (
 )
 from tracker_msgs_py.node_main import StartupError, SuiteNode, run_node
 from tracker_msgs_py.params import ParamSpec, declare_parameters
-from tracker_ptz_sim.frame_sources import Frame, FrameSource, SourceError, open_source
-from tracker_ptz_sim.replay import Pacer, Prefetcher
+from tracker_ptz_sim.simulation.frame_sources import Frame, FrameSource, SourceError, open_source
+from tracker_ptz_sim.simulation.replay import Pacer, Prefetcher
 
 STATUS_QOS = QoSProfile(
     depth=10, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL

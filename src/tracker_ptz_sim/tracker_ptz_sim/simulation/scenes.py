@@ -34,7 +34,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from tracker_ptz_sim.frame_sources import frame_stamp_ns
+from tracker_msgs_py.codec import frame_stamp_ns
 
 VIDEO_NAME = "video.avi"
 FRAMES_DIR = "frames"  # PNG fallback when FFV1 cannot be written

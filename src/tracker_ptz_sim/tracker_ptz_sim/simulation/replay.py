@@ -15,7 +15,7 @@ import threading
 from collections.abc import Iterator
 from queue import Empty, Full, Queue
 
-from tracker_ptz_sim.frame_sources import Frame
+from tracker_ptz_sim.simulation.frame_sources import Frame
 
 POLL_S = 0.05  # how often a blocked queue operation looks at the close flag
 

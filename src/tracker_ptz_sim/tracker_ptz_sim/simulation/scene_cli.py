@@ -14,7 +14,7 @@ import sys
 import typing
 from pathlib import Path
 
-from tracker_ptz_sim.scenes import SceneConfig, generate_scene, write_scene
+from tracker_ptz_sim.simulation.scenes import SceneConfig, generate_scene, write_scene
 
 
 def build_parser() -> argparse.ArgumentParser:

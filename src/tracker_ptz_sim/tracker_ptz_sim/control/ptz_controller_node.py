@@ -18,11 +18,11 @@ from rclpy.clock import Clock, ClockType
 from sensor_msgs.msg import JointState
 
 from tracker_msgs.msg import PtzCommand, PtzState, Target
-from tracker_msgs_py.conversions import msg_to_window, stamp_to_ns
+from tracker_msgs_py.codec import msg_to_window, stamp_to_ns
 from tracker_msgs_py.node_main import SuiteNode, run_node
 from tracker_msgs_py.params import ParamSpec, declare_parameters
 from tracker_msgs_py.stamps import Order, StampOrder
-from tracker_ptz_sim.controller import (
+from tracker_ptz_sim.control.controller import (
     CameraPose,
     Command,
     CommandMode,

@@ -7,29 +7,12 @@ The bags are ordinary rosbag2 (MCAP by default) with the message definitions emb
 from __future__ import annotations
 
 from collections.abc import Iterator
-from functools import cache
 from pathlib import Path
 from typing import Any
 
 from rosbags.rosbag2 import Reader, StoragePlugin, Writer
-from rosbags.typesys import Stores, get_types_from_msg, get_typestore
-from rosbags.typesys.store import Typestore
 
-from tracker_ptz_sim.graph import package_data
-
-
-@cache
-def typestore() -> Typestore:
-    """ROS 2 Jazzy's standard types plus tracker_msgs."""
-    store = get_typestore(Stores.ROS2_JAZZY)
-    types: dict[str, Any] = {}
-    for path in sorted(package_data("tracker_msgs", "msg").glob("*.msg")):
-        types.update(get_types_from_msg(path.read_text(), f"tracker_msgs/msg/{path.stem}"))
-    store.register(types)
-    return store
-
-
-IMAGE_TYPES = {"sensor_msgs/msg/Image", "sensor_msgs/msg/CompressedImage"}
+from tracker_msgs_py.codec import IMAGE_TYPES, typestore
 
 
 def exact_cdr(data: bytes, msgtype: str) -> bytes:

@@ -17,8 +17,8 @@ from typing import Any
 import cv2
 import numpy as np
 
-from tracker_ptz_sim.frame_sources import decode_image_message
-from tracker_ptz_sim.recording import read_bag
+from tracker_msgs_py.codec import NS_PER_S, decode_image, stamp_to_ns
+from tracker_ptz_sim.evaluation.recording import read_bag
 
 SCENE, CAMERA = "/scene/image_raw", "/camera/image_raw"
 STATE, DETECTIONS, TRACKS, TARGET, COMMAND = (
@@ -36,12 +36,7 @@ HOPS = [
     ("tracker -> ptz_controller", TARGET, COMMAND),
     ("camera image -> command", CAMERA, COMMAND),
 ]
-IMAGE = "sensor_msgs/msg/Image"
 CONFIRMED_STATUSES = (1, 2)  # Track.STATUS_CONFIRMED, STATUS_COASTING
-
-
-def stamp_ns(msg: Any) -> int:
-    return int(msg.header.stamp.sec) * 1_000_000_000 + int(msg.header.stamp.nanosec)
 
 
 @dataclass
@@ -81,7 +76,7 @@ def collect(bag: Path) -> dict[int, FrameRecord]:
         COMMAND: "command",
     }
     for topic, received, msg in read_bag(bag, {SCENE, CAMERA, *slots}):
-        stamp = stamp_ns(msg)
+        stamp = stamp_to_ns(msg.header.stamp)
         record = frames.setdefault(stamp, FrameRecord(stamp))
         record.received.setdefault(topic, received)
         if topic in slots:
@@ -92,7 +87,7 @@ def collect(bag: Path) -> dict[int, FrameRecord]:
 def summarize(frames: dict[int, FrameRecord], message_counts: dict[str, int]) -> Summary:
     scene_times = sorted(r.received[SCENE] for r in frames.values() if SCENE in r.received)
     count = len(scene_times)
-    duration = (scene_times[-1] - scene_times[0]) / 1e9 if count > 1 else 0.0
+    duration = (scene_times[-1] - scene_times[0]) / NS_PER_S if count > 1 else 0.0
     latency = {}
     for name, source, sink in HOPS:
         values = [
@@ -142,7 +137,7 @@ def stream_fps(frames: dict[int, FrameRecord], default: float = 10.0) -> float:
     stamps = list(frames)
     if len(stamps) < 2:
         return default
-    spacing = float(np.median(np.diff(stamps))) / 1e9
+    spacing = float(np.median(np.diff(stamps))) / NS_PER_S
     return 1.0 / spacing if spacing > 0 else default
 
 
@@ -154,7 +149,7 @@ def frame_numbers(frames: dict[int, FrameRecord]) -> dict[int, int]:
     """
     stamps = list(frames)
     fps = stream_fps(frames)
-    indices = [s * fps / 1e9 for s in stamps]
+    indices = [s * fps / NS_PER_S for s in stamps]
     if all(abs(i - round(i)) < 0.01 for i in indices):
         return {s: int(round(i)) + 1 for s, i in zip(stamps, indices, strict=True)}
     return {s: n for n, s in enumerate(stamps, start=1)}
@@ -204,9 +199,9 @@ def render_video(
 
     def draw(stamp: int) -> None:
         nonlocal writer, drawn
-        canvas = annotate_scene(decode_image_message(waiting.pop(stamp), IMAGE), frames.get(stamp))
+        canvas = annotate_scene(decode_image(waiting.pop(stamp)), frames.get(stamp))
         camera = cameras.pop(stamp, None)
-        view = None if camera is None else decode_image_message(camera, IMAGE)
+        view = None if camera is None else decode_image(camera)
         canvas = side_by_side(canvas, annotate_view(view, canvas.shape[0]))
         if writer is None:
             size = (canvas.shape[1], canvas.shape[0])
@@ -220,7 +215,7 @@ def render_video(
 
     try:
         for topic, _, msg in read_bag(bag, {SCENE, CAMERA}):
-            stamp = stamp_ns(msg)
+            stamp = stamp_to_ns(msg.header.stamp)
             if topic == CAMERA:
                 cameras[stamp] = msg
             elif stamp != last_scene:

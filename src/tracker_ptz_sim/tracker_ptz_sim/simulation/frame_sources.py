@@ -26,8 +26,16 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from tracker_msgs_py.codec import (
+    IMAGE_TYPES,
+    NS_PER_S,
+    decode_image,
+    frame_stamp_ns,
+    stamp_to_ns,
+    typestore,
+)
+
 IMAGE_SUFFIXES = {".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff", ".ppm", ".pgm", ".webp"}
-IMAGE_TYPES = ("sensor_msgs/msg/Image", "sensor_msgs/msg/CompressedImage")
 DEFAULT_FPS = 10.0
 CAPTURE_OPTIONS = "OPENCV_FFMPEG_CAPTURE_OPTIONS"  # FFmpeg options of the captures OpenCV opens
 _OPTIONS_LOCK = threading.Lock()
@@ -42,11 +50,6 @@ class Frame:
     index: int  # position in the input, from 0
     stamp_ns: int
     image: np.ndarray  # (H, W, 3) uint8 BGR
-
-
-def frame_stamp_ns(index: int, fps: float) -> int:
-    """Stamp of frame `index` of a recording at `fps` (frame 0 at t = 0)."""
-    return round(index * 1e9 / fps)
 
 
 def natural_key(name: str) -> list:
@@ -289,14 +292,14 @@ class BagSource(FrameSource):
         if self.total == 0:
             raise SourceError(f"{path}: topic {self.topic} has no messages")
         self.fps = (
-            (self.total - 1) / (duration / 1e9) if self.total > 1 and duration > 0 else DEFAULT_FPS
+            (self.total - 1) / (duration / NS_PER_S)
+            if self.total > 1 and duration > 0
+            else DEFAULT_FPS
         )
         self.skipped = 0
 
     def frames(self, start: int = 0, end: int | None = None) -> Iterator[Frame]:
         from rosbags.rosbag2 import Reader
-
-        from tracker_ptz_sim.recording import typestore
 
         store = typestore()
         with Reader(self.path) as reader:
@@ -310,35 +313,14 @@ class BagSource(FrameSource):
                     return
                 try:
                     msg = store.deserialize_cdr(data, connection.msgtype)
-                    image = decode_image_message(msg, connection.msgtype)
+                    image = decode_image(msg)
                 except (ValueError, cv2.error, RuntimeError):
                     image = None
                 if image is None:
                     self.skipped += 1
                     continue
-                stamp = int(msg.header.stamp.sec) * 1_000_000_000 + int(msg.header.stamp.nanosec)
+                stamp = stamp_to_ns(msg.header.stamp)
                 yield Frame(index, stamp or timestamp, image)
-
-
-def decode_image_message(msg: object, msgtype: str) -> np.ndarray | None:
-    """BGR pixels of a deserialized Image (8-bit mono/colour encodings) or CompressedImage."""
-    if msgtype.endswith("CompressedImage"):
-        return cv2.imdecode(np.asarray(msg.data, dtype=np.uint8), cv2.IMREAD_COLOR)
-    conversions = {
-        "bgr8": (3, None),
-        "rgb8": (3, cv2.COLOR_RGB2BGR),
-        "mono8": (1, cv2.COLOR_GRAY2BGR),
-        "bgra8": (4, cv2.COLOR_BGRA2BGR),
-        "rgba8": (4, cv2.COLOR_RGBA2BGR),
-    }
-    if msg.encoding not in conversions:
-        raise ValueError(f"unsupported image encoding '{msg.encoding}'")
-    channels, code = conversions[msg.encoding]
-    rows = np.asarray(msg.data, dtype=np.uint8)[: msg.step * msg.height].reshape(
-        msg.height, msg.step
-    )
-    pixels = rows[:, : msg.width * channels].reshape(msg.height, msg.width, channels)
-    return np.ascontiguousarray(pixels) if code is None else cv2.cvtColor(pixels, code)
 
 
 def open_source(path: str | Path, fps: float = 0.0, bag_topic: str = "") -> FrameSource:

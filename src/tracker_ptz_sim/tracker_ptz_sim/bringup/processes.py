@@ -11,7 +11,7 @@ from collections import deque
 from pathlib import Path
 from typing import Any
 
-from tracker_ptz_sim.graph import Graph, executable_path, ros_args
+from tracker_ptz_sim.bringup.graph import Graph, executable_path, ros_args
 
 LOG_TAIL_LINES = 8
 

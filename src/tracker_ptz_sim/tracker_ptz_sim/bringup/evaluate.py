@@ -1,0 +1,62 @@
+"""evaluate: replay a scene with ground truth through the graph and score it.
+
+    evaluate --scene DIR                  a synthetic scene written by make_scene (video + gt/gt.txt)
+    evaluate --video FILE --gt gt.txt     any video with MOTChallenge ground truth
+    evaluate --bag out/bag --gt gt.txt    score a run recorded before, without replaying
+
+Reports the scores of `tracker_ptz_sim.evaluation.scoring` (CLEAR MOT and IDF1 in the camera view
+and in the whole scene, and how well the camera followed its object). Writes summary.json (the
+run) and evaluation.json (the scores) to --out.
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from tracker_ptz_sim.evaluation.scoring import format_scores, score
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
+    source = parser.add_mutually_exclusive_group(required=True)
+    source.add_argument("--scene", type=Path, help="scene directory from make_scene")
+    source.add_argument("--video", type=Path, help="video (with --gt)")
+    source.add_argument("--bag", type=Path, help="a recorded run's bag directory (with --gt)")
+    parser.add_argument("--gt", type=Path, help="MOTChallenge gt.txt")
+    parser.add_argument("--out", type=Path, default=Path("out/eval"))
+    parser.add_argument("--mode", choices=("servo", "direct"), help="ptz_controller mode")
+    parser.add_argument("--set", action="append", default=[], metavar="NODE.PARAM=VALUE")
+    parser.add_argument("--timeout", type=float, default=1800.0)
+    args = parser.parse_args(argv)
+
+    gt = args.gt or (args.scene / "gt" / "gt.txt" if args.scene else None)
+    if gt is None or not gt.exists():
+        parser.error(f"ground truth not found: {gt} (pass --gt)")
+    args.out.mkdir(parents=True, exist_ok=True)
+    bag = args.bag
+    if bag is None:
+        from tracker_ptz_sim.bringup import demo
+        from tracker_ptz_sim.bringup.graph import load_graph
+        from tracker_ptz_sim.simulation.scenes import scene_video
+
+        video = args.video or scene_video(args.scene)
+        overrides = demo.parse_overrides(args.set)
+        if args.mode:
+            overrides.setdefault("ptz_controller", {})["mode"] = args.mode
+        run = demo.run_graph(
+            load_graph(), video, args.out, overrides, demo.install_space(), args.timeout
+        )
+        bag = run.bag
+        if not run.complete:
+            print(f"the run is incomplete: {'; '.join(run.problems)} (see {args.out}/logs)")
+            return 130 if run.interrupted_by else 1
+    result = score(bag, gt, args.out)
+    print(f"Evaluation against {gt}:\n{format_scores(result)}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
