@@ -36,7 +36,9 @@ for _pkg in ("tracker_msgs", "tracker_filter"):
 
 from tracker_filter.config import TrackerConfig  # noqa: E402
 from tracker_filter.filters import PerTrackFactory  # noqa: E402
-from tracker_filter.management import Detections, TrackManager, TrackStatus  # noqa: E402
+from tracker_filter.management import TrackManager  # noqa: E402
+from tracker_filter.observation import Detections, Observation  # noqa: E402
+from tracker_filter.tracking import TrackStatus  # noqa: E402
 from tracker_filter.synthetic import bouncing_scene  # noqa: E402
 
 OUT = ROOT / "out" / "bench" / "filter.json"
@@ -49,7 +51,7 @@ def timed_steps(tracker, frames, warmup: int) -> tuple[list[float], list]:
     times, outputs = [], []
     for k, frame in enumerate(frames):
         start = time.perf_counter()
-        tracks = tracker.step(frame.time, frame.detections)
+        tracks = tracker.step(Observation(frame.time, frame.detections))
         elapsed = time.perf_counter() - start
         if k >= warmup:
             times.append(1e3 * elapsed)
@@ -138,7 +140,7 @@ def bench_single(quick: bool) -> dict:
                 np.zeros(3),
             )
             start = time.perf_counter()
-            tracker.step(k * 0.12, detections)
+            tracker.step(Observation(k * 0.12, detections))
             times.append(1e3 * (time.perf_counter() - start))
         rows[f"{preset}_tracker_step"] = summary(times[10:])
     for kind in FILTERS:

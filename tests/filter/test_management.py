@@ -7,7 +7,9 @@ import pytest
 
 from tracker_filter.config import TrackerConfig
 from tracker_filter.filters import PerTrackFactory
-from tracker_filter.management import Detections, OutOfOrderError, TrackManager, TrackStatus
+from tracker_filter.management import TrackManager
+from tracker_filter.observation import Detections, Observation
+from tracker_filter.tracking import OutOfOrderError, TrackStatus
 from tracker_filter.synthetic import bouncing_scene, piecewise_constant_velocity
 from tracker_msgs.msg import Track
 
@@ -28,7 +30,7 @@ def count_id_switches(frames, tracker, gate=25.0):
     """Run the tracker and let motmetrics count identity switches against the truth."""
     accumulator = mm.MOTAccumulator(auto_id=True)
     for truth_ids, truth_positions, detections, t in frames:
-        tracks = tracker.step(t, detections)
+        tracks = tracker.step(Observation(t, detections))
         shown = (tracks.status == TrackStatus.CONFIRMED) | (tracks.status == TrackStatus.COASTING)
         distances = mm.distances.norm2squared_matrix(
             truth_positions, tracks.positions[shown], max_d2=gate**2
@@ -74,7 +76,7 @@ def test_coasting_through_a_10_frame_gap_keeps_the_id(kind):
         detections = (
             Detections.empty() if 20 <= k < 30 else Detections.from_positions(z[k : k + 1], size=10)
         )
-        tracks = tracker.step(t, detections)
+        tracks = tracker.step(Observation(t, detections))
         assert len(tracks) == 1
         ids.add(int(tracks.ids[0]))
         statuses.append(TrackStatus(int(tracks.status[0])))
@@ -91,12 +93,12 @@ def test_a_target_that_leaves_is_deleted_after_max_misses():
     tracker = multi(max_misses=5)
     trajectory = piecewise_constant_velocity((50.0, 50.0), [(1.2, (40.0, 0.0))], DT)
     for t, z in zip(trajectory.times, trajectory.positions, strict=True):
-        tracks = tracker.step(t, Detections.from_positions(z[None], size=10))
+        tracks = tracker.step(Observation(t, Detections.from_positions(z[None], size=10)))
     assert tracks.status[0] == TrackStatus.CONFIRMED
     t = trajectory.times[-1]
     history = []
     for k in range(1, 8):
-        tracks = tracker.step(t + k * DT, Detections.empty())
+        tracks = tracker.step(Observation(t + k * DT, Detections.empty()))
         history.append(
             [(int(i), TrackStatus(int(s))) for i, s in zip(tracks.ids, tracks.status, strict=True)]
         )
@@ -112,14 +114,20 @@ def test_m_of_n_confirmation_and_clutter():
     pattern = [True, False, True, False, True]  # 3 hits in 5 frames: confirmed on the 5th
     for k, hit in enumerate(pattern):
         tracks = tracker.step(
-            k * DT,
-            Detections.from_positions(z + [5.0 * k, 0.0], size=10) if hit else Detections.empty(),
+            Observation(
+                k * DT,
+                Detections.from_positions(z + [5.0 * k, 0.0], size=10)
+                if hit
+                else Detections.empty(),
+            )
         )
     assert tracks.status.tolist() == [TrackStatus.CONFIRMED]
     failing = multi(confirm_hits=3, confirm_window=4)
     for k, hit in enumerate([True, False, False]):
         tracks = failing.step(
-            k * DT, Detections.from_positions(z, size=10) if hit else Detections.empty()
+            Observation(
+                k * DT, Detections.from_positions(z, size=10) if hit else Detections.empty()
+            )
         )
     assert tracks.status.tolist() == [TrackStatus.LOST]  # 1 hit + 1 frame left < 3: given up early
     # one-frame clutter anywhere never confirms
@@ -127,7 +135,9 @@ def test_m_of_n_confirmation_and_clutter():
     clutter_tracker = multi()
     for k in range(40):
         tracks = clutter_tracker.step(
-            k * DT, Detections.from_positions(rng.uniform(0, 2000, size=(5, 2)), size=10)
+            Observation(
+                k * DT, Detections.from_positions(rng.uniform(0, 2000, size=(5, 2)), size=10)
+            )
         )
         assert not np.any(tracks.status == TrackStatus.CONFIRMED)
 
@@ -165,34 +175,40 @@ def test_seed_single_target_mode():
             )
         )
     for k, detections in enumerate(frames):
-        tracks = tracker.step(k * DT, detections)
+        tracks = tracker.step(Observation(k * DT, detections))
         assert len(tracks) == 1 and tracks.status[0] == TrackStatus.CONFIRMED and tracks.ids[0] == 1
         assert tracks.detections[0] == 0  # index among the selected detections
     assert abs(tracks.positions[0, 0] - 125.0) < 3.0
     t = 5 * DT
     for k in range(1, 5):  # search -> track -> reset after 4 consecutive misses
-        tracks = tracker.step(t + k * DT, Detections.empty())
+        tracks = tracker.step(Observation(t + k * DT, Detections.empty()))
         expected = TrackStatus.LOST if k == 4 else TrackStatus.COASTING
         assert tracks.status.tolist() == [expected]
-    tracks = tracker.step(t + 5 * DT, Detections.from_positions([[400.0, 200.0]], size=10))
+    tracks = tracker.step(
+        Observation(t + 5 * DT, Detections.from_positions([[400.0, 200.0]], size=10))
+    )
     assert tracks.ids.tolist() == [2] and tracks.status[0] == TrackStatus.CONFIRMED
     # no gate: even a far jump of the single blob updates the one track
-    tracks = tracker.step(t + 6 * DT, Detections.from_positions([[10.0, 10.0]], size=10))
+    tracks = tracker.step(
+        Observation(t + 6 * DT, Detections.from_positions([[10.0, 10.0]], size=10))
+    )
     assert tracks.ids.tolist() == [2] and tracks.hits[0] == 2
 
 
 def test_bad_input_leaves_the_state_untouched():
     tracker = multi()
-    tracker.step(1.0, Detections.from_positions([[10.0, 10.0]], size=4))
+    tracker.step(Observation(1.0, Detections.from_positions([[10.0, 10.0]], size=4)))
     tracks = tracker.step(
-        1.1, Detections.from_positions([[np.nan, 10.0], [11.0, 10.0], [np.inf, 0.0]], size=4)
+        Observation(
+            1.1, Detections.from_positions([[np.nan, 10.0], [11.0, 10.0], [np.inf, 0.0]], size=4)
+        )
     )
     assert tracks.rejected_measurements == 2 and tracker.rejected_measurements == 2
     assert len(tracks) == 1 and tracks.hits[0] == 2
     means = tracker.bank.means.copy()
     for bad_time in (1.1, 0.5, float("nan")):
         with pytest.raises(OutOfOrderError):
-            tracker.step(bad_time, Detections.from_positions([[12.0, 10.0]], size=4))
+            tracker.step(Observation(bad_time, Detections.from_positions([[12.0, 10.0]], size=4)))
     np.testing.assert_array_equal(tracker.bank.means, means)
     assert tracker.time == 1.1
     with pytest.raises(ValueError, match="positions"):
@@ -222,21 +238,23 @@ def test_detections_that_cannot_be_measurements_are_rejected_by_cause():
         "non-finite score": 1,
     }
     tracker = multi()
-    tracks = tracker.step(1.0, detections)
+    tracks = tracker.step(Observation(1.0, detections))
     assert len(tracks) == 1 and tracks.rejections == rejected
     assert np.isfinite(tracks.means).all() and (tracks.bboxes[:, 2:] >= 0).all()
 
 
 def test_reset_and_ids():
     tracker = multi()
-    tracker.step(5.0, Detections.from_positions([[10.0, 10.0], [50.0, 50.0]], size=4))
+    tracker.step(Observation(5.0, Detections.from_positions([[10.0, 10.0], [50.0, 50.0]], size=4)))
     assert tracker.reset() == 2 and len(tracker) == 0 and tracker.time is None
     tracks = tracker.step(
-        1.0, Detections.from_positions([[10.0, 10.0]], size=4)
+        Observation(1.0, Detections.from_positions([[10.0, 10.0]], size=4))
     )  # earlier stamp accepted
     assert tracks.ids.tolist() == [3]
     tracker.reset(reset_ids=True)
-    assert tracker.step(2.0, Detections.from_positions([[10.0, 10.0]], size=4)).ids.tolist() == [1]
+    assert tracker.step(
+        Observation(2.0, Detections.from_positions([[10.0, 10.0]], size=4))
+    ).ids.tolist() == [1]
 
 
 def test_report_fields_and_boxes_follow_coasting_tracks():
@@ -245,12 +263,12 @@ def test_report_fields_and_boxes_follow_coasting_tracks():
         detections = Detections(
             np.array([[100.0 + 10 * k, 50.0]]), [300.0], [[90.0 + 10 * k, 40.0, 20.0, 20.0]], [0.1]
         )
-        tracks = tracker.step(k * 0.1, detections)
+        tracks = tracker.step(Observation(k * 0.1, detections))
     report = next(iter(tracks))
     assert report.bbox == (130.0, 40.0, 20.0, 20.0) and report.area == 300.0
     assert report.age == pytest.approx(0.4) and report.hits == 5 and report.existence == 1.0
     np.testing.assert_allclose(report.position_covariance, report.covariance[:2, :2])
-    coasting = tracker.step(0.5, Detections.empty()).report(0)
+    coasting = tracker.step(Observation(0.5, Detections.empty())).report(0)
     shift = coasting.position - report.position
     assert coasting.bbox[:2] == pytest.approx((130.0 + shift[0], 40.0 + shift[1]))
     assert coasting.status == TrackStatus.COASTING and coasting.detection == -1
@@ -271,7 +289,10 @@ def test_object_bank_plugs_in_and_gives_the_same_tracks():
         components.deleter,
     )
     for frame in bouncing_scene(np.random.default_rng(4), targets=6, clutter=3, frames=25):
-        a, b = fast.step(frame.time, frame.detections), plug.step(frame.time, frame.detections)
+        a, b = (
+            fast.step(Observation(frame.time, frame.detections)),
+            plug.step(Observation(frame.time, frame.detections)),
+        )
         np.testing.assert_array_equal(a.ids, b.ids)
         np.testing.assert_array_equal(a.status, b.status)
         np.testing.assert_allclose(a.means, b.means, rtol=1e-9, atol=1e-8)

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from tracker_filter.management import TrackSet, TrackStatus
+from tracker_filter.tracking import TrackSet, TrackStatus
 from tracker_filter.selection import SelectionPolicy, TargetSelector
 from tracker_msgs.msg import Target
 from tracker_msgs_py.geometry import Rect

@@ -13,7 +13,6 @@ Presets:
 
 from __future__ import annotations
 
-import math
 from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
@@ -30,6 +29,7 @@ from tracker_filter.management import (
     TrackManager,
 )
 from tracker_filter.selection import AUTOMATIC_POLICIES, SelectionPolicy, TargetSelector
+from tracker_msgs_py.params import ParamSpec
 
 SEED_CYCLE = 3.0 / 25.0  # s between processed frames in seed 000 (every 3rd frame at 25 fps)
 SEED_DT = 1.1  # the prototype's dt per processed frame (digest section 3)
@@ -40,64 +40,6 @@ def seed_process_noise(cycle: float = SEED_CYCLE) -> float:
     """The seed's sigma_a expressed in px/s^2 for frames `cycle` seconds apart."""
     return SEED_SIGMA_A * (SEED_DT / cycle) ** 2
 
-
-@dataclass(frozen=True)
-class ParamInfo:
-    """Documentation and constraints of one tracker parameter (the node turns these into ROS
-    parameter descriptors)."""
-
-    name: str
-    description: str
-    min: float | None = None
-    max: float | None = None
-    choices: tuple[str, ...] | None = None
-
-
-PARAMETERS: tuple[ParamInfo, ...] = (
-    ParamInfo("filter", "filter of every track", choices=tuple(k.value for k in FilterKind)),
-    ParamInfo("alpha", "alpha-beta(-gamma) position gain", 0.0, 2.0),
-    ParamInfo(
-        "gain_rule",
-        "how beta (and gamma) follow from alpha",
-        choices=tuple(r.value for r in GainRule),
-    ),
-    ParamInfo("beta", "velocity gain for gain_rule free", 0.0, 4.0),
-    ParamInfo("gamma", "acceleration gain for gain_rule free (a += 2 gamma r / dt^2)", 0.0, 4.0),
-    ParamInfo(
-        "startup_gains", "alpha-beta(-gamma): least-squares gains for a track's first measurements"
-    ),
-    ParamInfo("process_noise", "px/s^2 white acceleration (cv) or px/s^3 jerk (ca) std", 1e-6, 1e6),
-    ParamInfo("measurement_noise", "px, std of a detection centroid per axis", 1e-6, 1e4),
-    ParamInfo("initial_velocity_std", "px/s, velocity std of a new track", 1e-6, 1e6),
-    ParamInfo(
-        "initial_acceleration_std", "px/s^2, acceleration std of a new track (ca)", 1e-6, 1e6
-    ),
-    ParamInfo(
-        "initial_covariance",
-        "new-track covariance: from the stds, or Q(nominal_dt) (seed 000)",
-        choices=("stds", "process_noise"),
-    ),
-    ParamInfo("nominal_dt", "s, frame interval for initial_covariance process_noise", 1e-4, 10.0),
-    ParamInfo("gate_probability", "chi-square gate probability; 1 = no gate", 0.5, 1.0),
-    ParamInfo(
-        "measurements",
-        "detections used: all, or the largest only (seed 000)",
-        choices=("all", "largest"),
-    ),
-    ParamInfo("max_tracks", "most tracks at once", 1, 10000),
-    ParamInfo("confirm_hits", "M: hits needed to confirm a track", 1, 100),
-    ParamInfo("confirm_window", "N: frames from initiation in which to collect M hits", 1, 100),
-    ParamInfo("max_misses", "consecutive missed frames before a track is lost", 1, 10000),
-    ParamInfo("selection_policy", "automatic target selection", choices=tuple(AUTOMATIC_POLICIES)),
-    ParamInfo(
-        "min_lock_time", "s, shortest time on a target before switching to another", 0.0, 3600.0
-    ),
-    ParamInfo("switch_margin", "relative score advantage needed to switch targets", 0.0, 100.0),
-    ParamInfo("lead_time", "s, horizon of the target's predicted position", 0.0, 10.0),
-)
-
-#: Parameters that take effect without rebuilding the tracker (the others clear its tracks).
-LIVE_PARAMETERS = frozenset({"selection_policy", "min_lock_time", "switch_margin", "lead_time"})
 
 _MULTI: dict[str, Any] = {
     "filter": "kalman_cv",
@@ -123,6 +65,69 @@ _MULTI: dict[str, Any] = {
     "switch_margin": 0.2,
     "lead_time": SEED_CYCLE,
 }
+
+
+def _spec(
+    name: str,
+    description: str,
+    min: float | None = None,
+    max: float | None = None,
+    choices: tuple[str, ...] | None = None,
+) -> ParamSpec:
+    """A parameter whose default is the ``multi`` preset's value."""
+    return ParamSpec(name, _MULTI[name], description, min, max, choices)
+
+
+TRACKING_PARAMETERS: tuple[ParamSpec, ...] = (
+    _spec("filter", "filter of every track", choices=tuple(k.value for k in FilterKind)),
+    _spec("alpha", "alpha-beta(-gamma) position gain", 0.0, 2.0),
+    _spec(
+        "gain_rule",
+        "how beta (and gamma) follow from alpha",
+        choices=tuple(r.value for r in GainRule),
+    ),
+    _spec("beta", "velocity gain for gain_rule free", 0.0, 4.0),
+    _spec("gamma", "acceleration gain for gain_rule free (a += 2 gamma r / dt^2)", 0.0, 4.0),
+    _spec(
+        "startup_gains", "alpha-beta(-gamma): least-squares gains for a track's first measurements"
+    ),
+    _spec("process_noise", "px/s^2 white acceleration (cv) or px/s^3 jerk (ca) std", 1e-6, 1e6),
+    _spec("measurement_noise", "px, std of a detection centroid per axis", 1e-6, 1e4),
+    _spec("initial_velocity_std", "px/s, velocity std of a new track", 1e-6, 1e6),
+    _spec("initial_acceleration_std", "px/s^2, acceleration std of a new track (ca)", 1e-6, 1e6),
+    _spec(
+        "initial_covariance",
+        "new-track covariance: from the stds, or Q(nominal_dt) (seed 000)",
+        choices=("stds", "process_noise"),
+    ),
+    _spec("nominal_dt", "s, frame interval for initial_covariance process_noise", 1e-4, 10.0),
+    _spec("gate_probability", "chi-square gate probability; 1 = no gate", 0.5, 1.0),
+    _spec(
+        "measurements",
+        "detections used: all, or the largest only (seed 000)",
+        choices=("all", "largest"),
+    ),
+    _spec("max_tracks", "most tracks at once", 1, 10000),
+    _spec("confirm_hits", "M: hits needed to confirm a track", 1, 100),
+    _spec("confirm_window", "N: frames from initiation in which to collect M hits", 1, 100),
+    _spec("max_misses", "consecutive missed frames before a track is lost", 1, 10000),
+)
+
+SELECTION_PARAMETERS: tuple[ParamSpec, ...] = (
+    _spec("selection_policy", "automatic target selection", choices=tuple(AUTOMATIC_POLICIES)),
+    _spec("min_lock_time", "s, shortest time on a target before switching to another", 0.0, 3600.0),
+    _spec("switch_margin", "relative score advantage needed to switch targets", 0.0, 100.0),
+    _spec("lead_time", "s, horizon of the target's predicted position", 0.0, 10.0),
+)
+
+#: The target selection's defaults, whatever the tracker.
+SELECTION_DEFAULTS: dict[str, Any] = {spec.name: spec.default for spec in SELECTION_PARAMETERS}
+
+#: Every parameter of the gated-Hungarian tracker and the target selection.
+PARAMETERS: tuple[ParamSpec, ...] = TRACKING_PARAMETERS + SELECTION_PARAMETERS
+
+#: Parameters that take effect without rebuilding the tracker (the others clear its tracks).
+LIVE_PARAMETERS = frozenset({"selection_policy", "min_lock_time", "switch_margin", "lead_time"})
 
 _SEED000 = _MULTI | {
     "filter": "alpha_beta",
@@ -169,8 +174,10 @@ class TrackerConfig:
         missing = [info.name for info in PARAMETERS if info.name not in params]
         if missing:
             raise ValueError(f"missing parameters: {', '.join(missing)}")
-        for info in PARAMETERS:
-            _check(info, params[info.name])
+        for spec in PARAMETERS:
+            reason = spec.check(params[spec.name])
+            if reason:
+                raise ValueError(reason)
         kind = FilterKind(params["filter"])
         # the gains are checked whatever the filter, so a later switch to alpha-beta cannot fail
         order = kind.model.order if kind.fixed_gain else 1
@@ -228,16 +235,3 @@ class TrackerConfig:
 
     def build_selector(self) -> TargetSelector:
         return TargetSelector(self.selection_policy, self.min_lock_time, self.switch_margin)
-
-
-def _check(info: ParamInfo, value: Any) -> None:
-    if info.choices is not None:
-        if value not in info.choices:
-            raise ValueError(f"{info.name} must be one of {', '.join(info.choices)}; got '{value}'")
-        return
-    if isinstance(value, bool) or info.min is None:
-        return
-    if not isinstance(value, int | float) or not math.isfinite(value):
-        raise ValueError(f"{info.name} must be a finite number, got {value!r}")
-    if not info.min <= value <= info.max:
-        raise ValueError(f"{info.name} must be in [{info.min}, {info.max}], got {value}")

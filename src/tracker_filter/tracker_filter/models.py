@@ -19,6 +19,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from tracker_filter.layout import StateLayout
+
 AXES = 2  # the scene is a plane: x and y
 
 
@@ -87,9 +89,14 @@ def model_for_layout(state_layout: tuple[str, ...]) -> KinematicModel:
 
 
 def extrapolate_positions(
-    means: np.ndarray, state_layout: tuple[str, ...], lead: float
+    means: np.ndarray, layout: StateLayout | tuple[str, ...], lead: float
 ) -> np.ndarray:
-    """Positions (N, 2) that states `means` (N, n) reach after `lead` seconds of their own motion."""
+    """Positions (N, 2) that states `means` (N, n) reach after `lead` seconds of their own motion:
+    the kinematic model's transition for its layouts, else position + lead x velocity."""
     means = np.atleast_2d(means)
-    model = model_for_layout(state_layout)
-    return means @ model.transition(lead)[:AXES].T
+    names = layout.names if isinstance(layout, StateLayout) else tuple(layout)
+    for model in (CONSTANT_VELOCITY, CONSTANT_ACCELERATION):
+        if model.state_layout == names:
+            return means @ model.transition(lead)[:AXES].T
+    general = layout if isinstance(layout, StateLayout) else StateLayout.from_names(names)
+    return general.positions(means) + lead * general.velocities(means)

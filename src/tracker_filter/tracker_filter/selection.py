@@ -23,7 +23,7 @@ from enum import IntEnum
 
 import numpy as np
 
-from tracker_filter.management import TrackSet, TrackStatus
+from tracker_filter.tracking import TrackSet, TrackStatus
 from tracker_msgs_py.geometry import Rect
 
 

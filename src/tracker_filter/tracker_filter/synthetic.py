@@ -7,7 +7,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from tracker_filter.management import Detections
+from tracker_filter.observation import Detections
 
 
 @dataclass(frozen=True, eq=False)

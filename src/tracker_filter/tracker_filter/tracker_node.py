@@ -1,31 +1,51 @@
 """tracker node: detections in, tracks and the pan-tilt target out, one of each per BlobArray.
 
-Subscribes detections (tracker_msgs/BlobArray, scene frame) and ptz/state (tracker_msgs/PtzState,
-for the view centre); publishes tracks (tracker_msgs/TrackArray) and target (tracker_msgs/Target)
-stamped with the BlobArray's stamp; serves select_target and reset_tracker. All the tracking is in
-the core modules; this file declares parameters, converts messages and wires topics.
+The `method` parameter picks a registered tracker (`trackers.TRACKERS`); its parameters are
+declared beside the node's own. Subscribes detections (tracker_msgs/BlobArray, scene frame) and
+ptz/state (tracker_msgs/PtzState, for the view centre), plus what the tracker `needs`:
+camera/image_raw (sensor_msgs/Image), detector/motion_mask (mono8 Image), the ptz/state window,
+paired with the detections by stamp (`tracker_msgs_py.pairing`). Publishes tracks
+(tracker_msgs/TrackArray) and target (tracker_msgs/Target) stamped with the BlobArray's stamp;
+serves select_target and reset_tracker. All the tracking is in the core modules; this file
+declares parameters, converts messages and wires topics.
 """
 
 from __future__ import annotations
 
 import array
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
+from sensor_msgs.msg import Image
 from std_msgs.msg import Header
 
-from tracker_filter.config import LIVE_PARAMETERS, PARAMETERS, PRESETS, TrackerConfig
-from tracker_filter.management import Detections, MultiTargetTracker, TrackSet
+from tracker_filter.config import SELECTION_DEFAULTS, SELECTION_PARAMETERS
 from tracker_filter.models import extrapolate_positions
-from tracker_filter.selection import SelectionPolicy, TargetSelector
+from tracker_filter.observation import Detections, Need, Observation
+from tracker_filter.selection import AUTOMATIC_POLICIES, SelectionPolicy, TargetSelector
+from tracker_filter.trackers import TRACKERS
+from tracker_filter.tracking import Tracker, TrackSet
 from tracker_msgs.msg import BlobArray, PtzState, Rect, Target, Track, TrackArray
 from tracker_msgs.srv import ResetTracker, SelectTarget
-from tracker_msgs_py.codec import msg_to_rect, msg_to_window, stamp_to_ns
+from tracker_msgs_py.codec import (
+    NS_PER_S,
+    UnsupportedEncodingError,
+    image_qos,
+    image_to_array,
+    image_to_bgr,
+    msg_to_rect,
+    msg_to_window,
+    stamp_to_ns,
+)
 from tracker_msgs_py.node_main import SuiteNode, run_node
-from tracker_msgs_py.params import ParamSpec, declare_parameters
+from tracker_msgs_py.pairing import Frame, FrameAssembler
+from tracker_msgs_py.params import ParameterError, ParamSpec, declare_parameters
+from tracker_msgs_py.registry import Method
 from tracker_msgs_py.stamps import Order, StampOrder
 
-NS_PER_S = 1e9
+#: Parameters that take effect without rebuilding the tracker (the others clear its tracks).
+LIVE_PARAMETERS = frozenset(SELECTION_DEFAULTS) | {"scene_frame_id"}
 
 
 def detections_from_msg(msg: BlobArray) -> Detections:
@@ -51,8 +71,9 @@ def _float64_sequence(values: np.ndarray) -> array.array:
 
 
 def track_to_msg(tracks: TrackSet, i: int) -> Track:
-    mean, covariance = tracks.means[i], tracks.covariances[i]
-    x, y, vx, vy = (float(v) for v in mean[:4])
+    mean, covariance, layout = tracks.means[i], tracks.covariances[i], tracks.layout
+    x, y = (float(v) for v in layout.positions(mean))
+    vx, vy = (float(v) for v in layout.velocities(mean))
     bx, by, bw, bh = (float(v) for v in tracks.bboxes[i])
     return Track(
         id=int(tracks.ids[i]),
@@ -61,8 +82,8 @@ def track_to_msg(tracks: TrackSet, i: int) -> Track:
         y=y,
         vx=vx,
         vy=vy,
-        position_covariance=covariance[:2, :2].reshape(-1),
-        state_layout=" ".join(tracks.state_layout),
+        position_covariance=layout.position_covariances(covariance).reshape(-1),
+        state_layout=layout.text,
         state=_float64_sequence(mean),
         covariance=_float64_sequence(covariance),
         bbox=Rect(x=bx, y=by, width=max(bw, 0.0), height=max(bh, 0.0)),
@@ -91,83 +112,122 @@ def target_to_msg(
     )
     if index is not None:
         target.track = track_to_msg(tracks, index)
-        predicted = extrapolate_positions(tracks.means[index], tracks.state_layout, lead_time)[0]
+        predicted = extrapolate_positions(tracks.means[index], tracks.layout, lead_time)[0]
         target.predicted_x, target.predicted_y = float(predicted[0]), float(predicted[1])
     return target
 
 
-def _parameter_specs(preset: str) -> list[ParamSpec]:
-    defaults = PRESETS[preset]
-    specs = [
+def parameter_specs(method: Method[Tracker], preset: str) -> list[ParamSpec]:
+    """The node's parameters for `method` with `preset`: the method's own, then the target
+    selection's and the node's, defaults from the preset."""
+    defaults = {**SELECTION_DEFAULTS, **method.defaults(preset)}
+    specs = [replace(spec, default=defaults[spec.name]) for spec in method.parameters]
+    specs += [replace(spec, default=defaults[spec.name]) for spec in SELECTION_PARAMETERS]
+    specs += [
+        ParamSpec("scene_frame_id", "scene", "frame of the detections, tracks and target"),
         ParamSpec(
-            info.name, defaults[info.name], info.description, info.min, info.max, info.choices
-        )
-        for info in PARAMETERS
+            "reliable_images", False, "reliable QoS for needed images (lockstep)", read_only=True
+        ),
+        ParamSpec(
+            "pairing_capacity", 30, "frames waiting for their needed inputs at most", 1, 1000
+        ),
     ]
-    specs.append(
-        ParamSpec(
-            "scene_frame_id", "scene", "frame of the detections, tracks and target (the scene)"
-        )
-    )
     return specs
 
 
 class TrackerNode(SuiteNode):
     def __init__(self, **kwargs: Any) -> None:
         super().__init__("tracker", **kwargs)
-        preset_spec = ParamSpec(
-            "preset",
-            "multi",
-            "named defaults of the other parameters",
-            choices=tuple(PRESETS),
-            read_only=True,
-        )
-        preset = declare_parameters(self, [preset_spec])["preset"]
-        self._params = declare_parameters(
+        choice = declare_parameters(
             self,
-            _parameter_specs(preset),
-            on_change=self._on_parameters,
-            check_all=self._check_parameters,
+            [
+                ParamSpec(
+                    "method",
+                    TRACKERS.names()[0],
+                    "the tracker: " + "; ".join(f"{m.name}: {m.description}" for m in TRACKERS),
+                    choices=TRACKERS.names(),
+                    read_only=True,
+                ),
+                ParamSpec(
+                    "preset", "", "named defaults of the method's parameters", read_only=True
+                ),
+            ],
         )
-        self._config = TrackerConfig.from_params(self._params)
-        self._tracker: MultiTargetTracker = self._config.build_tracker()
-        self._selector: TargetSelector = self._config.build_selector()
+        self._method = TRACKERS.get(choice["method"])
+        preset = choice["preset"] or ("multi" if "multi" in self._method.presets else "")
+        try:
+            specs = parameter_specs(self._method, preset)
+        except ValueError as error:
+            raise ParameterError(str(error)) from error
+        self._params = declare_parameters(
+            self, specs, on_change=self._on_parameters, check_all=self._check_parameters
+        )
+        self._tracker: Tracker = self._build_tracker(first_id=1)
+        self._selector = TargetSelector(*self._selection_settings())
         self._epoch_ns: int | None = None  # stamp of the first frame: keeps float seconds exact
         self._view_centre: tuple[float, float] | None = None
         self._order = StampOrder()
+        needs = self._tracker.needs
+        self._frames = FrameAssembler(
+            frozenset(need.value for need in needs), self._params["pairing_capacity"]
+        )
 
         self._tracks_pub = self.create_publisher(TrackArray, "tracks", 10)
         self._target_pub = self.create_publisher(Target, "target", 10)
         self.create_subscription(BlobArray, "detections", self._on_detections, 10)
         self.create_subscription(PtzState, "ptz/state", self._on_ptz_state, 10)
+        image_topics = {Need.IMAGE: "camera/image_raw", Need.MASK: "detector/motion_mask"}
+        for need, topic in image_topics.items():
+            if need in needs:
+                self.create_subscription(
+                    Image,
+                    topic,
+                    lambda msg, need=need: self._on_image_part(need, msg),
+                    image_qos(self._params["reliable_images"]),
+                )
         self.create_service(SelectTarget, "select_target", self._on_select_target)
         self.create_service(ResetTracker, "reset_tracker", self._on_reset_tracker)
-        params = self._params
+        needed = ", ".join(sorted(n.value for n in needs)) or "detections only"
         self.get_logger().info(
-            f"tracker ready: preset {preset}, filter {params['filter']}, "
-            f"selection {params['selection_policy']}"
+            f"tracker ready: method {self._method.name}"
+            + (f", preset {preset}" if preset else "")
+            + (f", filter {self._params['filter']}" if "filter" in self._params else "")
+            + f", selection {self._params['selection_policy']}; needs {needed}"
         )
 
     # --- parameters ---------------------------------------------------------------------------
 
-    @staticmethod
-    def _check_parameters(values: dict[str, Any]) -> str | None:
+    def _method_values(self, values: dict[str, Any]) -> dict[str, Any]:
+        return {spec.name: values[spec.name] for spec in self._method.parameters}
+
+    def _build_tracker(self, first_id: int) -> Tracker:
+        return self._method.build(self._method_values(self._params), first_id)
+
+    def _selection_settings(self) -> tuple[SelectionPolicy, float, float]:
+        params = self._params
+        return (
+            AUTOMATIC_POLICIES[params["selection_policy"]],
+            params["min_lock_time"],
+            params["switch_margin"],
+        )
+
+    def _check_parameters(self, values: dict[str, Any]) -> str | None:
+        method_values = self._method_values(values)
+        reason = self._method.problems(method_values)
+        if reason:
+            return reason
         try:
-            TrackerConfig.from_params(values)
+            self._method.build(method_values, 1)
         except ValueError as error:
             return str(error)
         return None
 
     def _on_parameters(self, changed: dict[str, Any]) -> None:
-        self._config = TrackerConfig.from_params(self._params)
-        config = self._config
-        self._selector.configure(
-            config.selection_policy, config.min_lock_time, config.switch_margin
-        )
-        rebuilt = set(changed) - LIVE_PARAMETERS - {"scene_frame_id"}
+        self._selector.configure(*self._selection_settings())
+        rebuilt = set(changed) - LIVE_PARAMETERS
         if rebuilt:
             cleared = self._forget_tracks()
-            self._tracker = config.build_tracker(first_id=self._tracker.next_id)
+            self._tracker = self._build_tracker(first_id=self._tracker.next_id)
             self.get_logger().info(
                 f"{', '.join(sorted(rebuilt))} changed: tracker rebuilt, {cleared} track(s) cleared"
             )
@@ -176,19 +236,33 @@ class TrackerNode(SuiteNode):
 
     def _on_ptz_state(self, msg: PtzState) -> None:
         try:
-            self._view_centre = msg_to_window(msg.window).center
+            window = msg_to_window(msg.window)
         except ValueError as error:
             self.problems.report(
                 "invalid PtzState window", f"ignored a PtzState window for the view centre: {error}"
             )
+            return
+        self._view_centre = window.center
+        if Need.WINDOW in self._tracker.needs:
+            self._track(self._frames.add_part("window", stamp_to_ns(msg.header.stamp), window))
+
+    def _on_image_part(self, need: Need, msg: Image) -> None:
+        try:
+            pixels = image_to_bgr(msg) if need is Need.IMAGE else image_to_array(msg)
+        except UnsupportedEncodingError as error:
+            self.problems.report(error.cause, f"ignored a {need.value} image: {error}")
+            return
+        if need is Need.MASK and pixels.ndim != 2:
+            self.problems.report("colour motion mask", "ignored a motion mask that is not mono8")
+            return
+        self._track(self._frames.add_part(need.value, stamp_to_ns(msg.header.stamp), pixels))
 
     def _on_detections(self, msg: BlobArray) -> None:
-        header = Header(stamp=msg.header.stamp, frame_id=self._params["scene_frame_id"])
-        if msg.header.frame_id and msg.header.frame_id != header.frame_id:
+        if msg.header.frame_id and msg.header.frame_id != self._params["scene_frame_id"]:
             self.problems.report(
                 "detections in another frame",
                 f"detections are in frame '{msg.header.frame_id}', expected "
-                f"'{header.frame_id}'; tracking them as scene pixels",
+                f"'{self._params['scene_frame_id']}'; tracking them as scene pixels",
             )
         stamp_ns = stamp_to_ns(msg.header.stamp)
         order = self._order.check(stamp_ns)
@@ -201,17 +275,38 @@ class TrackerNode(SuiteNode):
             return
         if order is Order.NEW_EPOCH:
             self._start_epoch()
-        if self._epoch_ns is None:
-            self._epoch_ns = stamp_ns
-        tracks = self._tracker.step(
-            (stamp_ns - self._epoch_ns) / NS_PER_S, detections_from_msg(msg)
-        )
-        for cause, count in tracks.rejections.items():
-            self.problems.report(cause, f"dropped a detection: {cause}", count)
-        self._publish(header, tracks)
+        self._track(self._frames.add_primary(stamp_ns, msg))
+
+    def _track(self, frames: list[Frame]) -> None:
+        """Step the tracker once per released frame and publish its tracks and target."""
+        for frame in frames:
+            msg = frame.primary
+            if frame.missing:
+                self.problems.report(
+                    f"no {' and '.join(frame.missing)} for detections",
+                    f"tracked the detections stamped {frame.stamp_ns} ns without their "
+                    f"{' and '.join(frame.missing)} (not received): a missed frame for the tracker",
+                )
+            if self._epoch_ns is None:
+                self._epoch_ns = frame.stamp_ns
+            tracks = self._tracker.step(
+                Observation(
+                    time=(frame.stamp_ns - self._epoch_ns) / NS_PER_S,
+                    detections=detections_from_msg(msg),
+                    present=bool(msg.target_present),
+                    image=frame.parts.get(Need.IMAGE.value),
+                    mask=frame.parts.get(Need.MASK.value),
+                    window=frame.parts.get(Need.WINDOW.value),
+                )
+            )
+            for cause, count in tracks.rejections.items():
+                self.problems.report(cause, f"dropped a detection: {cause}", count)
+            header = Header(stamp=msg.header.stamp, frame_id=self._params["scene_frame_id"])
+            self._publish(header, tracks)
 
     def _forget_tracks(self, reset_ids: bool = False) -> int:
         """Clear the tracks, the selection and the time base; how many tracks there were."""
+        self._track(self._frames.clear())  # frames still waiting are answered on the old base
         cleared = self._tracker.reset(reset_ids=reset_ids)
         self._selector.reset()
         self._epoch_ns = None

@@ -1,6 +1,7 @@
 """Parameter conventions shared by the suite's nodes.
 
-A node lists its parameters once as `ParamSpec`s; `declare_parameters` declares them with
+A node lists its parameters once as `ParamSpec`s (plain data: the functional core describes its
+own parameters with them, and the README's parameter tables are checked against them); `declare_parameters` declares them with
 descriptors (description, type, numeric range, allowed choices), rejects bad start-up values with
 a clear message, and rejects bad runtime changes (`ros2 param set`) with a reason while leaving the
 node's state untouched. Accepted changes are handed to the node's `on_change` callback.
@@ -11,17 +12,12 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-from rcl_interfaces.msg import (
-    FloatingPointRange,
-    IntegerRange,
-    ParameterDescriptor,
-    ParameterType,
-    SetParametersResult,
-)
-from rclpy.node import Node
-from rclpy.parameter import Parameter
+if TYPE_CHECKING:  # rclpy is imported where a node declares parameters, not by the core
+    from rcl_interfaces.msg import ParameterDescriptor
+    from rclpy.node import Node
+    from rclpy.parameter import Parameter
 
 ParamValue = bool | int | float | str | list
 Validator = Callable[[Any], str | None]
@@ -45,6 +41,9 @@ class ParamSpec:
         if isinstance(value, float) and not math.isfinite(value):
             return f"{self.name} must be a finite number, got {value}"
         is_number = isinstance(value, int | float) and not isinstance(value, bool)
+        both = self.min is not None and self.max is not None
+        if is_number and both and not self.min <= value <= self.max:  # type: ignore[operator]
+            return f"{self.name} must be in [{self.min}, {self.max}], got {value}"
         if is_number and self.min is not None and value < self.min:
             return f"{self.name} must be >= {self.min}, got {value}"
         if is_number and self.max is not None and value > self.max:
@@ -54,6 +53,8 @@ class ParamSpec:
         return self.validator(value) if self.validator else None
 
     def descriptor(self) -> ParameterDescriptor:
+        from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor
+
         descriptor = ParameterDescriptor(
             name=self.name,
             type=_parameter_type(self.default),
@@ -83,6 +84,8 @@ class ParameterError(ValueError):
 
 
 def _parameter_type(default: ParamValue) -> int:
+    from rcl_interfaces.msg import ParameterType
+
     if isinstance(default, bool):
         return ParameterType.PARAMETER_BOOL
     if isinstance(default, int):
@@ -112,6 +115,8 @@ def declare_parameters(
     changed parameters. `check_all(values)` may veto combinations (e.g. min < max) and sees the
     values as they would be after the change. Raises ParameterError for a bad start-up value.
     """
+    from rcl_interfaces.msg import SetParametersResult
+
     by_name = {spec.name: spec for spec in specs}
     values: dict[str, Any] = {}
     for spec in specs:

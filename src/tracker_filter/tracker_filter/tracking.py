@@ -1,0 +1,332 @@
+"""The tracker plug-in shape: what every tracker is, returns and shares (no rclpy).
+
+- `Tracker`: the protocol every multi-target tracker implements -- today's gated-Hungarian
+  `management.TrackManager`, and the seed trackers (CamShift, particle filters, GM-PHD) as they
+  come. It declares the inputs it `needs` (see `observation.Need`) and its state `layout`, and
+  turns one `Observation` per frame into one `TrackSet`.
+- `TrackSet` / `TrackReport`: all tracks after a step; statuses match tracker_msgs/Track.
+- `TrackBook`: the bookkeeping every tracker shares -- ids and the next id, birth times, hits,
+  misses, confirmation, boxes that move with coasting estimates, "LOST reported once", the step
+  time check -- so a new tracker writes only its estimation.
+
+Statuses: TENTATIVE, CONFIRMED (updated this cycle), COASTING (confirmed, missed this cycle),
+LOST (reported once, in the cycle the track is deleted).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterator
+from dataclasses import dataclass, field
+from enum import IntEnum
+from typing import Protocol, runtime_checkable
+
+import numpy as np
+
+from tracker_filter.layout import StateLayout
+from tracker_filter.models import extrapolate_positions
+from tracker_filter.observation import AXES, Detections, Need, Observation
+from tracker_msgs_py.geometry import Rect
+
+
+class TrackStatus(IntEnum):
+    TENTATIVE = 0
+    CONFIRMED = 1
+    COASTING = 2
+    LOST = 3
+
+
+class OutOfOrderError(ValueError):
+    """A step whose time is not after the previous step's; the tracker's state is unchanged."""
+
+
+@dataclass(frozen=True, eq=False)
+class TrackReport:
+    """One track of a `TrackSet`."""
+
+    id: int
+    status: TrackStatus
+    mean: np.ndarray
+    covariance: np.ndarray
+    layout: StateLayout
+    bbox: tuple[float, float, float, float]  # x, y, width, height px
+    age: float  # s
+    hits: int
+    consecutive_misses: int
+    existence: float
+    area: float  # px^2 of the last associated detection
+    detection: int  # index of the detection that updated it this frame, -1 if none
+
+    @property
+    def state_layout(self) -> tuple[str, ...]:
+        return self.layout.names
+
+    @property
+    def position(self) -> np.ndarray:
+        return self.layout.positions(self.mean)
+
+    @property
+    def velocity(self) -> np.ndarray:
+        return self.layout.velocities(self.mean)
+
+    @property
+    def position_covariance(self) -> np.ndarray:
+        return self.layout.position_covariances(self.covariance)
+
+
+@dataclass(frozen=True, eq=False)
+class TrackSet:
+    """All tracks after one step (live ones and those LOST this step), as parallel arrays.
+
+    `state_layout` takes a `StateLayout` or the element names; `layout` is always the former.
+    """
+
+    time: float
+    state_layout: tuple[str, ...] | StateLayout
+    ids: np.ndarray
+    status: np.ndarray
+    means: np.ndarray
+    covariances: np.ndarray
+    bboxes: np.ndarray
+    ages: np.ndarray
+    hits: np.ndarray
+    misses: np.ndarray
+    existence: np.ndarray
+    areas: np.ndarray
+    detections: np.ndarray
+    rejections: dict[str, int] = field(default_factory=dict)  # invalid detections dropped, by cause
+    layout: StateLayout = field(init=False)
+
+    def __post_init__(self) -> None:
+        given = self.state_layout
+        layout = given if isinstance(given, StateLayout) else StateLayout.from_names(given)
+        object.__setattr__(self, "layout", layout)
+        object.__setattr__(self, "state_layout", layout.names)
+
+    def __len__(self) -> int:
+        return len(self.ids)
+
+    @property
+    def rejected_measurements(self) -> int:
+        """Invalid detections dropped in this step."""
+        return sum(self.rejections.values())
+
+    def __iter__(self) -> Iterator[TrackReport]:
+        return (self.report(i) for i in range(len(self)))
+
+    @property
+    def positions(self) -> np.ndarray:
+        return self.layout.positions(self.means)
+
+    @property
+    def velocities(self) -> np.ndarray:
+        return self.layout.velocities(self.means)
+
+    def index_of(self, track_id: int) -> int | None:
+        found = np.flatnonzero(self.ids == track_id)
+        return int(found[0]) if found.size else None
+
+    def report(self, i: int) -> TrackReport:
+        x, y, w, h = (float(v) for v in self.bboxes[i])
+        return TrackReport(
+            id=int(self.ids[i]),
+            status=TrackStatus(int(self.status[i])),
+            mean=self.means[i],
+            covariance=self.covariances[i],
+            layout=self.layout,
+            bbox=(x, y, w, h),
+            age=float(self.ages[i]),
+            hits=int(self.hits[i]),
+            consecutive_misses=int(self.misses[i]),
+            existence=float(self.existence[i]),
+            area=float(self.areas[i]),
+            detection=int(self.detections[i]),
+        )
+
+    def predicted_positions(self, lead: float) -> np.ndarray:
+        """Positions (N, 2) the tracks reach `lead` seconds after `time`."""
+        if len(self) == 0:
+            return np.zeros((0, AXES))
+        return extrapolate_positions(self.means, self.layout, lead)
+
+
+@runtime_checkable
+class Tracker(Protocol):
+    """A multi-target tracker: one `Observation` in, one `TrackSet` out, per frame.
+
+    Contract (checked for every registered tracker by tests/filter/test_tracker_contract.py):
+    - `step` returns every live track and, once, each track deleted in that step (LOST);
+    - a step whose time is not after the previous one raises `OutOfOrderError` and changes nothing;
+    - invalid detections are dropped and counted by cause in `TrackSet.rejections`;
+    - ids are never reused, also after `reset()`, unless `reset(reset_ids=True)`;
+    - every TrackSet's `layout` is the tracker's `layout`;
+    - a needed input that is None (lost in transport) is a missed frame, not an error.
+    """
+
+    @property
+    def needs(self) -> frozenset[Need]:
+        """Inputs besides the detections that `step` reads from the Observation."""
+        ...
+
+    @property
+    def layout(self) -> StateLayout:
+        """The state layout of every track this tracker reports."""
+        ...
+
+    @property
+    def next_id(self) -> int:
+        """The id the next new track gets."""
+        ...
+
+    def step(self, observation: Observation) -> TrackSet:
+        """Advance to `observation.time` and process the frame; returns every track after it."""
+        ...
+
+    def reset(self, reset_ids: bool = False) -> int:
+        """Forget every track and the last time (any time is accepted next); how many there were."""
+        ...
+
+
+@runtime_checkable
+class SeededTracker(Tracker, Protocol):
+    """A tracker that can start a track from a rectangle the user draws (CamShift-style)."""
+
+    def seed(self, rect: Rect, observation: Observation) -> int | None:
+        """Start a track on `rect` (scene px) in the frame `observation`; its id, or None."""
+        ...
+
+
+class TrackBook:
+    """Per-track bookkeeping shared by trackers: rows are tracks in the tracker's order.
+
+    The tracker keeps its estimates (means, covariances) in the same row order, and per frame:
+    `begin(t)` (time check), `record(rows, detections, cols, positions)` for the rows a detection
+    updated, `mark_missed` / `confirm` rules via `record_frame`, `add(...)` for new tracks,
+    `snapshot(...)` for the TrackSet, and `keep(mask)` to drop the rows LOST this frame.
+    """
+
+    _INT_FIELDS = ("ids", "hits", "frames", "misses", "detections")
+
+    def __init__(self, first_id: int = 1) -> None:
+        self.next_id = first_id
+        self.clear()
+
+    def __len__(self) -> int:
+        return len(self.ids)
+
+    def clear(self) -> None:
+        """Forget every track and the time (the next id is kept)."""
+        self.time: float | None = None
+        self.ids = np.zeros(0, dtype=np.int64)
+        self.hits = np.zeros(0, dtype=np.int64)
+        self.frames = np.zeros(0, dtype=np.int64)
+        self.misses = np.zeros(0, dtype=np.int64)
+        self.detections = np.zeros(0, dtype=np.int64)
+        self.born = np.zeros(0)
+        self.confirmed = np.zeros(0, dtype=bool)
+        self.bboxes = np.zeros((0, 4))
+        self.anchors = np.zeros((0, AXES))  # estimated position when the box was measured
+        self.areas = np.zeros(0)
+
+    def reset(self, reset_ids: bool = False) -> int:
+        count = len(self)
+        self.clear()
+        if reset_ids:
+            self.next_id = 1
+        return count
+
+    def check_time(self, t: float) -> None:
+        """Raises OutOfOrderError unless t is finite and after the previous step's time."""
+        if not math.isfinite(t):
+            raise OutOfOrderError(f"step time must be finite, got {t}")
+        if self.time is not None and t <= self.time:
+            raise OutOfOrderError(
+                f"time {t:.6f} s is not after the previous frame's {self.time:.6f} s"
+            )
+
+    def record_frame(
+        self, rows: np.ndarray, cols: np.ndarray, detections: Detections, positions: np.ndarray
+    ) -> np.ndarray:
+        """Count a frame for every track: hits for `rows` (updated by detections `cols`, now at
+        `positions` (N, 2) of all rows), misses for the others. Returns the updated mask."""
+        updated = np.zeros(len(self), dtype=bool)
+        updated[rows] = True
+        self.hits = self.hits + updated
+        self.frames = self.frames + 1
+        self.misses = np.where(updated, 0, self.misses + 1)
+        self.detections = np.full(len(self), -1, dtype=np.int64)
+        self.detections[rows] = cols
+        self.bboxes[rows] = detections.bboxes[cols]
+        self.areas[rows] = detections.areas[cols]
+        self.anchors[rows] = positions[rows]
+        return updated
+
+    def confirm(self, confirmed: np.ndarray) -> None:
+        """Tracks that pass the confirmation rule this frame stay confirmed."""
+        self.confirmed = self.confirmed | confirmed
+
+    def add(self, t: float, detections: Detections, new: np.ndarray, confirmed: np.ndarray) -> None:
+        """New tracks, one per detection index in `new`, born at t with one hit."""
+        count = len(new)
+        if count == 0:
+            return
+        ones = np.ones(count, dtype=np.int64)
+        self.ids = np.concatenate([self.ids, np.arange(self.next_id, self.next_id + count)])
+        self.next_id += count
+        self.hits = np.concatenate([self.hits, ones])
+        self.frames = np.concatenate([self.frames, ones])
+        self.misses = np.concatenate([self.misses, 0 * ones])
+        self.detections = np.concatenate([self.detections, new])
+        self.born = np.concatenate([self.born, np.full(count, float(t))])
+        self.confirmed = np.concatenate([self.confirmed, confirmed])
+        self.bboxes = np.concatenate([self.bboxes, detections.bboxes[new]])
+        self.anchors = np.concatenate([self.anchors, detections.positions[new]])
+        self.areas = np.concatenate([self.areas, detections.areas[new]])
+
+    def snapshot(
+        self,
+        t: float,
+        layout: StateLayout,
+        means: np.ndarray,
+        covariances: np.ndarray,
+        updated: np.ndarray,
+        lost: np.ndarray,
+        rejections: dict[str, int],
+        existence: np.ndarray | None = None,
+    ) -> TrackSet:
+        """The TrackSet of this frame; boxes move with the estimates since they were measured."""
+        status = np.where(
+            self.confirmed,
+            np.where(updated, TrackStatus.CONFIRMED, TrackStatus.COASTING),
+            TrackStatus.TENTATIVE,
+        )
+        status = np.where(lost, TrackStatus.LOST, status).astype(np.uint8)
+        bboxes = self.bboxes.copy()
+        bboxes[:, :AXES] += layout.positions(means) - self.anchors
+        return TrackSet(
+            time=float(t),
+            state_layout=layout,
+            ids=self.ids.copy(),
+            status=status,
+            means=means,
+            covariances=covariances,
+            bboxes=bboxes,
+            ages=t - self.born,
+            hits=self.hits.copy(),
+            misses=self.misses.copy(),
+            existence=np.ones(len(self)) if existence is None else existence,
+            areas=self.areas.copy(),
+            detections=self.detections.copy(),
+            rejections=rejections,
+        )
+
+    def keep(self, mask: np.ndarray) -> None:
+        """Drop the rows where `mask` is False (tracks reported LOST)."""
+        if mask.all():
+            return
+        for name in self._INT_FIELDS + ("born", "confirmed", "bboxes", "anchors", "areas"):
+            setattr(self, name, getattr(self, name)[mask])
+
+    def finish(self, t: float) -> None:
+        """The step at t is complete: later steps must come after it."""
+        self.time = float(t)

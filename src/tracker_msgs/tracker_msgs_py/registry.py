@@ -1,0 +1,84 @@
+"""Registries of interchangeable methods: one per role (tracker, filter, detector). No rclpy.
+
+A method is a name, a one-line description, its own parameters (`ParamSpec`s, whose defaults are
+the method's defaults), optional named presets, and a `build` function from parameter values to
+the object. A node's `method` parameter picks one; adding a method is a new module plus one
+`register` call, never a change to a node.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from typing import Any, Generic, TypeVar
+
+from tracker_msgs_py.params import ParamSpec
+
+T = TypeVar("T")
+
+
+@dataclass(frozen=True)
+class Method(Generic[T]):
+    """One registered method. `build(values)` gets every parameter of the method by name (plus
+    whatever the role adds, e.g. a tracker's first id) and raises ValueError for a bad combination.
+    """
+
+    name: str
+    description: str
+    build: Callable[..., T]
+    parameters: tuple[ParamSpec, ...] = ()
+    presets: Mapping[str, Mapping[str, Any]] = field(default_factory=dict)
+
+    def defaults(self, preset: str = "") -> dict[str, Any]:
+        """Parameter values of `preset` ("" = the parameters' own defaults)."""
+        values = {spec.name: spec.default for spec in self.parameters}
+        if preset:
+            if preset not in self.presets:
+                known = ", ".join(self.presets) or "none"
+                raise ValueError(f"{self.name} has no preset '{preset}' (presets: {known})")
+            values.update(self.presets[preset])
+        return values
+
+    def problems(self, values: Mapping[str, Any]) -> str | None:
+        """Why `values` cannot build this method, or None."""
+        for spec in self.parameters:
+            if spec.name not in values:
+                return f"{self.name}: missing parameter {spec.name}"
+            reason = spec.check(values[spec.name])
+            if reason:
+                return reason
+        return None
+
+
+class Registry(Generic[T]):
+    """The methods of one role, by name, in registration order."""
+
+    def __init__(self, role: str) -> None:
+        self.role = role
+        self._methods: dict[str, Method[T]] = {}
+
+    def register(self, method: Method[T], replace: bool = False) -> Method[T]:
+        if method.name in self._methods and not replace:
+            raise ValueError(f"a {self.role} named '{method.name}' is already registered")
+        self._methods[method.name] = method
+        return method
+
+    def unregister(self, name: str) -> None:
+        self._methods.pop(name, None)
+
+    def get(self, name: str) -> Method[T]:
+        try:
+            return self._methods[name]
+        except KeyError:
+            raise ValueError(
+                f"unknown {self.role} '{name}' (registered: {', '.join(self._methods)})"
+            ) from None
+
+    def names(self) -> tuple[str, ...]:
+        return tuple(self._methods)
+
+    def __contains__(self, name: object) -> bool:
+        return name in self._methods
+
+    def __iter__(self):  # type: ignore[no-untyped-def]
+        return iter(self._methods.values())
