@@ -25,7 +25,7 @@ setup(
     license="Apache-2.0",
     entry_points={
         "console_scripts": [
-            "ssim_detector = tracker_detect.entry_points:ssim_detector",
+            "detector = tracker_detect.entry_points:detector",
         ],
     },
 )

@@ -9,8 +9,8 @@ from tracker_filter.config import TrackerConfig
 from tracker_filter.filters import PerTrackFactory
 from tracker_filter.management import TrackManager
 from tracker_filter.observation import Detections, Observation
-from tracker_filter.tracking import OutOfOrderError, TrackStatus
 from tracker_filter.synthetic import bouncing_scene, piecewise_constant_velocity
+from tracker_filter.tracking import OutOfOrderError, TrackStatus
 from tracker_msgs.msg import Track
 
 DT = 0.12

@@ -3,8 +3,8 @@
 import numpy as np
 import pytest
 
-from tracker_filter.tracking import TrackSet, TrackStatus
 from tracker_filter.selection import SelectionPolicy, TargetSelector
+from tracker_filter.tracking import TrackSet, TrackStatus
 from tracker_msgs.msg import Target
 from tracker_msgs_py.geometry import Rect
 

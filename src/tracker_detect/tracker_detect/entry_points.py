@@ -8,5 +8,5 @@ module free of other imports.
 from tracker_msgs_py.stop_signals import guarded_main
 
 
-def ssim_detector() -> int:
-    return guarded_main("tracker_detect.ssim_detector_node")
+def detector() -> int:
+    return guarded_main("tracker_detect.detector_node")

@@ -7,7 +7,9 @@ morphology (fill holes -> dilate -> fill holes -> dilate with a 7x7 diamond), an
 a measurement at all (total area >= 0.08 % of the compared area). Optionally the seed's double
 detection also compares with an older reference frame, to keep slow or stopped objects.
 
-`MotionDetector` keeps the last `gap` frames with their views and does all of this per frame.
+`MotionDetector` keeps the last `gap` frames with their views and does all of this per frame;
+the threshold is applied in `motion_mask`. `Blob`, `Detection` and `StaleFrameError` are the
+shared detector types of `tracker_detect.detector`.
 """
 
 from __future__ import annotations
@@ -20,6 +22,7 @@ from dataclasses import dataclass, field
 import cv2
 import numpy as np
 
+from tracker_detect.detector import Blob, Detection, StaleFrameError
 from tracker_detect.registration import (
     Alignment,
     PixelMap,
@@ -31,7 +34,6 @@ from tracker_detect.registration import (
     ssim_shift_search,
 )
 from tracker_detect.ssim import SsimParams, auto_downsample_factor, ssim_map
-from tracker_msgs_py.geometry import Rect
 
 #: The seed's dilation element H (Principal.m), a 7x7 "diamond".
 SEED_KERNEL = np.array(
@@ -102,18 +104,6 @@ def motion_mask(
                 f"unknown morphology step '{step}' (known: {', '.join(MORPHOLOGY_STEPS)})"
             )
     return mask
-
-
-@dataclass(frozen=True)
-class Blob:
-    """A connected component of the motion mask, in scene coordinates (tracker_msgs/Blob)."""
-
-    centroid_x: float  # scene px, mean of the pixel centres
-    centroid_y: float
-    bbox: Rect  # scene px, tight box of the pixels
-    area: float  # scene px^2 (pixel count x scene px per image px squared)
-    pixel_count: int  # image pixels
-    score: float  # mean SSIM over the blob's pixels (lower = stronger motion)
 
 
 def find_blobs(
@@ -220,28 +210,6 @@ def config_problems(c: DetectorConfig) -> list[str]:
     if c.reference_max_age < 1:
         problems.append(f"reference_max_age must be >= 1, got {c.reference_max_age}")
     return problems
-
-
-class StaleFrameError(ValueError):
-    """A frame whose stamp is not newer than the last accepted one (out of order or duplicate)."""
-
-
-@dataclass
-class Detection:
-    """Everything the detector found in one frame."""
-
-    stamp_ns: int
-    view: View  # where the current image lies in the scene
-    blobs: list[Blob]  # largest first
-    target_present: bool  # the presence test
-    compared: bool  # False while fewer than `gap` frames of history exist or without overlap
-    compared_area: float = 0.0  # scene px^2, overlap of the compared images
-    ego_shift: tuple[float, float] = (0.0, 0.0)  # scene px, camera shift from frame k - gap to k
-    shift_estimate: ShiftEstimate | None = None  # the estimator's raw result, when one ran
-    registration_fallback: bool = False  # estimate rejected (beyond the radius): known map used
-    similarity: np.ndarray | None = None  # (H, W) float32 SSIM in image px, 1 where not compared
-    mask: np.ndarray | None = None  # (H, W) uint8 0/1 motion mask
-    history_reset: bool = False  # the image size changed: the history was cleared first
 
 
 @dataclass

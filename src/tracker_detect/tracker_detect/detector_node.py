@@ -1,45 +1,48 @@
-"""ssim_detector: SSIM motion detection behind a pan-tilt camera (thin shell over motion.py).
+"""detector: the suite's detector node; the `method` parameter picks a registered detector
+(`detectors.DETECTORS`: ssim today), whose parameters are declared beside the node's own.
 
-Subscribes `camera/image_raw` (sensor_msgs/Image: mono8, bgr8 or rgb8) and, by `pose_source`,
-`ptz/state` (tracker_msgs/PtzState, the simulator's window rectangle) or `ptz/joint_states`
-(sensor_msgs/JointState) + `camera/camera_info` (a real pan-tilt unit). Each image is paired with
-the pose of its stamp, compared with the image `gap` frames earlier, and answered by exactly one
-`detections` (tracker_msgs/BlobArray, scene frame) with the image's stamp -- empty when nothing
-can be compared, so a lockstep replay always gets its acknowledgement. `detector/motion_mask`
-and `detector/ssim_map` (mono8 Images in camera pixels) are published only while subscribed.
+Subscribes `camera/image_raw` (sensor_msgs/Image: mono8, bgr8, rgb8, bgra8, rgba8) and, by
+`pose_source`, `ptz/state` (tracker_msgs/PtzState, the simulator's window rectangle) or
+`ptz/joint_states` (sensor_msgs/JointState) + `camera/camera_info` (a real pan-tilt unit). Each
+image is paired with the pose of its stamp (`pose_buffer`), handed to the detector as a
+`detector.CameraFrame`, and answered by exactly one `detections` (tracker_msgs/BlobArray, scene
+frame) with the image's stamp -- empty when nothing can be compared, so a lockstep replay always
+gets its acknowledgement. `detector/motion_mask` and `detector/ssim_map` (mono8 Images in camera
+pixels) are published only while subscribed. Serves `select_region` (tracker_msgs/SelectRegion)
+for detectors started from a rectangle.
 """
 
 from __future__ import annotations
 
 import math
 from collections import deque
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 from sensor_msgs.msg import CameraInfo, Image, JointState
 from std_msgs.msg import Header
 
-from tracker_detect.motion import (
-    COMPENSATION_MODES,
-    ESTIMATORS,
-    KERNEL_SHAPES,
-    MORPHOLOGY_STEPS,
-    SEED_MORPHOLOGY,
+from tracker_detect.detector import (
+    CameraFrame,
     Detection,
-    DetectorConfig,
-    MotionDetector,
+    Detector,
+    SeededDetector,
     StaleFrameError,
 )
+from tracker_detect.detectors import DETECTORS
 from tracker_detect.pose_buffer import PoseBuffer, PoseStatus
 from tracker_detect.registration import CameraIntrinsics, View, view_from_pan_tilt
 from tracker_msgs.msg import Blob as BlobMsg
 from tracker_msgs.msg import BlobArray, PtzState
+from tracker_msgs.srv import SelectRegion
 from tracker_msgs_py.codec import (
     UnsupportedEncodingError,
     array_to_image,
     image_qos,
-    image_to_gray,
+    image_to_array,
+    image_to_bgr,
+    msg_to_rect,
     msg_to_window,
     rect_to_msg,
     stamp_to_ns,
@@ -50,53 +53,7 @@ from tracker_msgs_py.params import ParamSpec, declare_parameters
 from tracker_msgs_py.stamps import Order, StampOrder
 
 POSE_SOURCES = ("ptz_state", "joint_states", "none", "estimate")
-_D = DetectorConfig()
-
-PARAMS = [
-    ParamSpec("gap", _D.gap, "frames between the compared images (seed: 3)", 1, 100),
-    ParamSpec("threshold", _D.threshold, "SSIM at or below which a pixel is motion", -1.0, 1.0),
-    ParamSpec(
-        "morphology",
-        list(SEED_MORPHOLOGY),
-        "mask clean-up steps in order, each one of: " + ", ".join(MORPHOLOGY_STEPS),
-        validator=lambda v: (
-            None
-            if all(s in MORPHOLOGY_STEPS for s in v)
-            else f"morphology steps must be among {', '.join(MORPHOLOGY_STEPS)}"
-        ),
-    ),
-    ParamSpec(
-        "kernel_shape",
-        _D.kernel_shape,
-        "dilation element ('seed' = the thesis' 7x7 H)",
-        choices=KERNEL_SHAPES,
-    ),
-    ParamSpec(
-        "kernel_size",
-        _D.kernel_size,
-        "odd side of the element for shapes other than 'seed' [px]",
-        1,
-        51,
-        validator=lambda v: None if v % 2 else "kernel_size must be odd",
-    ),
-    ParamSpec(
-        "connectivity",
-        _D.connectivity,
-        "blob pixel connectivity (4 or 8)",
-        4,
-        8,
-        validator=lambda v: None if v in (4, 8) else "connectivity must be 4 or 8",
-    ),
-    ParamSpec(
-        "presence_fraction",
-        _D.presence_fraction,
-        "presence test: total blob area >= this fraction of the compared area",
-        0.0,
-        1.0,
-    ),
-    ParamSpec(
-        "min_blob_area", _D.min_blob_area, "drop blobs smaller than this [scene px^2]", 0.0, 1e9
-    ),
+NODE_PARAMETERS = [
     ParamSpec(
         "pose_source",
         "ptz_state",
@@ -105,60 +62,6 @@ PARAMS = [
         "estimated shifts)",
         choices=POSE_SOURCES,
         read_only=True,
-    ),
-    ParamSpec(
-        "compensation",
-        _D.compensation,
-        "ego-motion compensation: known (from the poses), ssim_search (seed's exhaustive "
-        "simplified-SSIM search), phase_correlation, off",
-        choices=COMPENSATION_MODES,
-    ),
-    ParamSpec("search_radius", _D.search_radius, "shift estimators search +- this [px]", 0, 200),
-    ParamSpec(
-        "search_window", _D.search_window, "uniform window of the simplified SSIM [px]", 1, 31
-    ),
-    ParamSpec(
-        "search_pyramid_levels",
-        _D.search_pyramid_levels,
-        "coarse-to-fine levels of ssim_search (0 = the seed's full-resolution search)",
-        0,
-        5,
-    ),
-    ParamSpec(
-        "phase_candidates",
-        _D.phase_candidates,
-        "phase_correlation: peaks verified by the simplified SSIM",
-        1,
-        50,
-    ),
-    ParamSpec(
-        "subpixel_alignment",
-        _D.subpixel_alignment,
-        "resample fractional shifts bilinearly (else round them)",
-    ),
-    ParamSpec(
-        "auto_downsample",
-        _D.auto_downsample,
-        "Wang's automatic downsampling, f = round(min(H, W) / 256)",
-    ),
-    ParamSpec(
-        "min_overlap_fraction",
-        _D.min_overlap_fraction,
-        "compare only when the aligned images overlap at least this much",
-        0.01,
-        1.0,
-    ),
-    ParamSpec(
-        "double_detection",
-        _D.double_detection,
-        "also compare with the frame where motion began (slow / stopped objects)",
-    ),
-    ParamSpec(
-        "reference_max_age",
-        _D.reference_max_age,
-        "frames a double-detection reference is kept at most",
-        1,
-        100000,
     ),
     ParamSpec("pose_buffer_size", 64, "poses (and images waiting for one) kept", 2, 10000),
     ParamSpec(
@@ -189,51 +92,12 @@ PARAMS = [
     ),
 ]
 
-_CONFIG_PARAMS = {
-    "gap",
-    "threshold",
-    "kernel_shape",
-    "kernel_size",
-    "connectivity",
-    "presence_fraction",
-    "min_blob_area",
-    "compensation",
-    "search_radius",
-    "search_window",
-    "search_pyramid_levels",
-    "phase_candidates",
-    "subpixel_alignment",
-    "auto_downsample",
-    "min_overlap_fraction",
-    "double_detection",
-    "reference_max_age",
-}
-
-
-def detector_config(values: dict[str, Any]) -> DetectorConfig:
-    """The DetectorConfig the parameters describe (raises ValueError when invalid)."""
-    return replace(
-        _D,
-        **{k: v for k, v in values.items() if k in _CONFIG_PARAMS},
-        morphology=tuple(values["morphology"]),
-    )
-
-
-def _check(values: dict[str, Any]) -> str | None:
-    try:
-        config = detector_config(values)
-    except ValueError as error:
-        return str(error)
-    if values["pose_source"] == "estimate" and config.compensation not in ESTIMATORS:
-        return "pose_source 'estimate' needs compensation ssim_search or phase_correlation"
-    return None
-
 
 @dataclass
 class _PendingImage:
     header: Header
     stamp_ns: int
-    gray: np.ndarray
+    pixels: np.ndarray  # (H, W) grey or (H, W, 3) BGR
 
 
 @dataclass
@@ -248,17 +112,31 @@ class Counters:
     registration_fallbacks: int = 0
 
 
-class SsimDetectorNode(SuiteNode):
+class DetectorNode(SuiteNode):
     def __init__(self, **node_options: Any) -> None:
         """node_options go to rclpy's Node (namespace, parameter_overrides, context...)."""
-        super().__init__("ssim_detector", **node_options)
-        self.params = declare_parameters(self, PARAMS, on_change=self._on_change, check_all=_check)
-        self.detector = MotionDetector(detector_config(self.params))
+        super().__init__("detector", **node_options)
+        method_spec = ParamSpec(
+            "method",
+            DETECTORS.names()[0],
+            "the detector: " + "; ".join(f"{m.name}: {m.description}" for m in DETECTORS),
+            choices=DETECTORS.names(),
+            read_only=True,
+        )
+        self.method = DETECTORS.get(declare_parameters(self, [method_spec])["method"])
+        self.params = declare_parameters(
+            self,
+            [*self.method.parameters, *NODE_PARAMETERS],
+            on_change=self._on_change,
+            check_all=self._check,
+        )
+        self.detector: Detector = self.method.build(self._method_values(self.params))
         self.counters = Counters()
         self.poses = PoseBuffer(self.params["pose_buffer_size"], self._max_gap_ns())
         self.pending: deque[_PendingImage] = deque()
         self.camera: CameraIntrinsics | None = None
         self.image_order = StampOrder()
+        self.last_frame: CameraFrame | None = None
         reliable = self.params["reliable_images"]
         self.detections_pub = self.create_publisher(BlobArray, "detections", 10)
         self.mask_pub = self.create_publisher(Image, "detector/motion_mask", image_qos(reliable))
@@ -273,14 +151,38 @@ class SsimDetectorNode(SuiteNode):
             self.create_subscription(
                 CameraInfo, "camera/camera_info", self._on_camera_info, image_qos(reliable)
             )
+        self.create_service(SelectRegion, "select_region", self._on_select_region)
+        self.get_logger().info(f"detector ready: method {self.method.name}, pose {source}")
 
     # --- parameters ---------------------------------------------------------------------------
+
+    def _method_values(self, values: dict[str, Any]) -> dict[str, Any]:
+        return {spec.name: values[spec.name] for spec in self.method.parameters}
+
+    def _check(self, values: dict[str, Any]) -> str | None:
+        try:
+            detector = self.method.build(self._method_values(values))
+        except ValueError as error:
+            return str(error)
+        if values["pose_source"] == "estimate" and not detector.estimates_ego_motion:
+            return (
+                f"pose_source 'estimate' needs a detector that estimates the camera's motion "
+                f"({self.method.name} with these parameters does not; for ssim: compensation "
+                "ssim_search or phase_correlation)"
+            )
+        return None
 
     def _max_gap_ns(self) -> int:
         return round(self.params["pose_max_gap"] * 1e9)
 
     def _on_change(self, changed: dict[str, Any]) -> None:
-        self.detector.reconfigure(detector_config(self.params))
+        if any(spec.name in changed for spec in self.method.parameters):
+            values = self._method_values(self.params)
+            reconfigure = getattr(self.detector, "reconfigure", None)
+            if reconfigure is not None:  # keeps the history it can
+                reconfigure(values)
+            else:
+                self.detector = self.method.build(values)
         if "pose_buffer_size" in changed or "pose_max_gap" in changed:
             self.poses.capacity = self.params["pose_buffer_size"]
             self.poses.max_gap_ns = self._max_gap_ns()
@@ -301,7 +203,7 @@ class SsimDetectorNode(SuiteNode):
         if order is Order.NEW_EPOCH:
             self._start_epoch(stamp)
         try:
-            gray = image_to_gray(msg)
+            pixels = image_to_array(msg) if msg.encoding == "mono8" else image_to_bgr(msg)
         except UnsupportedEncodingError as error:
             self.counters.unsupported_encoding += 1
             self.problems.report(
@@ -309,7 +211,7 @@ class SsimDetectorNode(SuiteNode):
             )
             self._publish_empty(msg.header)
             return
-        self.pending.append(_PendingImage(msg.header, stamp, gray.copy()))
+        self.pending.append(_PendingImage(msg.header, stamp, pixels.copy()))
         self._drain()
 
     def _start_epoch(self, stamp_ns: int) -> None:
@@ -397,7 +299,7 @@ class SsimDetectorNode(SuiteNode):
                 self._publish_empty(image.header)
 
     def _view_for(self, image: _PendingImage) -> tuple[View | None, PoseStatus]:
-        height, width = image.gray.shape
+        height, width = image.pixels.shape[:2]
         source = self.params["pose_source"]
         if source == "none":
             return View.identity(width, height), PoseStatus.FOUND
@@ -439,22 +341,42 @@ class SsimDetectorNode(SuiteNode):
         )
 
     def _detect(self, image: _PendingImage, view: View | None) -> None:
+        frame = CameraFrame(image.stamp_ns, image.pixels, view)
         try:
-            detection = self.detector.process(image.gray, image.stamp_ns, view)
+            detection = self.detector.process(frame)
         except StaleFrameError:
             self.counters.stale_stamp += 1
             return
+        self.last_frame = frame
         self.counters.frames += 1
         if detection.history_reset:
             self.counters.size_changes += 1
             self.get_logger().info(
-                f"image size changed to {image.gray.shape[1]}x"
-                f"{image.gray.shape[0]}: detection history cleared"
+                f"image size changed to {frame.size[0]}x{frame.size[1]}: detection history cleared"
             )
         if detection.registration_fallback:
             self.counters.registration_fallbacks += 1
         self.detections_pub.publish(self._blob_array(detection, image.header))
         self._publish_debug(detection, image.header)
+
+    def _on_select_region(
+        self, request: SelectRegion.Request, response: SelectRegion.Response
+    ) -> SelectRegion.Response:
+        try:
+            region = msg_to_rect(request.region)
+        except ValueError as error:
+            response.success, response.message = False, str(error)
+            return response
+        if not isinstance(self.detector, SeededDetector):
+            response.success = False
+            response.message = f"the {self.method.name} detector is not started from a region"
+        elif self.last_frame is None:
+            response.success, response.message = False, "no camera image yet"
+        else:
+            reason = self.detector.select_region(region, self.last_frame)
+            response.success, response.message = reason is None, reason or "region selected"
+        self.get_logger().info(f"select_region {region}: {response.message}")
+        return response
 
     # --- outputs ------------------------------------------------------------------------------
 
@@ -497,7 +419,7 @@ class SsimDetectorNode(SuiteNode):
 
 
 def main(args: list[str] | None = None) -> int:
-    return run_node(SsimDetectorNode, args)
+    return run_node(DetectorNode, args)
 
 
 if __name__ == "__main__":

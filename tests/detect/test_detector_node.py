@@ -1,4 +1,4 @@
-"""The ssim_detector node in-process: pairing by stamp, one BlobArray per frame, bad input."""
+"""The detector node (method ssim) in-process: pairing by stamp, one BlobArray per frame, bad input."""
 
 from __future__ import annotations
 
@@ -13,7 +13,7 @@ from rclpy.executors import SingleThreadedExecutor
 from rclpy.parameter import Parameter
 from sensor_msgs.msg import CameraInfo, Image, JointState
 
-from tracker_detect.ssim_detector_node import SsimDetectorNode
+from tracker_detect.detector_node import DetectorNode
 from tracker_msgs.msg import BlobArray, PtzState
 from tracker_msgs_py.codec import array_to_image, camera_info, ns_to_stamp
 from tracker_msgs_py.params import ParameterError
@@ -40,7 +40,7 @@ class Harness:
         self.namespace = f"/detect_test_{next(_namespaces)}"
         overrides = [Parameter("reliable_images", value=True)]
         overrides += [Parameter(k, value=v) for k, v in params.items()]
-        self.node = SsimDetectorNode(
+        self.node = DetectorNode(
             namespace=self.namespace, parameter_overrides=overrides, context=context
         )
         self.peer = rclpy.create_node("peer", namespace=self.namespace, context=context)
@@ -278,7 +278,7 @@ def test_parameters_are_validated_on_change(harness_factory):
 
 def test_estimate_needs_an_estimator(context):
     with pytest.raises(ParameterError, match="estimate"):
-        SsimDetectorNode(
+        DetectorNode(
             context=context,
             namespace="/detect_test_bad",
             parameter_overrides=[

@@ -1,0 +1,115 @@
+"""The detector plug-in shape: one camera frame in, one `Detection` out (no rclpy).
+
+- `CameraFrame`: a camera image with its stamp and, when known, where it lies in the scene
+  (`registration.View`); the colour image is kept, the grey one made on first use.
+- `Detector`: what every detector offers -- SSIM motion detection today (`detectors.SsimDetector`),
+  MOG2 blobs and CamShift next. Methods seeded from a rectangle (CamShift) also implement
+  `SeededDetector.select_region`, which the detector node serves as `select_region`.
+- `Detection` / `Blob`: the result, in scene coordinates (tracker_msgs/BlobArray).
+
+Contract (tests/detect/test_detector_contract.py, for every registered detector): one Detection
+per accepted frame, with the frame's stamp; a frame not newer than the last raises
+`StaleFrameError` and changes nothing; `reset()` forgets the history.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import cached_property
+from typing import Protocol, runtime_checkable
+
+import cv2
+import numpy as np
+
+from tracker_detect.registration import ShiftEstimate, View
+from tracker_msgs_py.geometry import Rect
+
+
+class StaleFrameError(ValueError):
+    """A frame whose stamp is not newer than the last accepted one (out of order or duplicate)."""
+
+
+@dataclass(frozen=True)
+class Blob:
+    """A detected region, in scene coordinates (tracker_msgs/Blob)."""
+
+    centroid_x: float  # scene px, mean of the pixel centres
+    centroid_y: float
+    bbox: Rect  # scene px, tight box of the pixels
+    area: float  # scene px^2 (pixel count x scene px per image px squared)
+    pixel_count: int  # image pixels
+    score: float  # the method's score (SSIM: mean SSIM over the blob, lower = stronger motion)
+
+
+@dataclass
+class Detection:
+    """Everything a detector found in one frame."""
+
+    stamp_ns: int
+    view: View  # where the current image lies in the scene
+    blobs: list[Blob]  # largest first
+    target_present: bool  # the presence test
+    compared: bool  # False while the method has too little history (or no overlap)
+    compared_area: float = 0.0  # scene px^2 of image the method could judge
+    ego_shift: tuple[float, float] = (0.0, 0.0)  # scene px, camera shift the method compensated
+    shift_estimate: ShiftEstimate | None = None  # the ego-motion estimator's raw result
+    registration_fallback: bool = False  # estimate rejected (beyond the radius): known map used
+    similarity: np.ndarray | None = None  # (H, W) float32 per-pixel score in [0, 1], image px
+    mask: np.ndarray | None = None  # (H, W) uint8 0/1 foreground mask, image px
+    history_reset: bool = False  # the image size changed: the history was cleared first
+
+
+@dataclass(frozen=True, eq=False)
+class CameraFrame:
+    """One camera image: (H, W) grey or (H, W, 3) BGR uint8, its stamp, and its view (None: the
+    pose is unknown)."""
+
+    stamp_ns: int
+    image: np.ndarray
+    view: View | None = None
+
+    @cached_property
+    def gray(self) -> np.ndarray:
+        """(H, W) uint8 luma (the seed's weights, as cv2's BGR2GRAY)."""
+        if self.image.ndim == 2:
+            return self.image
+        return cv2.cvtColor(np.ascontiguousarray(self.image), cv2.COLOR_BGR2GRAY)
+
+    @property
+    def bgr(self) -> np.ndarray:
+        """(H, W, 3) uint8 colour (grey replicated for a mono image)."""
+        if self.image.ndim == 3:
+            return self.image
+        return np.repeat(self.image[:, :, None], 3, axis=2)
+
+    @property
+    def size(self) -> tuple[int, int]:
+        """Width, height in px."""
+        return int(self.image.shape[1]), int(self.image.shape[0])
+
+
+@runtime_checkable
+class Detector(Protocol):
+    """A per-frame detector; see the module docstring for its contract."""
+
+    @property
+    def estimates_ego_motion(self) -> bool:
+        """True when it can work without a known pose (it estimates the camera's motion)."""
+        ...
+
+    def process(self, frame: CameraFrame) -> Detection:
+        """Detect in `frame`; raises StaleFrameError or ValueError (state untouched)."""
+        ...
+
+    def reset(self) -> None:
+        """Forget all history (a new replay epoch)."""
+        ...
+
+
+@runtime_checkable
+class SeededDetector(Detector, Protocol):
+    """A detector started from a rectangle the user draws over its target (CamShift-style)."""
+
+    def select_region(self, region: Rect, frame: CameraFrame) -> str | None:
+        """Start on `region` (scene px) of `frame`; None, or why it cannot."""
+        ...

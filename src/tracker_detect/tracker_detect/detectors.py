@@ -1,0 +1,177 @@
+"""The detector registry: the detector node's `method` parameter picks one of these (no rclpy).
+
+Each method is a `tracker_msgs_py.registry.Method` whose `build(values)` returns a
+`detector.Detector`. To add a detector, write its module (a class satisfying `detector.Detector`)
+and register it here with one `DETECTORS.register(Method(...))` line. The contract every
+registered detector keeps is checked by tests/detect/test_detector_contract.py.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import replace
+from typing import Any
+
+from tracker_detect.detector import CameraFrame, Detection, Detector
+from tracker_detect.motion import (
+    COMPENSATION_MODES,
+    ESTIMATORS,
+    KERNEL_SHAPES,
+    MORPHOLOGY_STEPS,
+    SEED_MORPHOLOGY,
+    DetectorConfig,
+    MotionDetector,
+)
+from tracker_msgs_py.params import ParamSpec
+from tracker_msgs_py.registry import Method, Registry
+
+DETECTORS: Registry[Detector] = Registry("detector")
+
+_D = DetectorConfig()
+
+SSIM_PARAMETERS: tuple[ParamSpec, ...] = (
+    ParamSpec("gap", _D.gap, "frames between the compared images (seed: 3)", 1, 100),
+    ParamSpec("threshold", _D.threshold, "SSIM at or below which a pixel is motion", -1.0, 1.0),
+    ParamSpec(
+        "morphology",
+        list(SEED_MORPHOLOGY),
+        "mask clean-up steps in order, each one of: " + ", ".join(MORPHOLOGY_STEPS),
+        validator=lambda v: (
+            None
+            if all(s in MORPHOLOGY_STEPS for s in v)
+            else f"morphology steps must be among {', '.join(MORPHOLOGY_STEPS)}"
+        ),
+    ),
+    ParamSpec(
+        "kernel_shape",
+        _D.kernel_shape,
+        "dilation element ('seed' = the thesis' 7x7 H)",
+        choices=KERNEL_SHAPES,
+    ),
+    ParamSpec(
+        "kernel_size",
+        _D.kernel_size,
+        "odd side of the element for shapes other than 'seed' [px]",
+        1,
+        51,
+        validator=lambda v: None if v % 2 else "kernel_size must be odd",
+    ),
+    ParamSpec(
+        "connectivity",
+        _D.connectivity,
+        "blob pixel connectivity (4 or 8)",
+        4,
+        8,
+        validator=lambda v: None if v in (4, 8) else "connectivity must be 4 or 8",
+    ),
+    ParamSpec(
+        "presence_fraction",
+        _D.presence_fraction,
+        "presence test: total blob area >= this fraction of the compared area",
+        0.0,
+        1.0,
+    ),
+    ParamSpec(
+        "min_blob_area", _D.min_blob_area, "drop blobs smaller than this [scene px^2]", 0.0, 1e9
+    ),
+    ParamSpec(
+        "compensation",
+        _D.compensation,
+        "ego-motion compensation: known (from the poses), ssim_search (seed's exhaustive "
+        "simplified-SSIM search), phase_correlation, off",
+        choices=COMPENSATION_MODES,
+    ),
+    ParamSpec("search_radius", _D.search_radius, "shift estimators search +- this [px]", 0, 200),
+    ParamSpec(
+        "search_window", _D.search_window, "uniform window of the simplified SSIM [px]", 1, 31
+    ),
+    ParamSpec(
+        "search_pyramid_levels",
+        _D.search_pyramid_levels,
+        "coarse-to-fine levels of ssim_search (0 = the seed's full-resolution search)",
+        0,
+        5,
+    ),
+    ParamSpec(
+        "phase_candidates",
+        _D.phase_candidates,
+        "phase_correlation: peaks verified by the simplified SSIM",
+        1,
+        50,
+    ),
+    ParamSpec(
+        "subpixel_alignment",
+        _D.subpixel_alignment,
+        "resample fractional shifts bilinearly (else round them)",
+    ),
+    ParamSpec(
+        "auto_downsample",
+        _D.auto_downsample,
+        "Wang's automatic downsampling, f = round(min(H, W) / 256)",
+    ),
+    ParamSpec(
+        "min_overlap_fraction",
+        _D.min_overlap_fraction,
+        "compare only when the aligned images overlap at least this much",
+        0.01,
+        1.0,
+    ),
+    ParamSpec(
+        "double_detection",
+        _D.double_detection,
+        "also compare with the frame where motion began (slow / stopped objects)",
+    ),
+    ParamSpec(
+        "reference_max_age",
+        _D.reference_max_age,
+        "frames a double-detection reference is kept at most",
+        1,
+        100000,
+    ),
+)
+
+
+class SsimDetector:
+    """Seed 000's SSIM motion detection (`motion.MotionDetector`) as a `Detector`."""
+
+    def __init__(self, config: DetectorConfig) -> None:
+        self.motion = MotionDetector(config)
+
+    @property
+    def config(self) -> DetectorConfig:
+        return self.motion.config
+
+    @property
+    def estimates_ego_motion(self) -> bool:
+        return self.motion.config.compensation in ESTIMATORS
+
+    def process(self, frame: CameraFrame) -> Detection:
+        return self.motion.process(frame.gray, frame.stamp_ns, frame.view)
+
+    def reset(self) -> None:
+        self.motion.reset()
+
+    def reconfigure(self, values: Mapping[str, Any]) -> None:
+        """New parameter values from the next frame on, keeping the history it can."""
+        self.motion.reconfigure(ssim_config(values))
+
+
+def ssim_config(values: Mapping[str, Any]) -> DetectorConfig:
+    """The DetectorConfig the SSIM parameters describe (raises ValueError when invalid)."""
+    names = {spec.name for spec in SSIM_PARAMETERS} - {"morphology"}
+    return replace(
+        _D,
+        **{k: v for k, v in values.items() if k in names},
+        morphology=tuple(values["morphology"]),
+    )
+
+
+DETECTORS.register(
+    Method(
+        name="ssim",
+        description="SSIM change detection between frames `gap` apart after ego-motion "
+        "compensation, morphology, connected blobs (seed 000)",
+        build=lambda values: SsimDetector(ssim_config(values)),
+        parameters=SSIM_PARAMETERS,
+    )
+)

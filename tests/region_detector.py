@@ -1,0 +1,48 @@
+"""A test-only detector started from a rectangle: it reports the selected region as one blob in
+every frame. It proves the `select_region` plumbing of the detector node for seeded methods."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any
+
+from tracker_detect.detector import Blob, CameraFrame, Detection, StaleFrameError
+from tracker_detect.registration import View
+from tracker_msgs_py.geometry import Rect
+from tracker_msgs_py.registry import Method
+
+
+class RegionDetector:
+    estimates_ego_motion = False
+
+    def __init__(self) -> None:
+        self.region: Rect | None = None
+        self.last_stamp: int | None = None
+
+    def select_region(self, region: Rect, frame: CameraFrame) -> str | None:
+        if region.width <= 0 or region.height <= 0:
+            return "the region is empty"
+        self.region = region
+        return None
+
+    def process(self, frame: CameraFrame) -> Detection:
+        if self.last_stamp is not None and frame.stamp_ns <= self.last_stamp:
+            raise StaleFrameError(f"stamp {frame.stamp_ns} ns is not newer than the last")
+        self.last_stamp = frame.stamp_ns
+        view = frame.view or View.identity(*frame.size)
+        blobs = []
+        if self.region is not None:
+            cx, cy = self.region.center
+            area = self.region.width * self.region.height
+            blobs = [Blob(cx, cy, self.region, area, int(area), 1.0)]
+        return Detection(frame.stamp_ns, view, blobs, bool(blobs), True)
+
+    def reset(self) -> None:
+        self.last_stamp = None
+
+
+def build(values: Mapping[str, Any]) -> RegionDetector:
+    return RegionDetector()
+
+
+METHOD: Method[Any] = Method("region_test", "test only: reports the selected region", build)
