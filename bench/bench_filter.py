@@ -38,8 +38,8 @@ from tracker_filter.config import TrackerConfig  # noqa: E402
 from tracker_filter.filters import PerTrackFactory  # noqa: E402
 from tracker_filter.management import TrackManager  # noqa: E402
 from tracker_filter.observation import Detections, Observation  # noqa: E402
-from tracker_filter.tracking import TrackStatus  # noqa: E402
 from tracker_filter.synthetic import bouncing_scene  # noqa: E402
+from tracker_filter.tracking import TrackStatus  # noqa: E402
 
 OUT = ROOT / "out" / "bench" / "filter.json"
 TARGET_MS = 1.0

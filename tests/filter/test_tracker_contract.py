@@ -9,6 +9,7 @@ import colour_tracker
 import numpy as np
 import pytest
 
+from tracker_filter.filter_registry import FILTERS
 from tracker_filter.observation import Detections, Observation
 from tracker_filter.trackers import TRACKERS
 from tracker_filter.tracking import OutOfOrderError, Tracker, TrackSet, TrackStatus
@@ -25,6 +26,9 @@ def builds() -> list[tuple[str, object]]:
         for preset in ("", *method.presets):
             values = method.defaults(preset)
             cases.append((f"{method.name}:{preset or 'defaults'}", (method, values)))
+    gated = TRACKERS.get("gated_hungarian")
+    for name in FILTERS.names():  # every registered filter inside the gated-Hungarian tracker
+        cases.append((f"gated_hungarian:{name}", (gated, gated.defaults() | {"filter": name})))
     cases.append(("red_blob_test", (colour_tracker.METHOD, colour_tracker.METHOD.defaults())))
     return cases
 

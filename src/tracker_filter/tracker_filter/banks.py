@@ -20,7 +20,7 @@ import numpy as np
 
 from tracker_filter.gains import GhGains, gain_schedule
 from tracker_filter.linear_gaussian import correct, fixed_gain, innovation_covariance, kalman_gain
-from tracker_filter.models import AXES, KinematicModel
+from tracker_filter.models import AXES, KinematicModel, LinearModel
 
 
 class FilterBank(Protocol):
@@ -58,18 +58,23 @@ class LinearGaussianBank:
 
     def __init__(
         self,
-        model: KinematicModel,
+        model: KinematicModel | LinearModel,
         measurement_noise: float,
         process_noise: float,
         initial_covariance: np.ndarray,
         gains: GhGains | None = None,
         startup: bool = True,
+        measurement_covariance: np.ndarray | None = None,
     ) -> None:
-        if gains is not None and gains.order != model.order:
+        if gains is not None and gains.order != getattr(model, "order", None):
             raise ValueError("the gains' order must match the model's")
         self.model = model
         self.process_noise = process_noise
-        self.measurement_covariance = np.eye(AXES) * measurement_noise**2
+        self.measurement_covariance = (
+            np.eye(AXES) * measurement_noise**2
+            if measurement_covariance is None
+            else np.asarray(measurement_covariance, dtype=float)
+        )
         self.initial_covariance = np.asarray(initial_covariance, dtype=float)
         self.gains = gains
         self.startup = startup
@@ -138,7 +143,7 @@ class LinearGaussianBank:
             gain = kalman_gain(covariances, self.measurement_covariance)
         else:
             g, h, k = gain_schedule(self.gains, self._measurements[rows], self.startup)
-            gain = fixed_gain(g, h, k, self._dt, self.model.order)
+            gain = fixed_gain(g, h, k, self._dt, self.gains.order)
         self._means[rows], self._covariances[rows] = correct(
             self._means[rows],
             covariances,

@@ -18,8 +18,9 @@ from dataclasses import dataclass
 from typing import Any
 
 from tracker_filter.association import GatedHungarianAssociator
-from tracker_filter.filters import FilterConfig, FilterKind
-from tracker_filter.gains import GainRule, resolve_gains
+from tracker_filter.filter_registry import FILTERS, kinematic_filter, linear_model
+from tracker_filter.filters import FilterFactory, FilterKind
+from tracker_filter.gains import GainRule
 from tracker_filter.management import (
     AllDetections,
     CappedInitiator,
@@ -28,6 +29,7 @@ from tracker_filter.management import (
     MofNConfirmation,
     TrackManager,
 )
+from tracker_filter.models import seed001_nominal_model
 from tracker_filter.selection import AUTOMATIC_POLICIES, SelectionPolicy, TargetSelector
 from tracker_msgs_py.params import ParamSpec
 
@@ -40,6 +42,8 @@ def seed_process_noise(cycle: float = SEED_CYCLE) -> float:
     """The seed's sigma_a expressed in px/s^2 for frames `cycle` seconds apart."""
     return SEED_SIGMA_A * (SEED_DT / cycle) ** 2
 
+
+_SEED001 = seed001_nominal_model()
 
 _MULTI: dict[str, Any] = {
     "filter": "kalman_cv",
@@ -54,6 +58,12 @@ _MULTI: dict[str, Any] = {
     "initial_acceleration_std": 100.0,
     "initial_covariance": "stds",
     "nominal_dt": SEED_CYCLE,
+    # kalman_linear_model: seed 001's nominal constant-acceleration filter (T = 1/20 s)
+    "model_state_layout": " ".join(_SEED001.state_layout),
+    "model_transition": _SEED001.transition_matrix.ravel().tolist(),
+    "model_noise_gain": _SEED001.noise_gain.ravel().tolist(),
+    "model_process_covariance": _SEED001.process_covariance.ravel().tolist(),
+    "model_measurement_covariance": _SEED001.measurement_covariance.ravel().tolist(),
     "gate_probability": 0.99,
     "measurements": "all",
     "max_tracks": 100,
@@ -79,7 +89,7 @@ def _spec(
 
 
 TRACKING_PARAMETERS: tuple[ParamSpec, ...] = (
-    _spec("filter", "filter of every track", choices=tuple(k.value for k in FilterKind)),
+    _spec("filter", "filter of every track", choices=FILTERS.names()),
     _spec("alpha", "alpha-beta(-gamma) position gain", 0.0, 2.0),
     _spec(
         "gain_rule",
@@ -101,6 +111,11 @@ TRACKING_PARAMETERS: tuple[ParamSpec, ...] = (
         choices=("stds", "process_noise"),
     ),
     _spec("nominal_dt", "s, frame interval for initial_covariance process_noise", 1e-4, 10.0),
+    _spec("model_state_layout", "kalman_linear_model: state element names, x y first"),
+    _spec("model_transition", "kalman_linear_model: F, row by row"),
+    _spec("model_noise_gain", "kalman_linear_model: G (n rows), row by row"),
+    _spec("model_process_covariance", "kalman_linear_model: Q, row by row"),
+    _spec("model_measurement_covariance", "kalman_linear_model: R (2x2), px^2, row by row"),
     _spec("gate_probability", "chi-square gate probability; 1 = no gate", 0.5, 1.0),
     _spec(
         "measurements",
@@ -156,7 +171,7 @@ PRESETS: dict[str, dict[str, Any]] = {
 class TrackerConfig:
     """Everything the tracker node builds its core from."""
 
-    filter: FilterConfig
+    filter: FilterFactory
     gate_probability: float
     measurements: str
     max_tracks: int
@@ -178,31 +193,16 @@ class TrackerConfig:
             reason = spec.check(params[spec.name])
             if reason:
                 raise ValueError(reason)
-        kind = FilterKind(params["filter"])
-        # the gains are checked whatever the filter, so a later switch to alpha-beta cannot fail
-        order = kind.model.order if kind.fixed_gain else 1
-        gains = resolve_gains(
-            params["alpha"], params["gain_rule"], order, params["beta"], params["gamma"]
-        )
-        initial_covariance = None
-        if params["initial_covariance"] == "process_noise":
-            initial_covariance = kind.model.process_noise(
-                params["nominal_dt"], params["process_noise"]
-            )
+        filter_factory = FILTERS.get(params["filter"]).build(params)
+        # the gains and the explicit model are checked whatever the filter, so a later switch
+        # to another filter cannot fail
+        kinematic_filter(FilterKind.ALPHA_BETA_GAMMA, params)
+        linear_model(params)
         if params["confirm_hits"] > params["confirm_window"]:
             hits, window = params["confirm_hits"], params["confirm_window"]
             raise ValueError(f"confirm_hits ({hits}) must not exceed confirm_window ({window})")
         return cls(
-            filter=FilterConfig(
-                kind=kind,
-                measurement_noise=params["measurement_noise"],
-                process_noise=params["process_noise"],
-                initial_velocity_std=params["initial_velocity_std"],
-                initial_acceleration_std=params["initial_acceleration_std"],
-                gains=gains if kind.fixed_gain else None,
-                startup=params["startup_gains"],
-                initial_covariance=initial_covariance,
-            ),
+            filter=filter_factory,
             gate_probability=params["gate_probability"],
             measurements=params["measurements"],
             max_tracks=params["max_tracks"],

@@ -29,7 +29,13 @@ from filterpy.kalman import KalmanFilter as FilterpyKalmanFilter
 from tracker_filter.banks import FilterBank, LinearGaussianBank, ObjectBank
 from tracker_filter.gains import GainRule, GhGains, gain_schedule, resolve_gains
 from tracker_filter.linear_gaussian import fixed_gain, joseph_update
-from tracker_filter.models import AXES, CONSTANT_ACCELERATION, CONSTANT_VELOCITY, KinematicModel
+from tracker_filter.models import (
+    AXES,
+    CONSTANT_ACCELERATION,
+    CONSTANT_VELOCITY,
+    KinematicModel,
+    LinearModel,
+)
 
 
 @runtime_checkable
@@ -81,11 +87,21 @@ def check_measurement(z: np.ndarray | None) -> np.ndarray | None:
 class KinematicFilter(ABC):
     """Shared part of the filters on a `KinematicModel`: time checks, gating, lead prediction."""
 
-    def __init__(self, model: KinematicModel, measurement_noise: float, t0: float) -> None:
+    def __init__(
+        self,
+        model: KinematicModel | LinearModel,
+        measurement_noise: float,
+        t0: float,
+        measurement_covariance: np.ndarray | None = None,
+    ) -> None:
         if not math.isfinite(t0):
             raise ValueError(f"start time must be finite, got {t0}")
         self.model = model
-        self.measurement_covariance = np.eye(AXES) * measurement_noise**2
+        self.measurement_covariance = (
+            np.eye(AXES) * measurement_noise**2
+            if measurement_covariance is None
+            else np.asarray(measurement_covariance, dtype=float)
+        )
         self._time = float(t0)
 
     @property
@@ -122,18 +138,24 @@ class KinematicFilter(ABC):
 
 
 class KalmanFilter(KinematicFilter):
-    """Constant-velocity or constant-acceleration Kalman filter on filterpy's KalmanFilter."""
+    """Kalman filter on filterpy's KalmanFilter, for a kinematic model (constant velocity or
+    acceleration) or an explicit `LinearModel`:
+
+        predict  x = F x,  P = F P F^T + Q(dt)
+        update   K = P H^T (H P H^T + R)^-1,  x += K (z - H x),  P = (I - K H) P
+    """
 
     def __init__(
         self,
-        model: KinematicModel,
+        model: KinematicModel | LinearModel,
         x0: np.ndarray,
         P0: np.ndarray,
         t0: float,
         process_noise: float,
         measurement_noise: float,
+        measurement_covariance: np.ndarray | None = None,
     ) -> None:
-        super().__init__(model, measurement_noise, t0)
+        super().__init__(model, measurement_noise, t0, measurement_covariance)
         self.process_noise = process_noise
         self._kf = FilterpyKalmanFilter(dim_x=model.dim, dim_z=AXES)
         self._kf.x = np.array(x0, dtype=float)
@@ -365,6 +387,44 @@ class FilterConfig:
             self.initial_state_covariance(),
             gains=self.gains if self.kind.fixed_gain else None,
             startup=self.startup,
+        )
+
+
+@dataclass(frozen=True, eq=False)
+class LinearModelFilterConfig:
+    """Kalman filters on an explicit `LinearModel` (F, G, Q, R); a `FilterFactory`.
+
+    A new track starts at the measurement with the rest of the state zero and covariance
+    blockdiag(R, initial_std^2 I) (seed 001 gives no P0).
+    """
+
+    model: LinearModel
+    initial_std: float = 100.0
+
+    def __post_init__(self) -> None:
+        _positive("initial_std", self.initial_std)
+
+    @property
+    def state_layout(self) -> tuple[str, ...]:
+        return self.model.state_layout
+
+    def initial_state_covariance(self) -> np.ndarray:
+        covariance = np.eye(self.model.dim) * self.initial_std**2
+        covariance[:AXES, :AXES] = self.model.measurement_covariance
+        return covariance
+
+    def new_filter(self, z: np.ndarray, t: float) -> StateFilter:
+        x0 = np.concatenate([check_measurement(z), np.zeros(self.model.dim - AXES)])
+        R = self.model.measurement_covariance
+        return KalmanFilter(self.model, x0, self.initial_state_covariance(), t, 1.0, 1.0, R)
+
+    def new_bank(self) -> FilterBank:
+        return LinearGaussianBank(
+            self.model,
+            1.0,
+            1.0,
+            self.initial_state_covariance(),
+            measurement_covariance=self.model.measurement_covariance,
         )
 
 

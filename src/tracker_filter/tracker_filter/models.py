@@ -80,6 +80,81 @@ CONSTANT_VELOCITY = KinematicModel(order=1)
 CONSTANT_ACCELERATION = KinematicModel(order=2)
 
 
+@dataclass(frozen=True, eq=False)
+class LinearModel:
+    """A discrete-time linear-Gaussian model given by its matrices, one step per frame:
+
+        x_{k+1} = F x_k + G w_k,  w_k ~ N(0, Q);   z_k = H x_k + v_k,  v_k ~ N(0, R),  H = [I 0]
+
+    (seed 001 section 2 writes its filters this way). The position must be the first two state
+    elements. `transition`/`process_noise` ignore the interval: every step is one frame.
+    """
+
+    transition_matrix: np.ndarray  # F (n, n)
+    noise_gain: np.ndarray  # G (n, m)
+    process_covariance: np.ndarray  # Q (m, m)
+    measurement_covariance: np.ndarray  # R (2, 2)
+    state_layout: tuple[str, ...]
+
+    def __post_init__(self) -> None:
+        names = tuple(self.state_layout)
+        n = len(names)
+        if names[:AXES] != ("x", "y"):
+            raise ValueError("a linear model's state must start with x y (H = [I 0])")
+        f = np.asarray(self.transition_matrix, dtype=float)
+        g = np.asarray(self.noise_gain, dtype=float)
+        q = np.asarray(self.process_covariance, dtype=float)
+        r = np.asarray(self.measurement_covariance, dtype=float)
+        if f.shape != (n, n):
+            raise ValueError(f"F must be {n}x{n} for the state {' '.join(names)}, got {f.shape}")
+        if g.ndim != 2 or g.shape[0] != n:
+            raise ValueError(f"G must have {n} rows, got {g.shape}")
+        m = g.shape[1]
+        if q.shape != (m, m) or r.shape != (AXES, AXES):
+            raise ValueError(f"Q must be {m}x{m} and R 2x2, got {q.shape} and {r.shape}")
+        for name, matrix in (("Q", q), ("R", r)):
+            tolerance = -1e-9 * max(float(np.abs(matrix).max()), 1.0)  # round-off of a PSD matrix
+            if not np.allclose(matrix, matrix.T) or np.linalg.eigvalsh(matrix).min() < tolerance:
+                raise ValueError(f"{name} must be symmetric positive semi-definite")
+        if np.linalg.eigvalsh(r).min() <= 0:
+            raise ValueError("R must be positive definite")
+        for name, value in (
+            ("transition_matrix", f),
+            ("noise_gain", g),
+            ("process_covariance", q),
+            ("measurement_covariance", r),
+            ("state_layout", names),
+        ):
+            object.__setattr__(self, name, value)
+
+    @property
+    def dim(self) -> int:
+        return len(self.state_layout)
+
+    @property
+    def measurement_matrix(self) -> np.ndarray:
+        return np.eye(AXES, self.dim)
+
+    def transition(self, dt: float) -> np.ndarray:
+        return self.transition_matrix
+
+    def process_noise(self, dt: float, sigma: float = 1.0) -> np.ndarray:
+        """G Q G^T (sigma is not used: Q is given)."""
+        return self.noise_gain @ self.process_covariance @ self.noise_gain.T
+
+
+def seed001_nominal_model(frame_interval: float = 1.0 / 20.0) -> LinearModel:
+    """Seed 001's nominal constant-acceleration filter (section 2): T = 1/20 s, G = I6,
+    Q = diag(3, 3, 1, 1, 0.25, 0.25), R = diag(3, 3)."""
+    return LinearModel(
+        CONSTANT_ACCELERATION.transition(frame_interval),
+        np.eye(6),
+        np.diag([3.0, 3.0, 1.0, 1.0, 0.25, 0.25]),
+        np.diag([3.0, 3.0]),
+        CONSTANT_ACCELERATION.state_layout,
+    )
+
+
 def model_for_layout(state_layout: tuple[str, ...]) -> KinematicModel:
     """The model whose state layout is `state_layout`."""
     for model in (CONSTANT_VELOCITY, CONSTANT_ACCELERATION):

@@ -1,10 +1,11 @@
 """Parameter conventions shared by the suite's nodes.
 
 A node lists its parameters once as `ParamSpec`s (plain data: the functional core describes its
-own parameters with them, and the README's parameter tables are checked against them); `declare_parameters` declares them with
-descriptors (description, type, numeric range, allowed choices), rejects bad start-up values with
-a clear message, and rejects bad runtime changes (`ros2 param set`) with a reason while leaving the
-node's state untouched. Accepted changes are handed to the node's `on_change` callback.
+own parameters with them, and the README's parameter tables are checked against them).
+`declare_parameters` declares them with descriptors (description, type, numeric range, allowed
+choices), rejects bad start-up values with a clear message, and rejects bad runtime changes
+(`ros2 param set`) with a reason while leaving the node's state untouched. Accepted changes are
+handed to the node's `on_change` callback.
 """
 
 from __future__ import annotations
