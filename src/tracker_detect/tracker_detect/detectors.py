@@ -9,7 +9,6 @@ registered detector keeps is checked by tests/detect/test_detector_contract.py.
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import replace
 from typing import Any
 
 from tracker_detect.detector import CameraFrame, Detection, Detector
@@ -22,7 +21,7 @@ from tracker_detect.motion import (
     DetectorConfig,
     MotionDetector,
 )
-from tracker_msgs_py.params import ParamSpec
+from tracker_msgs_py.params import ParamSpec, config_from_params
 from tracker_msgs_py.registry import Method, Registry
 
 DETECTORS: Registry[Detector] = Registry("detector")
@@ -158,12 +157,7 @@ class SsimDetector:
 
 def ssim_config(values: Mapping[str, Any]) -> DetectorConfig:
     """The DetectorConfig the SSIM parameters describe (raises ValueError when invalid)."""
-    names = {spec.name for spec in SSIM_PARAMETERS} - {"morphology"}
-    return replace(
-        _D,
-        **{k: v for k, v in values.items() if k in names},
-        morphology=tuple(values["morphology"]),
-    )
+    return config_from_params(DetectorConfig, values, morphology=tuple(values["morphology"]))
 
 
 DETECTORS.register(

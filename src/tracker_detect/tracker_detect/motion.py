@@ -34,6 +34,7 @@ from tracker_detect.registration import (
     ssim_shift_search,
 )
 from tracker_detect.ssim import SsimParams, auto_downsample_factor, ssim_map
+from tracker_msgs_py.params import check_config
 
 #: The seed's dilation element H (Principal.m), a 7x7 "diamond".
 SEED_KERNEL = np.array(
@@ -172,44 +173,44 @@ class DetectorConfig:
     ssim: SsimParams = field(default_factory=SsimParams)
 
     def __post_init__(self) -> None:
-        problems = config_problems(self)
-        if problems:
-            raise ValueError("invalid DetectorConfig: " + "; ".join(problems))
+        check_config(self)
 
+    def problems(self) -> list[str]:
+        """Why this config is unusable (empty when it is fine)."""
+        c, problems = self, []  # c: short for the many checks below
 
-def config_problems(c: DetectorConfig) -> list[str]:
-    """Why `c` is unusable (empty when it is fine)."""
-    problems = []
-    if c.gap < 1:
-        problems.append(f"gap must be >= 1, got {c.gap}")
-    if not -1.0 <= c.threshold <= 1.0:
-        problems.append(f"threshold must be in [-1, 1], got {c.threshold}")
-    unknown = [s for s in c.morphology if s not in MORPHOLOGY_STEPS]
-    if unknown:
-        problems.append(
-            f"unknown morphology steps {unknown} (known: {', '.join(MORPHOLOGY_STEPS)})"
-        )
-    if c.kernel_shape not in KERNEL_SHAPES:
-        problems.append(f"kernel_shape must be one of {', '.join(KERNEL_SHAPES)}")
-    if c.kernel_size < 1 or c.kernel_size % 2 == 0:
-        problems.append(f"kernel_size must be odd and >= 1, got {c.kernel_size}")
-    if c.connectivity not in (4, 8):
-        problems.append(f"connectivity must be 4 or 8, got {c.connectivity}")
-    if not 0.0 <= c.presence_fraction <= 1.0:
-        problems.append(f"presence_fraction must be in [0, 1], got {c.presence_fraction}")
-    if not (math.isfinite(c.min_blob_area) and c.min_blob_area >= 0):
-        problems.append(f"min_blob_area must be >= 0, got {c.min_blob_area}")
-    if c.compensation not in COMPENSATION_MODES:
-        problems.append(f"compensation must be one of {', '.join(COMPENSATION_MODES)}")
-    if c.search_radius < 0 or c.search_window < 1 or c.search_pyramid_levels < 0:
-        problems.append("search_radius and search_pyramid_levels must be >= 0, search_window >= 1")
-    if c.phase_candidates < 1:
-        problems.append(f"phase_candidates must be >= 1, got {c.phase_candidates}")
-    if not 0.0 < c.min_overlap_fraction <= 1.0:
-        problems.append(f"min_overlap_fraction must be in (0, 1], got {c.min_overlap_fraction}")
-    if c.reference_max_age < 1:
-        problems.append(f"reference_max_age must be >= 1, got {c.reference_max_age}")
-    return problems
+        if c.gap < 1:
+            problems.append(f"gap must be >= 1, got {c.gap}")
+        if not -1.0 <= c.threshold <= 1.0:
+            problems.append(f"threshold must be in [-1, 1], got {c.threshold}")
+        unknown = [s for s in c.morphology if s not in MORPHOLOGY_STEPS]
+        if unknown:
+            problems.append(
+                f"unknown morphology steps {unknown} (known: {', '.join(MORPHOLOGY_STEPS)})"
+            )
+        if c.kernel_shape not in KERNEL_SHAPES:
+            problems.append(f"kernel_shape must be one of {', '.join(KERNEL_SHAPES)}")
+        if c.kernel_size < 1 or c.kernel_size % 2 == 0:
+            problems.append(f"kernel_size must be odd and >= 1, got {c.kernel_size}")
+        if c.connectivity not in (4, 8):
+            problems.append(f"connectivity must be 4 or 8, got {c.connectivity}")
+        if not 0.0 <= c.presence_fraction <= 1.0:
+            problems.append(f"presence_fraction must be in [0, 1], got {c.presence_fraction}")
+        if not (math.isfinite(c.min_blob_area) and c.min_blob_area >= 0):
+            problems.append(f"min_blob_area must be >= 0, got {c.min_blob_area}")
+        if c.compensation not in COMPENSATION_MODES:
+            problems.append(f"compensation must be one of {', '.join(COMPENSATION_MODES)}")
+        if c.search_radius < 0 or c.search_window < 1 or c.search_pyramid_levels < 0:
+            problems.append(
+                "search_radius and search_pyramid_levels must be >= 0, search_window >= 1"
+            )
+        if c.phase_candidates < 1:
+            problems.append(f"phase_candidates must be >= 1, got {c.phase_candidates}")
+        if not 0.0 < c.min_overlap_fraction <= 1.0:
+            problems.append(f"min_overlap_fraction must be in (0, 1], got {c.min_overlap_fraction}")
+        if c.reference_max_age < 1:
+            problems.append(f"reference_max_age must be >= 1, got {c.reference_max_age}")
+        return problems
 
 
 @dataclass

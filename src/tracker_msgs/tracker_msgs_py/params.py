@@ -11,9 +11,9 @@ handed to the node's `on_change` callback.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Sequence
-from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, fields
+from typing import TYPE_CHECKING, Any, Protocol, TypeVar
 
 if TYPE_CHECKING:  # rclpy is imported where a node declares parameters, not by the core
     from rcl_interfaces.msg import ParameterDescriptor
@@ -21,6 +21,32 @@ if TYPE_CHECKING:  # rclpy is imported where a node declares parameters, not by 
     from rclpy.parameter import Parameter
 
 ParamValue = bool | int | float | str | list
+C = TypeVar("C")
+
+
+class Config(Protocol):
+    """The suite's config convention: a frozen dataclass whose fields are named like the
+    parameters that set them, and whose `problems()` lists why it is unusable (empty: fine)."""
+
+    def problems(self) -> list[str]: ...
+
+
+def check_config(config: Config) -> None:
+    """Raises ValueError listing `config.problems()`, if any."""
+    problems = config.problems()
+    if problems:
+        raise ValueError(f"invalid {type(config).__name__}: " + "; ".join(problems))
+
+
+def config_from_params(cls: type[C], values: Mapping[str, Any], **overrides: Any) -> C:
+    """The config dataclass `cls` from the parameter values named like its fields (others are
+    ignored) and `overrides`; raises ValueError listing its problems."""
+    names = {f.name for f in fields(cls)}  # type: ignore[arg-type]
+    config = cls(**{k: v for k, v in values.items() if k in names} | overrides)
+    check_config(config)  # type: ignore[arg-type]
+    return config
+
+
 Validator = Callable[[Any], str | None]
 
 
