@@ -313,18 +313,23 @@ class DetectorNode(SuiteNode):
         found = self.poses.lookup(image.stamp_ns)
         if found.status is not PoseStatus.FOUND:
             return None, found.status
+        values = found.values
+        assert values is not None, "a FOUND lookup has values"
         try:
             if source == "ptz_state":
-                return View(Rect(*found.values), width, height), PoseStatus.FOUND
-            return view_from_pan_tilt(
-                *found.values, self._camera_for(width, height), self._scene_geometry(width, height)
-            ), PoseStatus.FOUND
+                x, y, w, h = values
+                return View(Rect(x, y, w, h), width, height), PoseStatus.FOUND
+            pan, tilt = values
+            camera = self._camera_for(width, height)
+            scene = self._scene_geometry(width, height)
+            return view_from_pan_tilt(pan, tilt, camera, scene), PoseStatus.FOUND
         except ValueError as error:
             self.problems.report("unusable pose", f"unusable pose: {error}")
             return None, PoseStatus.MISSING
 
     def _camera_for(self, width: int, height: int) -> CameraIntrinsics:
         camera = self.camera
+        assert camera is not None, "joint_states views wait for a CameraInfo"
         if (camera.width, camera.height) != (width, height):
             # CameraInfo without a size (0) or from another resolution: scale K to the image.
             sx = width / camera.width if camera.width else 1.0

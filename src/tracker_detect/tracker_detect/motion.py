@@ -87,7 +87,7 @@ def motion_mask(
     kernel: np.ndarray | None = None,
 ) -> np.ndarray:
     """Binary (0/1 uint8) mask of SSIM <= threshold, then `steps` in order (seed: fill, dilate x2)."""
-    mask = (similarity <= threshold).astype(np.uint8)
+    mask: np.ndarray = (similarity <= threshold).astype(np.uint8)
     element = SEED_KERNEL if kernel is None else kernel
     for step in steps:
         if step == "fill":

@@ -305,7 +305,7 @@ def _usable_levels(shape: tuple[int, ...], wanted: int, window: int) -> int:
 
 
 def _pyramid(image: np.ndarray, levels: int) -> list[np.ndarray]:
-    out = [np.asarray(image, dtype=np.float32)]
+    out: list[np.ndarray] = [np.asarray(image, dtype=np.float32)]
     for _ in range(levels):
         out.append(cv2.pyrDown(out[-1]))
     return out
@@ -345,9 +345,9 @@ class _ShiftScorer:
             return -math.inf
         mp, sp, qp, vp = (a[y0 + dy : y1 + dy, x0 + dx : x1 + dx] for a in self.prev)
         mc, sc, qc, vc = (a[y0:y1, x0:x1] for a in self.curr)
-        lum = cv2.multiply(mp, mc)
+        lum: np.ndarray = cv2.multiply(mp, mc)
         lum += self.half_c1
-        con = cv2.multiply(sp, sc)
+        con: np.ndarray = cv2.multiply(sp, sc)
         con += self.half_c2
         cv2.multiply(lum, con, dst=lum)
         den = cv2.multiply(cv2.add(qp, qc), cv2.add(vp, vc))
@@ -402,8 +402,10 @@ def phase_correlation_shift(
 
 def _correlation_surface(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Normalised cross-power spectrum, back in space: peaks at shifts d with b(p) ~ a(p + d)."""
-    cross = cv2.mulSpectrums(_windowed_spectrum(a), _windowed_spectrum(b), 0, conjB=True)
-    magnitude = cv2.magnitude(cross[..., 0], cross[..., 1])
+    cross: np.ndarray = cv2.mulSpectrums(
+        _windowed_spectrum(a), _windowed_spectrum(b), 0, conjB=True
+    )
+    magnitude: np.ndarray = cv2.magnitude(cross[..., 0], cross[..., 1])
     magnitude += 1e-12
     cross /= magnitude[..., None]
     return np.ascontiguousarray(cv2.idft(cross, flags=cv2.DFT_SCALE)[..., 0])

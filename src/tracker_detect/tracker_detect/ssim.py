@@ -130,12 +130,13 @@ def ssim_map(
     # SSIM needs only the sum of the two variances: E[x^2 + y^2] is one filter, not two.
     _blur(cross, row, col, cross)
     _blur(sum_sq, row, col, sum_sq)
-    moments = (mu_x, mu_y, cross, sum_sq, spare_y)
     if valid:
         # Only the interior: every array is cut to the same view (OpenCV follows numpy strides).
         b = p.border
-        moments = tuple(m[b:-b, b:-b] for m in moments)
-    return _combine(*moments, p, centre, np.empty(moments[0].shape, np.float32))
+        mu_x, mu_y, cross, sum_sq, spare_y = (
+            m[b:-b, b:-b] for m in (mu_x, mu_y, cross, sum_sq, spare_y)
+        )
+    return _combine(mu_x, mu_y, cross, sum_sq, spare_y, p, centre, np.empty(mu_x.shape, np.float32))
 
 
 @lru_cache(maxsize=8)
@@ -282,14 +283,15 @@ def simplified_ssim(
     covariance, so its statistics need computing once per image, not once per shift.
     """
     p = params or SsimParams()
-    num = cv2.multiply(mean_a, mean_b, scale=2.0)
+    # cv2 returns float32 arrays here (its stubs say 'integer or floating')
+    num: np.ndarray = cv2.multiply(mean_a, mean_b, scale=2.0)
     num += p.c1
-    contrast = cv2.multiply(std_a, std_b, scale=2.0)
+    contrast: np.ndarray = cv2.multiply(std_a, std_b, scale=2.0)
     contrast += p.c2
     cv2.multiply(num, contrast, dst=num)
-    den = cv2.add(cv2.multiply(mean_a, mean_a), cv2.multiply(mean_b, mean_b))
+    den: np.ndarray = cv2.add(cv2.multiply(mean_a, mean_a), cv2.multiply(mean_b, mean_b))
     den += p.c1
-    var_sum = cv2.add(cv2.multiply(std_a, std_a), cv2.multiply(std_b, std_b))
+    var_sum: np.ndarray = cv2.add(cv2.multiply(std_a, std_a), cv2.multiply(std_b, std_b))
     var_sum += p.c2
     cv2.multiply(den, var_sum, dst=den)
     return cv2.divide(num, den, dst=num)

@@ -276,7 +276,7 @@ class AlphaBetaFilter(KinematicFilter):
         else:
             self._mean[:AXES] += g * (z - self._mean[:AXES])  # no interval: position only
             self._commit()
-        gain = fixed_gain(np.float64(g), np.float64(h), np.float64(k), dt, self.gains.order)
+        gain = fixed_gain(np.asarray(g), np.asarray(h), np.asarray(k), dt, self.gains.order)
         self._covariance = joseph_update(self._covariance, gain, self.measurement_covariance)
         self._dt = 0.0
         self._measurements += 1
@@ -374,6 +374,7 @@ class FilterConfig:
     def new_filter(self, z: np.ndarray, t: float) -> StateFilter:
         x0, P0 = self.initial_state(z), self.initial_state_covariance()
         if self.kind.fixed_gain:
+            assert self.gains is not None, "__post_init__ gives fixed-gain kinds their gains"
             return AlphaBetaFilter(
                 self.gains, x0, P0, t, self.process_noise, self.measurement_noise, self.startup
             )

@@ -117,7 +117,7 @@ class TargetSelector:
     def select_id(self, track_id: int) -> SelectResult:
         tracks = self._last_tracks
         index = tracks.index_of(track_id) if tracks is not None else None
-        if index is None or tracks.status[index] == TrackStatus.LOST:
+        if tracks is None or index is None or tracks.status[index] == TrackStatus.LOST:
             return SelectResult(False, f"no live track with id {track_id}")
         self._unlock()
         self._manual = SelectionPolicy.MANUAL_ID
@@ -171,6 +171,7 @@ class TargetSelector:
 
     def _take_track_started_in_rect(self, tracks: TrackSet) -> None:
         rect = self._pending_rect
+        assert rect is not None, "called only while a rectangle is pending"
         for i in np.flatnonzero(tracks.ids > self._pending_after_id):
             if tracks.status[i] != TrackStatus.LOST and rect.contains(*tracks.positions[i]):
                 self.selection = Selection(
@@ -206,7 +207,7 @@ class TargetSelector:
         best = int(candidates[np.argmax(scores[candidates])])  # ties: the oldest (lowest) row
         current = self.selection
         incumbent = tracks.index_of(current.track_id) if current is not None else None
-        if incumbent is None or incumbent not in candidates:
+        if current is None or incumbent is None or incumbent not in candidates:
             self.selection = Selection(int(tracks.ids[best]), self.policy, tracks.time)
         elif best != incumbent and tracks.time - current.since >= self.min_lock_time:
             threshold = scores[incumbent] + self.switch_margin * abs(scores[incumbent])

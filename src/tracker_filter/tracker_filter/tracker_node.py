@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import array
 from dataclasses import replace
+from functools import partial
 from typing import Any
 
 import numpy as np
@@ -182,7 +183,7 @@ class TrackerNode(SuiteNode):
                 self.create_subscription(
                     Image,
                     topic,
-                    lambda msg, need=need: self._on_image_part(need, msg),
+                    partial(self._on_image_part, need),
                     image_qos(self._params["reliable_images"]),
                 )
         self.create_service(SelectTarget, "select_target", self._on_select_target)
