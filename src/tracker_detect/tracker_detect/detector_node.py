@@ -15,7 +15,6 @@ for detectors started from a rectangle.
 from __future__ import annotations
 
 import math
-from collections import deque
 from dataclasses import dataclass
 from typing import Any
 
@@ -31,12 +30,18 @@ from tracker_detect.detector import (
     StaleFrameError,
 )
 from tracker_detect.detectors import DETECTORS
-from tracker_detect.pose_buffer import PoseBuffer, PoseStatus
-from tracker_detect.registration import CameraIntrinsics, View, view_from_pan_tilt
+from tracker_detect.image_pose_pairing import (
+    POSE_SOURCES,
+    ImagePosePairing,
+    PairedImage,
+    SceneSettings,
+)
+from tracker_detect.registration import CameraIntrinsics
 from tracker_msgs.msg import Blob as BlobMsg
 from tracker_msgs.msg import BlobArray, PtzState
 from tracker_msgs.srv import SelectRegion
 from tracker_msgs_py.codec import (
+    NS_PER_S,
     UnsupportedEncodingError,
     array_to_image,
     image_qos,
@@ -47,12 +52,10 @@ from tracker_msgs_py.codec import (
     rect_to_msg,
     stamp_to_ns,
 )
-from tracker_msgs_py.geometry import Rect, SceneGeometry
 from tracker_msgs_py.node_main import SuiteNode, run_node
 from tracker_msgs_py.params import ParamSpec, declare_parameters
 from tracker_msgs_py.stamps import Order, StampOrder
 
-POSE_SOURCES = ("ptz_state", "joint_states", "none", "estimate")
 NODE_PARAMETERS = [
     ParamSpec(
         "pose_source",
@@ -94,13 +97,6 @@ NODE_PARAMETERS = [
 
 
 @dataclass
-class _PendingImage:
-    header: Header
-    stamp_ns: int
-    pixels: np.ndarray  # (H, W) grey or (H, W, 3) BGR
-
-
-@dataclass
 class Counters:
     """What the node dropped or could not pair, for diagnostics and tests."""
 
@@ -132,9 +128,12 @@ class DetectorNode(SuiteNode):
         )
         self.detector: Detector = self.method.build(self._method_values(self.params))
         self.counters = Counters()
-        self.poses = PoseBuffer(self.params["pose_buffer_size"], self._max_gap_ns())
-        self.pending: deque[_PendingImage] = deque()
-        self.camera: CameraIntrinsics | None = None
+        self.pairing = ImagePosePairing(
+            self.params["pose_source"],
+            self.params["pose_buffer_size"],
+            self._max_gap_ns(),
+            self._scene_settings(),
+        )
         self.image_order = StampOrder()
         self.last_frame: CameraFrame | None = None
         reliable = self.params["reliable_images"]
@@ -173,7 +172,22 @@ class DetectorNode(SuiteNode):
         return None
 
     def _max_gap_ns(self) -> int:
-        return round(self.params["pose_max_gap"] * 1e9)
+        return round(self.params["pose_max_gap"] * NS_PER_S)
+
+    def _scene_settings(self) -> SceneSettings:
+        params = self.params
+        return SceneSettings(
+            params["scene_width"], params["scene_height"], params["scene_focal_length"]
+        )
+
+    @property
+    def pending(self) -> ImagePosePairing:
+        """The images waiting for their pose (len() is how many)."""
+        return self.pairing
+
+    @property
+    def camera(self) -> CameraIntrinsics | None:
+        return self.pairing.camera
 
     def _on_change(self, changed: dict[str, Any]) -> None:
         if any(spec.name in changed for spec in self.method.parameters):
@@ -183,9 +197,9 @@ class DetectorNode(SuiteNode):
                 reconfigure(values)
             else:
                 self.detector = self.method.build(values)
-        if "pose_buffer_size" in changed or "pose_max_gap" in changed:
-            self.poses.capacity = self.params["pose_buffer_size"]
-            self.poses.max_gap_ns = self._max_gap_ns()
+        self.pairing.configure(
+            self.params["pose_buffer_size"], self._max_gap_ns(), self._scene_settings()
+        )
 
     # --- inputs -------------------------------------------------------------------------------
 
@@ -211,8 +225,7 @@ class DetectorNode(SuiteNode):
             )
             self._publish_empty(msg.header)
             return
-        self.pending.append(_PendingImage(msg.header, stamp, pixels.copy()))
-        self._drain()
+        self._handle(self.pairing.add_image(msg.header, stamp, pixels.copy()))
 
     def _start_epoch(self, stamp_ns: int) -> None:
         """Time jumped back (a restarted or looping source): forget what the old stamps built."""
@@ -220,18 +233,8 @@ class DetectorNode(SuiteNode):
             f"camera images: {self.image_order.describe_jump()}; a new replay epoch: detection "
             "history and waiting images cleared"
         )
-        for image in self.pending:
-            self._publish_empty(image.header)  # still answered once, as every image is
-        self.pending.clear()
         self.detector.reset()
-        self.poses.drop_after(stamp_ns)
-
-    def _add_pose(self, stamp_ns: int, values: tuple[float, ...]) -> None:
-        newest = self.poses.newest_stamp
-        if newest is not None and stamp_ns < newest:
-            self.poses.drop_after(stamp_ns)  # the pose stream jumped back: a new epoch
-        self.poses.add(stamp_ns, values)
-        self._drain()
+        self._handle(self.pairing.new_epoch(stamp_ns))  # still answered once, as every image is
 
     def _on_ptz_state(self, msg: PtzState) -> None:
         try:
@@ -239,9 +242,8 @@ class DetectorNode(SuiteNode):
         except ValueError as error:
             self.problems.report("invalid PtzState window", f"ignored a PtzState window: {error}")
             return
-        self._add_pose(
-            stamp_to_ns(msg.header.stamp), (window.x, window.y, window.width, window.height)
-        )
+        pose = (window.x, window.y, window.width, window.height)
+        self._handle(self.pairing.add_pose(stamp_to_ns(msg.header.stamp), pose))
 
     def _on_joint_state(self, msg: JointState) -> None:
         names = list(msg.name)
@@ -260,11 +262,11 @@ class DetectorNode(SuiteNode):
                 f"ignored a JointState with non-finite pan/tilt {pan, tilt}",
             )
             return
-        self._add_pose(stamp_to_ns(msg.header.stamp), (pan, tilt))
+        self._handle(self.pairing.add_pose(stamp_to_ns(msg.header.stamp), (pan, tilt)))
 
     def _on_camera_info(self, msg: CameraInfo) -> None:
         try:
-            self.camera = CameraIntrinsics(
+            camera = CameraIntrinsics(
                 int(msg.width),
                 int(msg.height),
                 float(msg.k[0]),
@@ -275,78 +277,32 @@ class DetectorNode(SuiteNode):
         except ValueError as error:
             self.problems.report("invalid CameraInfo", f"ignored a CameraInfo: {error}")
             return
-        self._drain()
+        self._handle(self.pairing.set_camera(camera))
 
     # --- pairing and detection ----------------------------------------------------------------
 
-    def _drain(self) -> None:
-        """Process the waiting images, oldest first, as far as their poses are known."""
-        while self.pending:
-            image = self.pending[0]
-            view, status = self._view_for(image)
-            if status is PoseStatus.WAIT and len(self.pending) <= self.params["pose_buffer_size"]:
-                return
-            self.pending.popleft()
-            if status is PoseStatus.FOUND:
-                self._detect(image, view)
-            else:
-                self.counters.without_pose += 1
-                self.problems.report(
-                    f"pose {status.value}",
-                    f"no pose for the image stamped {image.stamp_ns} ns ({status.value}); "
-                    "answered with an empty BlobArray",
-                )
-                self._publish_empty(image.header)
-
-    def _view_for(self, image: _PendingImage) -> tuple[View | None, PoseStatus]:
-        height, width = image.pixels.shape[:2]
-        source = self.params["pose_source"]
-        if source == "none":
-            return View.identity(width, height), PoseStatus.FOUND
-        if source == "estimate":
-            return None, PoseStatus.FOUND
-        if source == "joint_states" and self.camera is None:
+    def _handle(self, images: list[PairedImage]) -> None:
+        """Detect in each image paired with its pose; answer the others with an empty array."""
+        if self.pairing.waiting_for_camera_info:
             self.problems.report(
                 "no CameraInfo yet", "waiting for camera/camera_info to use joint states"
             )
-            return None, PoseStatus.WAIT
-        found = self.poses.lookup(image.stamp_ns)
-        if found.status is not PoseStatus.FOUND:
-            return None, found.status
-        values = found.values
-        assert values is not None, "a FOUND lookup has values"
-        try:
-            if source == "ptz_state":
-                x, y, w, h = values
-                return View(Rect(x, y, w, h), width, height), PoseStatus.FOUND
-            pan, tilt = values
-            camera = self._camera_for(width, height)
-            scene = self._scene_geometry(width, height)
-            return view_from_pan_tilt(pan, tilt, camera, scene), PoseStatus.FOUND
-        except ValueError as error:
-            self.problems.report("unusable pose", f"unusable pose: {error}")
-            return None, PoseStatus.MISSING
-
-    def _camera_for(self, width: int, height: int) -> CameraIntrinsics:
-        camera = self.camera
-        assert camera is not None, "joint_states views wait for a CameraInfo"
-        if (camera.width, camera.height) != (width, height):
-            # CameraInfo without a size (0) or from another resolution: scale K to the image.
-            sx = width / camera.width if camera.width else 1.0
-            sy = height / camera.height if camera.height else 1.0
-            camera = CameraIntrinsics(
-                width, height, camera.fx * sx, camera.fy * sy, camera.cx * sx, camera.cy * sy
+        for image in images:
+            if image.found:
+                self._detect(image)
+                continue
+            if image.problem:
+                self.problems.report("unusable pose", f"unusable pose: {image.problem}")
+            self.counters.without_pose += 1
+            self.problems.report(
+                f"pose {image.status.value}",
+                f"no pose for the image stamped {image.stamp_ns} ns ({image.status.value}); "
+                "answered with an empty BlobArray",
             )
-        return camera
+            self._publish_empty(image.token)
 
-    def _scene_geometry(self, width: int, height: int) -> SceneGeometry:
-        focal = self.params["scene_focal_length"] or self._camera_for(width, height).fx
-        return SceneGeometry(
-            self.params["scene_width"] or width, self.params["scene_height"] or height, focal
-        )
-
-    def _detect(self, image: _PendingImage, view: View | None) -> None:
-        frame = CameraFrame(image.stamp_ns, image.pixels, view)
+    def _detect(self, image: PairedImage) -> None:
+        frame = CameraFrame(image.stamp_ns, image.pixels, image.view)
         try:
             detection = self.detector.process(frame)
         except StaleFrameError:
@@ -361,8 +317,8 @@ class DetectorNode(SuiteNode):
             )
         if detection.registration_fallback:
             self.counters.registration_fallbacks += 1
-        self.detections_pub.publish(self._blob_array(detection, image.header))
-        self._publish_debug(detection, image.header)
+        self.detections_pub.publish(self._blob_array(detection, image.token))
+        self._publish_debug(detection, image.token)
 
     def _on_select_region(
         self, request: SelectRegion.Request, response: SelectRegion.Response
