@@ -29,7 +29,7 @@ from tracker_detect.detector import (
     SeededDetector,
     StaleFrameError,
 )
-from tracker_detect.detectors import DETECTORS
+from tracker_detect.detectors import DETECTORS, PLUGIN_GROUP
 from tracker_detect.image_pose_pairing import (
     POSE_SOURCES,
     ImagePosePairing,
@@ -112,6 +112,8 @@ class DetectorNode(SuiteNode):
     def __init__(self, **node_options: Any) -> None:
         """node_options go to rclpy's Node (namespace, parameter_overrides, context...)."""
         super().__init__("detector", **node_options)
+        for problem in DETECTORS.load_entry_points(PLUGIN_GROUP):
+            self.problems.report("unusable detector plug-in", problem)
         method_spec = ParamSpec(
             "method",
             DETECTORS.names()[0],

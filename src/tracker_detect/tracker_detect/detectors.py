@@ -25,6 +25,8 @@ from tracker_msgs_py.params import ParamSpec, config_from_params
 from tracker_msgs_py.registry import Method, Registry
 
 DETECTORS: Registry[Detector] = Registry("detector")
+#: Entry-point group other packages declare their detector `Method`s in (loaded by the node).
+PLUGIN_GROUP = "tracker_suite.detectors"
 
 _D = DetectorConfig()
 

@@ -25,7 +25,7 @@ from tracker_filter.config import SELECTION_DEFAULTS, SELECTION_PARAMETERS
 from tracker_filter.models import extrapolate_positions
 from tracker_filter.observation import Detections, Need, Observation
 from tracker_filter.selection import AUTOMATIC_POLICIES, SelectionPolicy, TargetSelector
-from tracker_filter.trackers import TRACKERS
+from tracker_filter.trackers import PLUGIN_GROUP, TRACKERS
 from tracker_filter.tracking import Tracker, TrackSet
 from tracker_msgs.msg import BlobArray, PtzState, Rect, Target, Track, TrackArray
 from tracker_msgs.srv import ResetTracker, SelectTarget
@@ -139,6 +139,8 @@ def parameter_specs(method: Method[Tracker], preset: str) -> list[ParamSpec]:
 class TrackerNode(SuiteNode):
     def __init__(self, **kwargs: Any) -> None:
         super().__init__("tracker", **kwargs)
+        for problem in TRACKERS.load_entry_points(PLUGIN_GROUP):
+            self.problems.report("unusable tracker plug-in", problem)
         choice = declare_parameters(
             self,
             [

@@ -3,9 +3,9 @@
 Each method is a `tracker_msgs_py.registry.Method` whose `build(values, first_id)` returns a
 `tracking.Tracker`; `values` holds the method's parameters by name. To add a tracker, write its
 module (a class satisfying `tracking.Tracker`, bookkeeping through `tracking.TrackBook`) and
-register it here with one `TRACKERS.register(Method(...))` line -- or, from another package, call
-`TRACKERS.register` before the node is built. The contract every registered tracker must keep is
-checked by tests/filter/test_tracker_contract.py.
+register it here with one `TRACKERS.register(Method(...))` line -- or, from another package,
+declare the Method as an entry point in the `tracker_suite.trackers` group. The contract every
+registered tracker must keep is checked by tests/filter/test_tracker_contract.py.
 """
 
 from __future__ import annotations
@@ -18,6 +18,8 @@ from tracker_filter.tracking import Tracker
 from tracker_msgs_py.registry import Method, Registry
 
 TRACKERS: Registry[Tracker] = Registry("tracker")
+#: Entry-point group other packages declare their tracker `Method`s in (loaded by the node).
+PLUGIN_GROUP = "tracker_suite.trackers"
 
 
 def _gated_hungarian(values: Mapping[str, Any], first_id: int = 1) -> Tracker:

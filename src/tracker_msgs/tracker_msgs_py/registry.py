@@ -3,13 +3,16 @@
 A method is a name, a one-line description, its own parameters (`ParamSpec`s, whose defaults are
 the method's defaults), optional named presets, and a `build` function from parameter values to
 the object. A node's `method` parameter picks one; adding a method is a new module plus one
-`register` call, never a change to a node.
+`register` call, never a change to a node. Another installed package can add methods without
+touching this suite, as pluginlib does for C++: it declares each `Method` object as a Python entry
+point in the role's group (e.g. ``tracker_suite.trackers``), and the node loads the group.
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
+from importlib.metadata import entry_points
 from typing import Any, Generic, TypeVar
 
 from tracker_msgs_py.params import ParamSpec
@@ -62,6 +65,24 @@ class Registry(Generic[T]):
             raise ValueError(f"a {self.role} named '{method.name}' is already registered")
         self._methods[method.name] = method
         return method
+
+    def load_entry_points(self, group: str) -> list[str]:
+        """Register the `Method`s installed packages declare under the entry-point `group`;
+        returns one line per entry point that could not be used (the others still load)."""
+        problems = []
+        for point in entry_points(group=group):
+            try:
+                method = point.load()
+            except Exception as error:  # a broken plug-in must not take the node down
+                problems.append(f"{group} plug-in {point.name}: cannot load ({error})")
+                continue
+            if not isinstance(method, Method):
+                problems.append(f"{group} plug-in {point.name}: {point.value} is not a Method")
+            elif method.name in self._methods and self._methods[method.name] is not method:
+                problems.append(f"{group} plug-in {point.name}: '{method.name}' is taken")
+            else:
+                self._methods[method.name] = method
+        return problems
 
     def unregister(self, name: str) -> None:
         self._methods.pop(name, None)
