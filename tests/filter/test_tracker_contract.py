@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 from tracker_filter.filter_registry import FILTERS
+from tracker_filter.layout import StateLayout
 from tracker_filter.observation import Detections, Observation
 from tracker_filter.trackers import TRACKERS
 from tracker_filter.tracking import OutOfOrderError, Tracker, TrackSet, TrackStatus
@@ -68,6 +69,7 @@ class TestTrackerContract:
     def test_satisfies_the_protocol_and_reports_its_layout(self, case):
         tracker = make(case)
         assert isinstance(tracker, Tracker)
+        assert StateLayout.from_names(tracker.layout.text) == tracker.layout  # as Track says it
         for tracks in run(tracker, SEQUENCE):
             assert tracks.layout == tracker.layout
             assert tracks.means.shape == (len(tracks), tracker.layout.dim)
