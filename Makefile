@@ -19,8 +19,8 @@ setup:  ## Create .venv, install ROS 2 Jazzy + libraries (pinned), build the wor
 build: setup  ## Rebuild the workspace (colcon build --symlink-install)
 	@$(ENV) colcon build --symlink-install --event-handlers console_cohesion- summary+
 
-lint: setup  ## ruff lint + format check
-	@$(ENV) ruff check src tests bench scripts && ruff format --check src tests bench scripts
+lint: setup  ## ruff lint + format check + mypy type check
+	@$(ENV) ruff check src tests bench scripts && ruff format --check src tests bench scripts && mypy
 
 format: setup  ## Apply ruff's fixes and formatting
 	@$(ENV) ruff check --fix src tests bench scripts; ruff format src tests bench scripts

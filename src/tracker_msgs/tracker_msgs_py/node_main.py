@@ -142,7 +142,10 @@ def run_node(make_node: Callable[[], SuiteNode], args: Sequence[str] | None = No
     """Create the node, spin it until a stop signal or until it finishes, tear it down in order,
     and return the process exit code (see the module docstring)."""
     stop_signals.install()
-    rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
+    rclpy.init(
+        args=None if args is None else list(args),
+        signal_handler_options=SignalHandlerOptions.NO,
+    )
     node = None
     try:
         if stop_signals.requested():

@@ -69,7 +69,7 @@ class ParamSpec:
             return f"{self.name} must be a finite number, got {value}"
         is_number = isinstance(value, int | float) and not isinstance(value, bool)
         both = self.min is not None and self.max is not None
-        if is_number and both and not self.min <= value <= self.max:  # type: ignore[operator]
+        if is_number and both and not self.min <= value <= self.max:
             return f"{self.name} must be in [{self.min}, {self.max}], got {value}"
         if is_number and self.min is not None and value < self.min:
             return f"{self.name} must be >= {self.min}, got {value}"

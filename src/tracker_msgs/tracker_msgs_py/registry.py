@@ -10,7 +10,7 @@ point in the role's group (e.g. ``tracker_suite.trackers``), and the node loads 
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass, field
 from importlib.metadata import entry_points
 from typing import Any, Generic, TypeVar
@@ -101,5 +101,5 @@ class Registry(Generic[T]):
     def __contains__(self, name: object) -> bool:
         return name in self._methods
 
-    def __iter__(self):  # type: ignore[no-untyped-def]
+    def __iter__(self) -> Iterator[Method[T]]:
         return iter(self._methods.values())

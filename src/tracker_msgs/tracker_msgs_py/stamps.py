@@ -15,6 +15,8 @@ from __future__ import annotations
 
 from enum import Enum
 
+from tracker_msgs_py.codec import NS_PER_S
+
 
 class Order(Enum):
     NEXT = "next"
@@ -51,8 +53,8 @@ class StampOrder:
         """'stamps jumped back 12.300 s, to 0.000 s', for the log line of the latest new epoch."""
         if self.jumped_from_ns is None or self.last_ns is None:
             return "no jump back yet"
-        back = (self.jumped_from_ns - self.last_ns) / 1e9
-        return f"stamps jumped back {back:.3f} s, to {self.last_ns / 1e9:.3f} s"
+        back = (self.jumped_from_ns - self.last_ns) / NS_PER_S
+        return f"stamps jumped back {back:.3f} s, to {self.last_ns / NS_PER_S:.3f} s"
 
     def reset(self) -> None:
         self.last_ns = None

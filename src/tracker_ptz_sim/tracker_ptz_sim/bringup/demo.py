@@ -30,6 +30,7 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from enum import Enum
+from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -80,7 +81,7 @@ class Recorder(Node):
                 self.create_subscription(
                     msg_type,
                     topic.name,
-                    lambda data, name=topic.name: self._record(name, data),
+                    partial(self._record, topic.name),
                     qos,
                     raw=True,
                 )

@@ -100,8 +100,10 @@ def _extract_clip(deb: Path, target: Path) -> None:
         tarfile.open(fileobj=unpack.stdout, mode="r|*") as archive,
     ):
         for member in archive:
-            if member.name.endswith(MEMBER_SUFFIX) and member.isfile():
-                with archive.extractfile(member) as source, target.open("wb") as out:
+            wanted = member.isfile() and member.name.endswith(MEMBER_SUFFIX)
+            source = archive.extractfile(member) if wanted else None
+            if source is not None:  # a regular file of that name
+                with source, target.open("wb") as out:
                     shutil.copyfileobj(source, out)
                 break
     if not target.exists():

@@ -109,6 +109,9 @@ class PanTiltController:
     STALL_EPSILON = 1e-6  # rad: a sweep that moved less than this in a cycle has stopped
 
     def __init__(self, config: ControllerConfig) -> None:
+        self._start(config)
+
+    def _start(self, config: ControllerConfig) -> None:
         reason = config.check()
         if reason:
             raise ValueError(reason)
@@ -123,14 +126,14 @@ class PanTiltController:
         self._last_pan: float | None = None
 
     def reset(self) -> None:
-        self.__init__(self.config)
+        self._start(self.config)
 
     def step(self, t: float, pose: CameraPose, target: TargetEstimate | None) -> Command:
         """The command for time t [s] given the camera pose and the locked target (None if none)."""
         dt = 0.0 if self._last_time is None else max(0.0, t - self._last_time)
         self._last_time = t
         self._update_state(t, target)
-        if self.state is ControlState.TRACK:
+        if self.state is ControlState.TRACK and target is not None:  # TRACK needs a target
             command = self._track(pose, target, dt)
         elif self.state is ControlState.SCAN:
             command = self._scan(t, pose)

@@ -18,7 +18,7 @@ from rclpy.clock import Clock, ClockType
 from sensor_msgs.msg import JointState
 
 from tracker_msgs.msg import PtzCommand, PtzState, Target
-from tracker_msgs_py.codec import msg_to_window, stamp_to_ns
+from tracker_msgs_py.codec import NS_PER_S, msg_to_window, stamp_to_ns
 from tracker_msgs_py.node_main import SuiteNode, run_node
 from tracker_msgs_py.params import ParamSpec, declare_parameters
 from tracker_msgs_py.stamps import Order, StampOrder
@@ -31,7 +31,6 @@ from tracker_ptz_sim.control.controller import (
     TargetEstimate,
 )
 
-NS_PER_S = 1e9
 STATE_BUFFER = 16  # pan-tilt states kept to pair with targets by stamp
 
 _DEFAULTS = ControllerConfig()

@@ -205,7 +205,8 @@ def render_video(
         canvas = side_by_side(canvas, annotate_view(view, canvas.shape[0]))
         if writer is None:
             size = (canvas.shape[1], canvas.shape[0])
-            writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"mp4v"), fps, size)
+            fourcc = cv2.VideoWriter_fourcc(*"mp4v")  # type: ignore[attr-defined]  # not in stubs
+            writer = cv2.VideoWriter(str(path), fourcc, fps, size)
             if not writer.isOpened():
                 raise OSError(f"OpenCV cannot write {path}")
         writer.write(canvas)
@@ -296,7 +297,7 @@ def _pt(x: float, y: float) -> tuple[int, int]:
 
 def _track_color(track_id: int) -> tuple[int, int, int]:
     hue = (track_id * 47) % 180
-    color = cv2.cvtColor(np.uint8([[[hue, 220, 255]]]), cv2.COLOR_HSV2BGR)[0, 0]
+    color = cv2.cvtColor(np.array([[[hue, 220, 255]]], np.uint8), cv2.COLOR_HSV2BGR)[0, 0]
     return (int(color[0]), int(color[1]), int(color[2]))
 
 
@@ -308,12 +309,12 @@ def format_summary(summary: Summary) -> str:
         ("throughput", f"{summary.throughput_fps:.1f} frames/s"),
         ("target locked", f"{100 * summary.locked_share:.1f} % of frames"),
     ]
-    if summary.mean_center_distance_px is not None:
+    share = summary.mean_center_distance_share
+    if summary.mean_center_distance_px is not None and share is not None:
         rows.append(
             (
                 "target from view centre",
-                f"{summary.mean_center_distance_px:.1f} px "
-                f"({100 * summary.mean_center_distance_share:.1f} % of view width)",
+                f"{summary.mean_center_distance_px:.1f} px ({100 * share:.1f} % of view width)",
             )
         )
     rows.append(("confirmed tracks", f"{summary.tracks_seen}"))

@@ -22,6 +22,7 @@ from abc import ABC, abstractmethod
 from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import cv2
 import numpy as np
@@ -311,6 +312,7 @@ class BagSource(FrameSource):
                     continue
                 if end is not None and index >= end:
                     return
+                msg: Any = None
                 try:
                     msg = store.deserialize_cdr(data, connection.msgtype)
                     image = decode_image(msg)

@@ -23,6 +23,7 @@ from sensor_msgs.msg import CameraInfo, Image, JointState
 from tracker_msgs.msg import PtzCommand as PtzCommandMsg
 from tracker_msgs.msg import PtzState
 from tracker_msgs_py.codec import (
+    NS_PER_S,
     UnsupportedEncodingError,
     array_to_image,
     camera_info,
@@ -185,13 +186,13 @@ class PtzCameraNode(SuiteNode):
         elif self.last_image_ns is not None and stamp > self.last_image_ns:
             self.problems.report(
                 "command from the future",
-                f"ignored a pan-tilt command stamped {stamp / 1e9:.3f} s, after the latest scene "
-                f"image ({self.last_image_ns / 1e9:.3f} s): commands carry the stamp of the image "
+                f"ignored a pan-tilt command stamped {stamp / NS_PER_S:.3f} s, after the latest scene "
+                f"image ({self.last_image_ns / NS_PER_S:.3f} s): commands carry the stamp of the image "
                 "they answer",
             )
         else:
             return PtzCommand(
-                stamp / 1e9, mode, msg.pan, msg.tilt, msg.pan_rate, msg.tilt_rate, msg.zoom
+                stamp / NS_PER_S, mode, msg.pan, msg.tilt, msg.pan_rate, msg.tilt_rate, msg.zoom
             )
         return None
 
@@ -225,7 +226,7 @@ class PtzCameraNode(SuiteNode):
         self.last_command_ns = -1
         self.early_commands.clear()
         if self.model is not None:
-            self.model.restart_clock(stamp_ns / 1e9)
+            self.model.restart_clock(stamp_ns / NS_PER_S)
 
     def _acknowledged(self) -> bool:
         return (
@@ -265,8 +266,10 @@ class PtzCameraNode(SuiteNode):
         if size_changed and not self._start_model(msg.width, msg.height):
             return
         self.last_image_ns = stamp
-        snapshot = self.model.advance(stamp / 1e9)
-        view = self.model.render(scene, snapshot.window)
+        model = self.model
+        assert model is not None, "_start_model made it"
+        snapshot = model.advance(stamp / NS_PER_S)
+        view = model.render(scene, snapshot.window)
         self._publish(msg, view, snapshot)
 
     def _start_model(self, width: int, height: int) -> bool:
@@ -292,7 +295,9 @@ class PtzCameraNode(SuiteNode):
     def _publish(self, scene_msg: Image, view: Any, snapshot: PtzSnapshot) -> None:
         stamp = scene_msg.header.stamp
         camera_frame = self.params["camera_frame_id"]
-        fx, fy, cx, cy = self.model.intrinsics()
+        model = self.model
+        assert model is not None, "published only after the model exists"
+        fx, fy, cx, cy = model.intrinsics()
         height, width = view.shape[:2]
         self.view_pub.publish(array_to_image(view, scene_msg.encoding, stamp, camera_frame))
         self.info_pub.publish(camera_info(width, height, fx, fy, cx, cy, stamp, camera_frame))
@@ -302,7 +307,7 @@ class PtzCameraNode(SuiteNode):
             pan_rate=snapshot.pan_rate,
             tilt_rate=snapshot.tilt_rate,
             zoom=snapshot.zoom,
-            focal_length=self.model.geometry.focal_length,
+            focal_length=model.geometry.focal_length,
             window=rect_to_msg(snapshot.window),
             moving=snapshot.moving,
         )

@@ -15,6 +15,7 @@ import threading
 from collections.abc import Iterator
 from queue import Empty, Full, Queue
 
+from tracker_msgs_py.codec import NS_PER_S
 from tracker_ptz_sim.simulation.frame_sources import Frame
 
 POLL_S = 0.05  # how often a blocked queue operation looks at the close flag
@@ -41,7 +42,7 @@ class Pacer:
         if self._anchor is None:
             self._anchor = (now, stamp_ns)
         wall, stamp = self._anchor
-        return max(0.0, wall + (stamp_ns - stamp) / 1e9 / self.rate - now)
+        return max(0.0, wall + (stamp_ns - stamp) / NS_PER_S / self.rate - now)
 
     def sent(self, stamp_ns: int) -> None:
         """Record that the frame stamped `stamp_ns` went out."""

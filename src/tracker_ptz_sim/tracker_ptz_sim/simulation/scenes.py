@@ -30,6 +30,7 @@ import json
 import math
 from dataclasses import asdict, dataclass, field, fields
 from pathlib import Path
+from typing import Any
 
 import cv2
 import numpy as np
@@ -157,7 +158,7 @@ def _texture(
     for sigma in scales:
         noise = rng.standard_normal((height, width, 3)).astype(np.float32)
         smooth = cv2.GaussianBlur(noise, (0, 0), sigma, borderType=cv2.BORDER_REFLECT)
-        out += smooth / max(float(smooth.std()), 1e-6)
+        out += (smooth / max(float(smooth.std()), 1e-6)).astype(np.float32)
     return out / math.sqrt(len(scales))
 
 
@@ -190,7 +191,7 @@ class _Occluder:
 @dataclass
 class _Schedule:
     turn_frames: set[int] = field(default_factory=set)
-    stopped: np.ndarray | None = None
+    stopped: np.ndarray = field(default_factory=lambda: np.zeros(0, bool))
 
 
 def _unit(angle: float) -> np.ndarray:
@@ -199,7 +200,7 @@ def _unit(angle: float) -> np.ndarray:
 
 def _schedule(rng: np.random.Generator, config: SceneConfig) -> _Schedule:
     n = config.num_frames
-    turns = (
+    turns: np.ndarray | list[int] = (
         rng.choice(np.arange(1, n), size=min(config.turns, n - 1), replace=False) if n > 1 else []
     )
     stopped = np.zeros(n, bool)
@@ -398,7 +399,8 @@ def _write_video(frames: np.ndarray, fps: float, root: Path) -> Path:
     """FFV1 in AVI (bit-exact through OpenCV's FFmpeg backend), else a PNG folder."""
     path = root / VIDEO_NAME
     height, width = frames.shape[1:3]
-    writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"FFV1"), fps, (width, height))
+    fourcc = cv2.VideoWriter_fourcc(*"FFV1")  # type: ignore[attr-defined]  # missing from cv2's stubs
+    writer = cv2.VideoWriter(str(path), fourcc, fps, (width, height))
     if writer.isOpened():
         for frame in frames:
             writer.write(frame)
@@ -433,7 +435,7 @@ def write_scene(scene: Scene, out_dir: str | Path) -> ScenePaths:
         cv2.imwrite(str(masks / f"{n + 1:06d}.png"), label.astype(np.uint16))
     seqinfo = root / "seqinfo.ini"
     info = configparser.ConfigParser()
-    info.optionxform = str  # keep MOTChallenge's camelCase keys
+    info.optionxform = str  # type: ignore[assignment,method-assign]  # keep camelCase keys (documented use)
     info["Sequence"] = {
         "name": root.name,
         "imDir": video.name,
@@ -462,30 +464,37 @@ def write_scene(scene: Scene, out_dir: str | Path) -> ScenePaths:
 
 
 def _read_frames(path: Path) -> np.ndarray:
+    images: list[np.ndarray | None] = []
     if path.is_dir():
-        files = sorted(path.glob("*.png"))
-        images = [cv2.imread(str(p), cv2.IMREAD_COLOR) for p in files]
+        images = [cv2.imread(str(p), cv2.IMREAD_COLOR) for p in sorted(path.glob("*.png"))]
     else:
         capture = cv2.VideoCapture(str(path))
-        images = []
         while True:
             ok, image = capture.read()
             if not ok:
                 break
             images.append(image)
         capture.release()
-    if not images or any(image is None for image in images):
+    readable = [image for image in images if image is not None]
+    if not readable or len(readable) < len(images):
         raise ValueError(f"{path}: no readable frames")
-    return np.stack(images)
+    return np.stack(readable)
 
 
 def _config_from_dict(data: dict) -> SceneConfig:
-    kwargs = {}
+    kwargs: dict[str, Any] = {}
     for f in fields(SceneConfig):
         if f.name in data:
             value = data[f.name]
             kwargs[f.name] = tuple(value) if isinstance(value, list) else value
     return SceneConfig(**kwargs)
+
+
+def _read_mask(path: Path) -> np.ndarray:
+    mask = cv2.imread(str(path), cv2.IMREAD_UNCHANGED)
+    if mask is None:
+        raise ValueError(f"{path}: missing or unreadable label mask")
+    return mask.astype(np.int32)
 
 
 def load_scene(directory: str | Path) -> Scene:
@@ -499,14 +508,7 @@ def load_scene(directory: str | Path) -> Scene:
     n = frames.shape[0]
     if n != meta["num_frames"]:
         raise ValueError(f"{root}: {n} frames in the video, {meta['num_frames']} expected")
-    labels = np.stack(
-        [
-            cv2.imread(str(root / MASKS_DIR / f"{i + 1:06d}.png"), cv2.IMREAD_UNCHANGED).astype(
-                np.int32
-            )
-            for i in range(n)
-        ]
-    )
+    labels = np.stack([_read_mask(root / MASKS_DIR / f"{i + 1:06d}.png") for i in range(n)])
     boxes: list[list[GroundTruthBox]] = [[] for _ in range(n)]
     for line in (root / GT_PATH).read_text().splitlines():
         if not line.strip():

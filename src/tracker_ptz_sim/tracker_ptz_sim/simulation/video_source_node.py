@@ -21,6 +21,7 @@ from sensor_msgs.msg import CameraInfo, Image
 
 from tracker_msgs.msg import PtzCommand, ReplayStatus
 from tracker_msgs_py.codec import (
+    NS_PER_S,
     array_to_image,
     camera_info,
     image_qos,
@@ -207,7 +208,7 @@ class VideoSourceNode(SuiteNode):
         """One pass over [start, end). Stamps keep increasing across loops: a pass after the
         first starts one frame period after the last stamp sent."""
         next_stamp = (
-            stamp_to_ns(self.status.header.stamp) + round(1e9 / self.source.fps)
+            stamp_to_ns(self.status.header.stamp) + round(NS_PER_S / self.source.fps)
             if self.status.frames_published
             else None
         )
