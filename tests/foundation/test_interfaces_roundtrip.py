@@ -13,6 +13,7 @@ import pytest
 PEER = Path(__file__).with_name("interface_peer.py")
 EXPECTED = {
     "Rect",
+    "SelectRegion",
     "Blob",
     "BlobArray",
     "Track",

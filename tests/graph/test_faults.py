@@ -173,6 +173,7 @@ def wait_for_frames(out, count, process, timeout=60.0):
 
 
 def node_pid(runner_pid, name):
+    """The process of the node named `name` (its __node remapping) started by the runner."""
     for child in os.listdir("/proc"):
         if not child.isdigit():
             continue
@@ -181,7 +182,7 @@ def node_pid(runner_pid, name):
             cmdline = Path(f"/proc/{child}/cmdline").read_text()
         except OSError:
             continue
-        if int(stat.rsplit(")", 1)[1].split()[1]) == runner_pid and f"/{name}\0" in cmdline:
+        if int(stat.rsplit(")", 1)[1].split()[1]) == runner_pid and f"__node:={name}\0" in cmdline:
             return int(child)
     raise AssertionError(f"no {name} process under the runner")
 
@@ -189,9 +190,14 @@ def node_pid(runner_pid, name):
 def test_run_demo_reports_a_killed_node_and_writes_what_was_recorded(walker, tmp_path):
     _, paths = walker
     process = run_demo_process(paths, tmp_path)
-    wait_for_frames(tmp_path, 20, process)
-    os.kill(node_pid(process.pid, "ssim_detector"), signal.SIGKILL)
-    stdout, stderr = process.communicate(timeout=120)
+    try:
+        wait_for_frames(tmp_path, 20, process)
+        os.kill(node_pid(process.pid, "ssim_detector"), signal.SIGKILL)
+        stdout, stderr = process.communicate(timeout=120)
+    finally:  # never leave a graph running into the next test's DDS domain
+        if process.poll() is None:
+            process.send_signal(signal.SIGINT)
+            process.wait(timeout=30)
     assert process.returncode == 1, stdout + stderr
     assert "Traceback" not in stderr
     assert "ssim_detector was killed by SIGKILL" in stderr and "its last log lines" in stderr
