@@ -17,8 +17,10 @@ States:
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from enum import Enum
+
+from tracker_msgs_py.params import check_config
 
 
 class ControlState(Enum):
@@ -68,7 +70,7 @@ class TargetEstimate:
     predicted_y: float
 
 
-@dataclass
+@dataclass(frozen=True)
 class ControllerConfig:
     mode: str = "servo"  # "direct" or "servo"
     kp: float = 1.5  # 1/s: rate per radian of error
@@ -80,9 +82,7 @@ class ControllerConfig:
     search: str = "sweep"  # "sweep", "presets" or "none"
     sweep_rate: float = 0.25  # rad/s
     pan_limits: tuple[float, float] = (-math.pi, math.pi)  # rad; the sweep also reverses on a stall
-    presets: list[tuple[float, float]] = field(
-        default_factory=list
-    )  # (pan, tilt) rad, for "presets"
+    presets: tuple[tuple[float, float], ...] = ()  # (pan, tilt) rad, for "presets"
     preset_dwell_time: float = 3.0  # s at each search preset
     home: tuple[float, float] = (0.0, 0.0)  # (pan, tilt) rad
     lost_scan_time: float = 3.0  # s scanning the last region after a loss
@@ -90,17 +90,18 @@ class ControllerConfig:
     scan_period: float = 2.0  # s for one scan oscillation
     home_dwell_time: float = 5.0  # s at home before searching again
 
-    def check(self) -> str | None:
-        """Why this configuration is unusable, or None."""
+    def problems(self) -> list[str]:
+        """Why this configuration is unusable (empty: usable)."""
+        found = []
         if self.mode not in ("direct", "servo"):
-            return f"mode must be direct or servo, got '{self.mode}'"
+            found.append(f"mode must be direct or servo, got '{self.mode}'")
         if self.search not in ("sweep", "presets", "none"):
-            return f"search must be sweep, presets or none, got '{self.search}'"
+            found.append(f"search must be sweep, presets or none, got '{self.search}'")
         if self.search == "presets" and not self.presets:
-            return "search 'presets' needs at least one preset pose"
+            found.append("search 'presets' needs at least one preset pose")
         if self.pan_limits[0] >= self.pan_limits[1]:
-            return f"pan_limits must be increasing, got {self.pan_limits}"
-        return None
+            found.append(f"pan_limits must be increasing, got {self.pan_limits}")
+        return found
 
 
 class PanTiltController:
@@ -112,9 +113,7 @@ class PanTiltController:
         self._start(config)
 
     def _start(self, config: ControllerConfig) -> None:
-        reason = config.check()
-        if reason:
-            raise ValueError(reason)
+        check_config(config)
         self.config = config
         self.state = ControlState.SEARCH if config.search != "none" else ControlState.HOME
         self._entered_at: float | None = None

@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import fields
 from typing import Any
 
 from rclpy.clock import Clock, ClockType
@@ -20,7 +19,7 @@ from sensor_msgs.msg import JointState
 from tracker_msgs.msg import PtzCommand, PtzState, Target
 from tracker_msgs_py.codec import NS_PER_S, msg_to_window, stamp_to_ns
 from tracker_msgs_py.node_main import SuiteNode, run_node
-from tracker_msgs_py.params import ParamSpec, declare_parameters
+from tracker_msgs_py.params import ParamSpec, config_from_params, declare_parameters
 from tracker_msgs_py.stamps import Order, StampOrder
 from tracker_ptz_sim.control.controller import (
     CameraPose,
@@ -107,17 +106,15 @@ def _pairs(flat: list[float], name: str) -> list[tuple[float, float]]:
 
 def config_from(values: dict[str, Any]) -> ControllerConfig:
     """The controller configuration the parameters describe (raises ValueError when invalid)."""
-    names = {f.name for f in fields(ControllerConfig)}
-    config = ControllerConfig(**{k: v for k, v in values.items() if k in names})
     if len(values["pan_limits"]) != 2 or len(values["home"]) != 2:
         raise ValueError("pan_limits and home need exactly two values")
-    config.pan_limits = (float(values["pan_limits"][0]), float(values["pan_limits"][1]))
-    config.home = (float(values["home"][0]), float(values["home"][1]))
-    config.presets = _pairs(values["presets"], "presets")
-    reason = config.check()
-    if reason:
-        raise ValueError(reason)
-    return config
+    return config_from_params(
+        ControllerConfig,
+        values,
+        pan_limits=(float(values["pan_limits"][0]), float(values["pan_limits"][1])),
+        home=(float(values["home"][0]), float(values["home"][1])),
+        presets=tuple(_pairs(values["presets"], "presets")),
+    )
 
 
 def _check(values: dict[str, Any]) -> str | None:

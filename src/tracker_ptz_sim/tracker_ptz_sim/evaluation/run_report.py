@@ -17,7 +17,7 @@ from typing import Any
 import cv2
 import numpy as np
 
-from tracker_msgs_py.codec import NS_PER_S, decode_image, stamp_to_ns
+from tracker_msgs_py.codec import NS_PER_S, decode_image, msg_to_rect, stamp_to_ns
 from tracker_ptz_sim.evaluation.recording import read_bag
 
 SCENE, CAMERA = "/scene/image_raw", "/camera/image_raw"
@@ -107,8 +107,8 @@ def summarize(frames: dict[int, FrameRecord], message_counts: dict[str, int]) ->
     for record in locked:
         if record.state is None:
             continue
-        window = record.state.window
-        cx, cy = window.x + window.width / 2, window.y + window.height / 2
+        window = msg_to_rect(record.state.window)
+        cx, cy = window.center
         distance = float(np.hypot(record.target.track.x - cx, record.target.track.y - cy))
         distances.append(distance)
         shares.append(distance / window.width)

@@ -33,7 +33,7 @@ from tracker_msgs_py.codec import (
     stamp_to_ns,
 )
 from tracker_msgs_py.node_main import SuiteNode, run_node
-from tracker_msgs_py.params import ParamSpec, declare_parameters
+from tracker_msgs_py.params import ParamSpec, config_from_params, declare_parameters
 from tracker_msgs_py.stamps import Order, StampOrder
 from tracker_ptz_sim.simulation.camera_model import (
     PtzCameraModel,
@@ -97,23 +97,19 @@ PARAMS = [
         "reliable_images", False, "reliable instead of sensor-data image QoS", read_only=True
     ),
 ]
-MODEL_FIELDS = {f.name for f in fields(PtzConfig)}
-
-
-def config_from(values: dict[str, Any]) -> PtzConfig:
-    return PtzConfig(**{k: v for k, v in values.items() if k in MODEL_FIELDS})
+MODEL_FIELDS = {f.name for f in fields(PtzConfig)}  # the parameters the camera model reads
 
 
 def _check(values: dict[str, Any], scene_size: tuple[int, int] | None = None) -> str | None:
-    config = config_from(values)
-    problems = config.problems()
+    problems = []
     if len(values["joint_names"]) != 2:
         problems.append("joint_names needs two names (pan, tilt)")
-    if scene_size is not None and not problems:
-        try:
+    try:
+        config = config_from_params(PtzConfig, values)
+        if scene_size is not None:
             view_size(config, *scene_size)
-        except ValueError as error:
-            problems.append(str(error))
+    except ValueError as error:
+        problems.append(str(error))
     return "; ".join(problems) or None
 
 
@@ -152,7 +148,7 @@ class PtzCameraNode(SuiteNode):
 
     def _on_change(self, changed: dict[str, Any]) -> None:
         if self.model is not None and MODEL_FIELDS & changed.keys():
-            self.model.reconfigure(config_from(self.params))
+            self.model.reconfigure(config_from_params(PtzConfig, self.params))
 
     # --- commands -------------------------------------------------------------------------------
 
@@ -275,7 +271,7 @@ class PtzCameraNode(SuiteNode):
     def _start_model(self, width: int, height: int) -> bool:
         """A camera for a scene of this size (False, reported, when it cannot have one)."""
         try:
-            model = PtzCameraModel(config_from(self.params), width, height)
+            model = PtzCameraModel(config_from_params(PtzConfig, self.params), width, height)
         except ValueError as error:
             self.problems.report("scene too small", f"dropped a scene image: {error}")
             return False

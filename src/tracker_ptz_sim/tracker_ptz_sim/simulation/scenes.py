@@ -36,6 +36,7 @@ import cv2
 import numpy as np
 
 from tracker_msgs_py.codec import frame_stamp_ns
+from tracker_msgs_py.params import check_config
 
 VIDEO_NAME = "video.avi"
 FRAMES_DIR = "frames"  # PNG fallback when FFV1 cannot be written
@@ -70,36 +71,35 @@ class SceneConfig:
     seed: int = 0
 
     def __post_init__(self) -> None:
-        problems = _config_problems(self)
-        if problems:
-            raise ValueError("invalid SceneConfig: " + "; ".join(problems))
+        check_config(self)
 
-
-def _config_problems(c: SceneConfig) -> list[str]:
-    problems = []
-    if c.width < 16 or c.height < 16:
-        problems.append(f"scene size must be at least 16x16, got {c.width}x{c.height}")
-    if c.num_frames < 1:
-        problems.append(f"num_frames must be >= 1, got {c.num_frames}")
-    if not (math.isfinite(c.fps) and c.fps > 0):
-        problems.append(f"fps must be positive, got {c.fps}")
-    for name in ("num_objects", "turns", "stops", "num_occluders", "camera_jitter"):
-        if getattr(c, name) < 0:
-            problems.append(f"{name} must be >= 0, got {getattr(c, name)}")
-    for name in ("object_size_range", "occluder_size_range"):
-        lo, hi = getattr(c, name)
-        if not 2 <= lo <= hi <= min(c.width, c.height):
-            problems.append(f"{name} must satisfy 2 <= min <= max <= {min(c.width, c.height)}")
-    lo, hi = c.speed_range
-    if not (math.isfinite(lo) and math.isfinite(hi) and 0 <= lo <= hi):
-        problems.append(f"speed_range must satisfy 0 <= min <= max, got {c.speed_range}")
-    for name in ("stop_duration", "noise_sigma", "illumination_drift", "illumination_period"):
-        value = getattr(c, name)
-        if not (math.isfinite(value) and value >= 0):
-            problems.append(f"{name} must be a finite number >= 0, got {value}")
-    if c.illumination_drift >= 1.0:
-        problems.append(f"illumination_drift must be < 1, got {c.illumination_drift}")
-    return problems
+    def problems(self) -> list[str]:
+        """Why this scene cannot be rendered (empty: it can)."""
+        c = self
+        problems: list[str] = []
+        if c.width < 16 or c.height < 16:
+            problems.append(f"scene size must be at least 16x16, got {c.width}x{c.height}")
+        if c.num_frames < 1:
+            problems.append(f"num_frames must be >= 1, got {c.num_frames}")
+        if not (math.isfinite(c.fps) and c.fps > 0):
+            problems.append(f"fps must be positive, got {c.fps}")
+        for name in ("num_objects", "turns", "stops", "num_occluders", "camera_jitter"):
+            if getattr(c, name) < 0:
+                problems.append(f"{name} must be >= 0, got {getattr(c, name)}")
+        for name in ("object_size_range", "occluder_size_range"):
+            lo, hi = getattr(c, name)
+            if not 2 <= lo <= hi <= min(c.width, c.height):
+                problems.append(f"{name} must satisfy 2 <= min <= max <= {min(c.width, c.height)}")
+        lo, hi = c.speed_range
+        if not (math.isfinite(lo) and math.isfinite(hi) and 0 <= lo <= hi):
+            problems.append(f"speed_range must satisfy 0 <= min <= max, got {c.speed_range}")
+        for name in ("stop_duration", "noise_sigma", "illumination_drift", "illumination_period"):
+            value = getattr(c, name)
+            if not (math.isfinite(value) and value >= 0):
+                problems.append(f"{name} must be a finite number >= 0, got {value}")
+        if c.illumination_drift >= 1.0:
+            problems.append(f"illumination_drift must be < 1, got {c.illumination_drift}")
+        return problems
 
 
 @dataclass(frozen=True)
