@@ -40,7 +40,10 @@ def _messages(k: int):
         bbox=rect_to_msg(Rect(33 + k, 23, 4, 4)),
         existence=1.0,
     )
-    tracks = TrackArray(tracks=[track])
+    coasting = Track(  # a prediction, not an observation: drawn dashed, not written to MOT
+        id=8, status=Track.STATUS_COASTING, x=10.0, y=10.0, bbox=rect_to_msg(Rect(8, 8, 4, 4))
+    )
+    tracks = TrackArray(tracks=[track, coasting] if k >= 4 else [track])
     tracks.header.stamp = stamp
     target = Target(locked=k >= 2, track=track, predicted_x=36.0 + k, predicted_y=25.0)
     target.header.stamp = stamp
@@ -97,12 +100,12 @@ def test_summary_figures(bag):
     # The target is at x = 35 + k, y = 25 against the view centre (35, 25): distances 2, 3, 4, 5.
     assert summary.mean_center_distance_px == pytest.approx(3.5)
     assert summary.mean_center_distance_share == pytest.approx(3.5 / 30)
-    assert summary.tracks_seen == 1
+    assert summary.tracks_seen == 2  # the observed track and the coasting one
     assert run_report.stream_fps(frames) == pytest.approx(10.0)
     assert "throughput" in run_report.format_summary(summary)
 
 
-def test_mot_file_lists_confirmed_tracks(bag, tmp_path):
+def test_mot_file_lists_observed_confirmed_tracks_only(bag, tmp_path):
     from tracker_ptz_sim.evaluation import run_report
 
     frames = run_report.collect(bag)

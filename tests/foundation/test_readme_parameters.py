@@ -37,6 +37,9 @@ def node_parameters() -> dict[tuple[str, str], list]:
             *DETECTORS.get("ssim").parameters,
             *NODE_PARAMETERS,
         ],
+        ("tracker_detect/README.md", "### `ssim_background`"): list(
+            DETECTORS.get("ssim_background").parameters
+        ),
         ("tracker_filter/README.md", "### Parameters"): [
             ParamSpec("method", "gated_hungarian", ""),
             ParamSpec("preset", "", ""),

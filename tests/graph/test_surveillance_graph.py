@@ -111,7 +111,7 @@ def test_demo_outputs_bag_mot_and_video(one_walker):
     for _, _, msg in read_bag(out / "bag", {"/tracks"}):
         number = numbers[stamp_to_ns(msg.header.stamp)]
         for track in msg.tracks:
-            if track.status in run_report.CONFIRMED_STATUSES:
+            if track.status == run_report.OBSERVED:
                 published.setdefault(number, {})[track.id] = (track.bbox.x, track.bbox.y)
     written = metrics.load_mot(out / "tracks.txt")
     assert published and {f: {i: (b.x, b.y) for i, b in t.items()} for f, t in written.items()} == {

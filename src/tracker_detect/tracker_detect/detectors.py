@@ -11,6 +11,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from typing import Any
 
+from tracker_detect.background import BackgroundConfig, BackgroundDetector
 from tracker_detect.detector import CameraFrame, Detection, Detector
 from tracker_detect.motion import (
     COMPENSATION_MODES,
@@ -169,5 +170,124 @@ DETECTORS.register(
         "compensation, morphology, connected blobs (seed 000)",
         build=lambda values: SsimDetector(ssim_config(values)),
         parameters=SSIM_PARAMETERS,
+    )
+)
+
+
+_B = BackgroundConfig()
+
+BACKGROUND_PARAMETERS: tuple[ParamSpec, ...] = (
+    ParamSpec("threshold", _B.threshold, "SSIM at or below which a pixel is foreground", -1.0, 1.0),
+    ParamSpec("gap", _B.gap, "frames to the image that tells moving from still pixels", 1, 100),
+    ParamSpec(
+        "learning_rate", _B.learning_rate, "background blend rate where nothing differs", 0.0, 1.0
+    ),
+    ParamSpec(
+        "heal_rate",
+        _B.heal_rate,
+        "background blend rate where the view differs but does not change (ghosts, stopped "
+        "objects)",
+        0.0,
+        1.0,
+    ),
+    ParamSpec(
+        "warmup_observations",
+        _B.warmup_observations,
+        "a scene pixel's first observations are averaged",
+        1,
+        100000,
+    ),
+    ParamSpec(
+        "min_observations",
+        _B.min_observations,
+        "a pixel is judged once the background has seen it this often",
+        1,
+        100000,
+    ),
+    ParamSpec(
+        "flicker_observations",
+        _B.flicker_observations,
+        "the flicker rate is trusted once a pixel was seen this often",
+        1,
+        100000,
+    ),
+    ParamSpec(
+        "flicker_memory", _B.flicker_memory, "time constant of the flicker rate [frames]", 1.0, 1e6
+    ),
+    ParamSpec(
+        "flicker_level",
+        _B.flicker_level,
+        "flicker rate (share of frames foreground and changing) from which a pixel moves in "
+        "place and is ignored",
+        0.0,
+        1.0,
+    ),
+    ParamSpec(
+        "close_size",
+        _B.close_size,
+        "side of the elliptic closing element [px] (1: none)",
+        1,
+        51,
+        validator=lambda v: None if v % 2 else "close_size must be odd",
+    ),
+    ParamSpec(
+        "shrink_size",
+        _B.shrink_size,
+        "side of the elliptic erosion undoing the SSIM window's spread [px] (1: none)",
+        1,
+        51,
+        validator=lambda v: None if v % 2 else "shrink_size must be odd",
+    ),
+    ParamSpec(
+        "connectivity",
+        _B.connectivity,
+        "blob pixel connectivity (4 or 8)",
+        4,
+        8,
+        validator=lambda v: None if v in (4, 8) else "connectivity must be 4 or 8",
+    ),
+    ParamSpec(
+        "min_blob_area", _B.min_blob_area, "drop blobs smaller than this [scene px^2]", 0.0, 1e9
+    ),
+    ParamSpec(
+        "presence_fraction",
+        _B.presence_fraction,
+        "presence test: total blob area >= this fraction of the judged area",
+        0.0,
+        1.0,
+    ),
+    ParamSpec(
+        "auto_downsample",
+        _B.auto_downsample,
+        "Wang's automatic downsampling, f = round(min(H, W) / 256)",
+    ),
+)
+
+
+class SsimBackground:
+    """`background.BackgroundDetector` with live reconfiguration from parameter values."""
+
+    def __init__(self, config: BackgroundConfig) -> None:
+        self.detector = BackgroundDetector(config)
+
+    estimates_ego_motion = False
+
+    def process(self, frame: CameraFrame) -> Detection:
+        return self.detector.process(frame)
+
+    def reset(self) -> None:
+        self.detector.reset()
+
+    def reconfigure(self, values: Mapping[str, Any]) -> None:
+        self.detector.reconfigure(config_from_params(BackgroundConfig, values))
+
+
+DETECTORS.register(
+    Method(
+        name="ssim_background",
+        description="SSIM against a background mosaic kept in scene coordinates, with a learned "
+        "flicker map; object silhouettes, undilated boxes (issue 11)",
+        build=lambda values: SsimBackground(config_from_params(BackgroundConfig, values)),
+        parameters=BACKGROUND_PARAMETERS,
     )
 )

@@ -361,7 +361,7 @@ class MotionDetector:
             alignment.prev, alignment.curr, c.ssim, valid=True, downsample_factor=factor
         )
         similarity = np.ones(frame.image.shape, np.float32)
-        _paste_map(similarity, local, alignment.roi, c.ssim.border, factor)
+        paste_map(similarity, local, alignment.roi, c.ssim.border, factor)
         return _Comparison(similarity, alignment, pixel_map, estimate, fallback)
 
     def _pixel_map(
@@ -414,7 +414,7 @@ def _check_image(image: np.ndarray) -> np.ndarray:
     return array
 
 
-def _paste_map(
+def paste_map(
     full: np.ndarray, local: np.ndarray, roi: tuple[int, int, int, int], border: int, factor: int
 ) -> None:
     """Write a 'valid' (possibly downsampled) SSIM map back into full-image pixels."""

@@ -69,6 +69,8 @@ _MULTI: dict[str, Any] = {
     "max_tracks": 100,
     "confirm_hits": 3,
     "confirm_window": 4,
+    "confirm_travel": 0.0,
+    "confirm_travel_window": 30,
     "max_misses": 12,
     "selection_policy": "longest_lived",
     "min_lock_time": 2.0,
@@ -125,6 +127,18 @@ TRACKING_PARAMETERS: tuple[ParamSpec, ...] = (
     _spec("max_tracks", "most tracks at once", 1, 10000),
     _spec("confirm_hits", "M: hits needed to confirm a track", 1, 100),
     _spec("confirm_window", "N: frames from initiation in which to collect M hits", 1, 100),
+    _spec(
+        "confirm_travel",
+        "px a tentative track must move from where it began to be confirmed (0: no need)",
+        0.0,
+        10000.0,
+    ),
+    _spec(
+        "confirm_travel_window",
+        "frames a tentative track has to travel confirm_travel before it is dropped",
+        1,
+        10000,
+    ),
     _spec("max_misses", "consecutive missed frames before a track is lost", 1, 10000),
 )
 
@@ -154,6 +168,7 @@ _SEED000 = _MULTI | {
     "max_tracks": 1,
     "confirm_hits": 1,
     "confirm_window": 1,
+    "confirm_travel": 0.0,
     "max_misses": 4,
     "selection_policy": "largest_blob",
     "min_lock_time": 0.0,
@@ -177,6 +192,8 @@ class TrackerConfig:
     max_tracks: int
     confirm_hits: int
     confirm_window: int
+    confirm_travel: float
+    confirm_travel_window: int
     max_misses: int
     selection_policy: SelectionPolicy
     min_lock_time: float
@@ -208,6 +225,8 @@ class TrackerConfig:
             max_tracks=params["max_tracks"],
             confirm_hits=params["confirm_hits"],
             confirm_window=params["confirm_window"],
+            confirm_travel=params["confirm_travel"],
+            confirm_travel_window=params["confirm_travel_window"],
             max_misses=params["max_misses"],
             selection_policy=AUTOMATIC_POLICIES[params["selection_policy"]],
             min_lock_time=params["min_lock_time"],
@@ -227,7 +246,12 @@ class TrackerConfig:
             self.filter,
             GatedHungarianAssociator(self.gate_probability),
             CappedInitiator(self.max_tracks),
-            MofNConfirmation(self.confirm_hits, self.confirm_window),
+            MofNConfirmation(
+                self.confirm_hits,
+                self.confirm_window,
+                self.confirm_travel,
+                self.confirm_travel_window,
+            ),
             MissCountDeleter(self.max_misses),
             LargestDetection() if self.measurements == "largest" else AllDetections(),
             first_id=first_id,

@@ -226,6 +226,7 @@ class TrackBook:
         self.confirmed = np.zeros(0, dtype=bool)
         self.bboxes = np.zeros((0, 4))
         self.anchors = np.zeros((0, AXES))  # estimated position when the box was measured
+        self.origins = np.zeros((0, AXES))  # the initiating detection's position
         self.areas = np.zeros(0)
 
     def reset(self, reset_ids: bool = False) -> int:
@@ -261,6 +262,11 @@ class TrackBook:
         self.anchors[rows] = positions[rows]
         return updated
 
+    def travel(self, positions: np.ndarray) -> np.ndarray:
+        """Distance (px) of every track's `positions` (N, 2) from where it was initiated."""
+        result: np.ndarray = np.hypot(*(positions - self.origins).T)
+        return result
+
     def confirm(self, confirmed: np.ndarray) -> None:
         """Tracks that pass the confirmation rule this frame stay confirmed."""
         self.confirmed = self.confirmed | confirmed
@@ -281,6 +287,7 @@ class TrackBook:
         self.confirmed = np.concatenate([self.confirmed, confirmed])
         self.bboxes = np.concatenate([self.bboxes, detections.bboxes[new]])
         self.anchors = np.concatenate([self.anchors, detections.positions[new]])
+        self.origins = np.concatenate([self.origins, detections.positions[new]])
         self.areas = np.concatenate([self.areas, detections.areas[new]])
 
     def snapshot(
@@ -324,7 +331,14 @@ class TrackBook:
         """Drop the rows where `mask` is False (tracks reported LOST)."""
         if mask.all():
             return
-        for name in self._INT_FIELDS + ("born", "confirmed", "bboxes", "anchors", "areas"):
+        for name in self._INT_FIELDS + (
+            "born",
+            "confirmed",
+            "bboxes",
+            "anchors",
+            "origins",
+            "areas",
+        ):
             setattr(self, name, getattr(self, name)[mask])
 
     def finish(self, t: float) -> None:

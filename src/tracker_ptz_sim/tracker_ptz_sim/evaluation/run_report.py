@@ -37,6 +37,8 @@ HOPS = [
     ("camera image -> command", CAMERA, COMMAND),
 ]
 CONFIRMED_STATUSES = (1, 2)  # Track.STATUS_CONFIRMED, STATUS_COASTING
+OBSERVED = 1  # Track.STATUS_CONFIRMED: confirmed and updated by a detection this frame
+COASTING = 2  # Track.STATUS_COASTING: a prediction, not an observation
 
 
 @dataclass
@@ -156,7 +158,8 @@ def frame_numbers(frames: dict[int, FrameRecord]) -> dict[int, int]:
 
 
 def write_mot(frames: dict[int, FrameRecord], path: Path) -> int:
-    """Confirmed and coasting tracks in MOTChallenge format."""
+    """Confirmed tracks observed in each frame, in MOTChallenge format (coasting predictions are
+    not observed boxes, so they are left out, as MOTChallenge trackers do)."""
     lines = []
     numbers = frame_numbers(frames)
     for stamp, record in frames.items():
@@ -164,7 +167,7 @@ def write_mot(frames: dict[int, FrameRecord], path: Path) -> int:
         if record.tracks is None:
             continue
         for track in record.tracks.tracks:
-            if track.status not in CONFIRMED_STATUSES:
+            if track.status != OBSERVED:
                 continue
             box = track.bbox
             lines.append(
@@ -257,10 +260,16 @@ def annotate_scene(image: np.ndarray, record: FrameRecord | None) -> np.ndarray:
     )
     if record.tracks is not None:
         for track in record.tracks.tracks:
+            if track.status not in CONFIRMED_STATUSES:
+                continue
             color = _track_color(track.id)
             b = track.bbox
             thick = 3 if track.id == target_id else 1
-            cv2.rectangle(canvas, _pt(b.x, b.y), _pt(b.x + b.width, b.y + b.height), color, thick)
+            corners = _pt(b.x, b.y), _pt(b.x + b.width, b.y + b.height)
+            if track.status == COASTING:
+                dashed_rectangle(canvas, *corners, color, thick)
+            else:
+                cv2.rectangle(canvas, *corners, color, thick)
             cv2.putText(
                 canvas, f"#{track.id}", _pt(b.x, b.y - 4), cv2.FONT_HERSHEY_SIMPLEX, 0.5, color, 1
             )
@@ -289,6 +298,36 @@ def annotate_view(view: np.ndarray | None, height: int) -> np.ndarray:
 
 def side_by_side(left: np.ndarray, right: np.ndarray) -> np.ndarray:
     return np.hstack([left, np.full((left.shape[0], 4, 3), 255, np.uint8), right])
+
+
+def dashed_rectangle(
+    image: np.ndarray,
+    top_left: tuple[int, int],
+    bottom_right: tuple[int, int],
+    color: tuple[int, int, int],
+    thickness: int = 1,
+    dash: int = 6,
+) -> None:
+    """A rectangle of `dash`-px strokes (a coasting track: predicted, not seen)."""
+    (x0, y0), (x1, y1) = top_left, bottom_right
+    for a, b in (
+        ((x0, y0), (x1, y0)),
+        ((x1, y0), (x1, y1)),
+        ((x1, y1), (x0, y1)),
+        ((x0, y1), (x0, y0)),
+    ):
+        length = max(abs(b[0] - a[0]), abs(b[1] - a[1]))
+        for start in range(0, length, 2 * dash):
+            end = min(start + dash, length)
+            p = (
+                a[0] + (b[0] - a[0]) * start // max(length, 1),
+                a[1] + (b[1] - a[1]) * start // max(length, 1),
+            )
+            q = (
+                a[0] + (b[0] - a[0]) * end // max(length, 1),
+                a[1] + (b[1] - a[1]) * end // max(length, 1),
+            )
+            cv2.line(image, p, q, color, thickness)
 
 
 def _pt(x: float, y: float) -> tuple[int, int]:

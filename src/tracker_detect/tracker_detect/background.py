@@ -1,0 +1,229 @@
+"""SSIM against a background mosaic: detect objects, not change (no rclpy).
+
+Seed 000 compares frame k with frame k - 3, so a blob covers where a mover was *and* where it is
+(1.5-1.7x its size once dilated) and anything that flutters in place is motion. Here SSIM stays
+the change measure, but the current view is compared with `mosaic.SceneMosaic`, the background
+of the surveillance area kept in scene coordinates, so foreground pixels are the objects'
+silhouettes:
+
+1. foreground = SSIM(view, background seen through the same window) <= threshold, judged only
+   where the background was observed `min_observations` times;
+2. the k - gap comparison of the seed (`motion.MotionDetector`, no morphology) says which of
+   those pixels are also *changing*: a mover; a foreground pixel that does not change is a ghost
+   (the background learned a mover that has gone) or a stopped object;
+3. pixels whose flicker rate (share of frames foreground and changing) is >= flicker_level move in
+   place -- tape, leaves, flicker -- and are never foreground;
+4. the mask is closed (joins a silhouette's fragments), hole-filled and shrunk by the SSIM
+   window's spread across object edges (1 px), *not dilated*; blobs are its connected
+   components, boxes their tight boxes;
+5. the mosaic learns the view: quickly (learning_rate) where nothing is foreground, at heal_rate
+   where the view differs but does not change (ghosts fade, a stopped object joins the
+   background), not at all under movers.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import cv2
+import numpy as np
+
+from tracker_detect.detector import CameraFrame, Detection, StaleFrameError
+from tracker_detect.mosaic import SceneMosaic
+from tracker_detect.motion import (
+    DetectorConfig,
+    MotionDetector,
+    fill_holes,
+    find_blobs,
+    paste_map,
+    presence_test,
+)
+from tracker_detect.registration import View
+from tracker_detect.ssim import SsimParams, auto_downsample_factor, ssim_map
+from tracker_msgs_py.params import check_config
+
+
+@dataclass(frozen=True)
+class BackgroundConfig:
+    """Parameters of `BackgroundDetector`."""
+
+    threshold: float = 0.5  # SSIM at or below which a pixel differs from the background (seed)
+    gap: int = 3  # frames to the image that tells changing pixels from still ones (seed)
+    learning_rate: float = 0.05  # per frame, where the view matches the background
+    heal_rate: float = 0.05  # per frame, where the view differs but does not change
+    warmup_observations: int = 20  # a scene pixel's first observations are averaged
+    min_observations: int = 3  # a pixel is judged once the background saw it this often
+    flicker_observations: int = 30  # the flicker rate is trusted once a pixel was seen this often
+    flicker_memory: float = 300.0  # frames, time constant of the flicker rate
+    flicker_level: float = 0.5  # flicker rate at and above which a pixel moves in place
+    close_size: int = 5  # px, side of the elliptic closing element (1: no closing)
+    shrink_size: int = 3  # px, elliptic erosion that undoes the SSIM window's spread (1: none)
+    connectivity: int = 8
+    min_blob_area: float = 60.0  # scene px^2; smaller blobs are dropped
+    presence_fraction: float = 0.0008  # presence test, as the seed
+    auto_downsample: bool = True
+    ssim: SsimParams = field(default_factory=SsimParams)
+
+    def __post_init__(self) -> None:
+        check_config(self)
+
+    def problems(self) -> list[str]:
+        """Why this config is unusable (empty when it is fine)."""
+        found = []
+        if not -1.0 <= self.threshold <= 1.0:
+            found.append(f"threshold must be in [-1, 1], got {self.threshold}")
+        if self.gap < 1:
+            found.append(f"gap must be >= 1, got {self.gap}")
+        for name in ("learning_rate", "heal_rate", "flicker_level", "presence_fraction"):
+            value = getattr(self, name)
+            if not 0.0 <= value <= 1.0:
+                found.append(f"{name} must be in [0, 1], got {value}")
+        if min(self.warmup_observations, self.min_observations, self.flicker_observations) < 1:
+            found.append("warmup_, min_ and flicker_observations must be >= 1")
+        if not self.flicker_memory >= 1.0:
+            found.append(f"flicker_memory must be >= 1 frame, got {self.flicker_memory}")
+        for name in ("close_size", "shrink_size"):
+            if getattr(self, name) < 1 or getattr(self, name) % 2 == 0:
+                found.append(f"{name} must be odd and >= 1, got {getattr(self, name)}")
+        if self.connectivity not in (4, 8):
+            found.append(f"connectivity must be 4 or 8, got {self.connectivity}")
+        if not (math.isfinite(self.min_blob_area) and self.min_blob_area >= 0):
+            found.append(f"min_blob_area must be >= 0, got {self.min_blob_area}")
+        return found
+
+
+class BackgroundDetector:
+    """`Detector`: SSIM of each view against the scene's background mosaic (module doc).
+
+    Without a pose (view None) the camera is taken to be static: the mosaic is then the
+    background of the image itself, which is what a fixed camera needs.
+    """
+
+    estimates_ego_motion = False
+
+    def __init__(self, config: BackgroundConfig | None = None) -> None:
+        self.config = config or BackgroundConfig()
+        self.mosaic = SceneMosaic(self.config.warmup_observations, self.config.flicker_memory)
+        self._change = MotionDetector(self._change_config(self.config))
+        self._last_stamp: int | None = None
+        self._size: tuple[int, int] | None = None
+
+    @staticmethod
+    def _change_config(config: BackgroundConfig) -> DetectorConfig:
+        return DetectorConfig(
+            gap=config.gap,
+            threshold=config.threshold,
+            morphology=(),
+            compensation="known",
+            auto_downsample=config.auto_downsample,
+            ssim=config.ssim,
+        )
+
+    def reconfigure(self, config: BackgroundConfig) -> None:
+        """Use `config` from the next frame on, keeping the mosaic."""
+        self.config = config
+        self.mosaic.warmup_observations = config.warmup_observations
+        self.mosaic.flicker_memory = config.flicker_memory
+        self._change.reconfigure(self._change_config(config))
+
+    def reset(self) -> None:
+        """Forget the mosaic and the frame history."""
+        self.mosaic.clear()
+        self._change.reset()
+        self._last_stamp = None
+        self._size = None
+
+    def process(self, frame: CameraFrame) -> Detection:
+        c = self.config
+        gray = frame.gray
+        if gray.ndim != 2 or gray.size == 0 or gray.dtype != np.uint8:
+            raise ValueError(f"expected a grey uint8 (H, W) image, got {gray.dtype} {gray.shape}")
+        height, width = gray.shape
+        if frame.view is not None and (frame.view.width, frame.view.height) != (width, height):
+            raise ValueError(
+                f"view is for {frame.view.width}x{frame.view.height} px, image is {width}x{height}"
+            )
+        if self._last_stamp is not None and frame.stamp_ns <= self._last_stamp:
+            raise StaleFrameError(
+                f"stamp {frame.stamp_ns} ns is not newer than the last frame's "
+                f"{self._last_stamp} ns"
+            )
+        view = frame.view or View.identity(width, height)
+        history_reset = self._size is not None and self._size != (width, height)
+        if history_reset and frame.view is None:
+            self.mosaic.clear()  # a static camera's mosaic is the image: a new size, a new scene
+        self._last_stamp, self._size = frame.stamp_ns, (width, height)
+        changing = self._changing(gray, frame.stamp_ns, view)
+        background = self.mosaic.sample(view)
+        judged = background.observations >= c.min_observations
+        similarity = self._similarity(gray, background.mean, judged)
+        different = similarity <= c.threshold
+        flickers = (background.flicker >= c.flicker_level) & (
+            background.observations >= c.flicker_observations
+        )
+        in_place = cv2.dilate(flickers.astype(np.uint8), _ellipse(7))
+        foreground = different & (in_place == 0)
+        rate = np.where(different, np.where(changing, 0.0, c.heal_rate), c.learning_rate)
+        # The flicker rate follows whole moving regions, not single pixels: SSIM of two
+        # textures is noisy pixel by pixel, a fluttering patch is moving as a region.
+        moving = self._clean((different & changing).astype(np.uint8), shrink=False)
+        self.mosaic.update(view, gray, rate, moving)
+        mask = self._clean(foreground.astype(np.uint8))
+        blobs = [
+            b
+            for b in find_blobs(mask, similarity, view, c.connectivity)
+            if b.area >= c.min_blob_area
+        ]
+        compared = int(np.count_nonzero(judged))
+        present = presence_test(sum(b.pixel_count for b in blobs), compared, c.presence_fraction)
+        return Detection(
+            frame.stamp_ns,
+            view,
+            blobs,
+            present,
+            compared > 0,
+            compared_area=compared * view.scale_x * view.scale_y,
+            similarity=similarity,
+            mask=mask,
+            history_reset=history_reset,
+        )
+
+    def _changing(self, gray: np.ndarray, stamp_ns: int, view: View) -> np.ndarray:
+        """Pixels whose SSIM against frame k - gap (aligned) is at most the threshold."""
+        change = self._change.process(gray, stamp_ns, view)
+        if change.similarity is None:
+            return np.zeros(gray.shape, bool)
+        result: np.ndarray = change.similarity <= self.config.threshold
+        return result
+
+    def _similarity(
+        self, gray: np.ndarray, background: np.ndarray, judged: np.ndarray
+    ) -> np.ndarray:
+        """SSIM map of the view against the background; ones where the background is unknown."""
+        similarity = np.ones(gray.shape, np.float32)
+        if not judged.any():
+            return similarity
+        c = self.config
+        factor = auto_downsample_factor(gray.shape) if c.auto_downsample else 1
+        if min(gray.shape) // factor < c.ssim.win_size + 1:
+            return similarity
+        local = ssim_map(gray, background, c.ssim, valid=True, downsample_factor=factor)
+        height, width = gray.shape
+        paste_map(similarity, local, (0, 0, width, height), c.ssim.border, factor)
+        similarity[~judged] = 1.0
+        return similarity
+
+    def _clean(self, mask: np.ndarray, shrink: bool = True) -> np.ndarray:
+        """Close (join fragments), fill holes, shrink by the SSIM window's spread."""
+        c = self.config
+        if c.close_size > 1:
+            mask = cv2.morphologyEx(mask, cv2.MORPH_CLOSE, _ellipse(c.close_size))
+        mask = fill_holes(mask)
+        if shrink and c.shrink_size > 1:
+            mask = cv2.erode(mask, _ellipse(c.shrink_size))
+        return mask
+
+
+def _ellipse(size: int) -> np.ndarray:
+    return cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (size, size))

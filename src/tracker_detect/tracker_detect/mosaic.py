@@ -1,0 +1,169 @@
+"""A background mosaic of the surveillance area, kept in scene coordinates (no rclpy).
+
+The camera sees a moving window of a static scene; every view it has seen is blended into one
+grey image of the scene (the mosaic), so a later view can be compared with what the scene looks
+like without its movers (`sample`), wherever the camera points. Beside the mean it keeps, per
+scene pixel, how often it was observed (the first observations are averaged: rate 1/n) and a
+flicker rate: the running share of frames in which that pixel was foreground *and* changing
+(fluttering tape, foliage, flicker). That is seed 000's calibration mask of always-moving areas
+(§1, "removed from the final system"), learned instead of drawn.
+
+Coordinates: scene pixels, origin at the top-left corner of the top-left pixel; the mosaic grows
+to cover every view it is given, so no scene size is needed up front.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+from tracker_detect.registration import View
+
+GROW_MARGIN = 64  # scene px added around a view that reaches beyond the mosaic
+
+
+@dataclass(frozen=True)
+class MosaicSample:
+    """The mosaic seen through one view, in that view's image pixels."""
+
+    mean: np.ndarray  # (H, W) float32 grey background
+    observations: np.ndarray  # (H, W) float32 times each pixel was observed (0: never)
+    flicker: np.ndarray  # (H, W) float32 share of frames foreground and changing, in [0, 1]
+
+
+class SceneMosaic:
+    """Running grey background, observation counts and flicker rates over the scene."""
+
+    def __init__(self, warmup_observations: int = 20, flicker_memory: float = 100.0) -> None:
+        if warmup_observations < 1 or not flicker_memory >= 1.0:
+            raise ValueError("warmup_observations and flicker_memory must be >= 1")
+        self.warmup_observations = warmup_observations
+        self.flicker_memory = flicker_memory
+        self.origin = (0, 0)  # scene px of the mosaic's pixel (0, 0) corner
+        self.mean = np.zeros((0, 0), np.float32)
+        self.observations = np.zeros((0, 0), np.float32)
+        self.flicker = np.zeros((0, 0), np.float32)
+
+    @property
+    def empty(self) -> bool:
+        return self.mean.size == 0
+
+    def clear(self) -> None:
+        self.__init__(self.warmup_observations, self.flicker_memory)  # type: ignore[misc]
+
+    def sample(self, view: View) -> MosaicSample:
+        """The mosaic resampled to `view`'s image (zeros where it was never observed)."""
+        self._cover(view)
+        matrix = self._view_to_mosaic(view)
+        size = (view.width, view.height)
+
+        def warp(layer: np.ndarray) -> np.ndarray:
+            return cv2.warpAffine(
+                layer,
+                matrix,
+                size,
+                flags=cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP,
+                borderMode=cv2.BORDER_CONSTANT,
+                borderValue=0.0,
+            )
+
+        return MosaicSample(warp(self.mean), warp(self.observations), warp(self.flicker))
+
+    def update(self, view: View, image: np.ndarray, rate: np.ndarray, changing: np.ndarray) -> None:
+        """Blend `image` in where it was seen: mean += r (image - mean), where r is `rate`
+        (image px, per frame) or, where it is > 0, at least 1/n for a pixel's first
+        `warmup_observations` observations (the first observation is always taken); the
+        flicker rate is the share of observations with `changing` (0/1, image px) set, over the last
+        ~flicker_memory observations."""
+        self._cover(view)
+        x0, y0, x1, y1 = self._footprint(view)
+        if x1 <= x0 or y1 <= y0:
+            return
+        # The image's pixels at the footprint's mosaic pixels (forward map of `sample`).
+        matrix = np.linalg.inv(np.vstack([self._view_to_mosaic(view), [0.0, 0.0, 1.0]]))[:2]
+        matrix[:, 2] += matrix[:, 0] * x0 + matrix[:, 1] * y0
+        size = (x1 - x0, y1 - y0)
+        layers = np.dstack(
+            [image.astype(np.float32), rate.astype(np.float32), changing.astype(np.float32)]
+        )
+        seen = np.ones(image.shape, np.float32)
+        warped = cv2.warpAffine(
+            layers,
+            matrix,
+            size,
+            flags=cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP,
+            borderMode=cv2.BORDER_REPLICATE,
+        ).reshape(size[1], size[0], 3)
+        inside = (
+            cv2.warpAffine(seen, matrix, size, flags=cv2.INTER_NEAREST | cv2.WARP_INVERSE_MAP) > 0.5
+        )
+        mean = self.mean[y0:y1, x0:x1]
+        count = self.observations[y0:y1, x0:x1]
+        flicker = self.flicker[y0:y1, x0:x1]
+        count += inside
+        rate_now = warped[..., 1]
+        # Warm-up: average the first observations, except where the caller says not to learn
+        # (rate 0: under a mover) -- only a pixel's very first observation is always taken.
+        warmup = np.where(
+            (rate_now > 0) | (count <= 1), np.maximum(1.0 / np.maximum(count, 1.0), rate_now), 0.0
+        )
+        blend = np.where(count <= self.warmup_observations, warmup, rate_now) * inside
+        mean += blend * (warped[..., 0] - mean)
+        # The share over all observations until there are flicker_memory of them, then a running
+        # share with that time constant.
+        memory = np.minimum(np.maximum(count, 1.0), self.flicker_memory)
+        flicker += inside * (warped[..., 2] - flicker) / memory
+
+    def _view_to_mosaic(self, view: View) -> np.ndarray:
+        """2x3 affine map from view image pixel indices to mosaic pixel indices (pixel centres)."""
+        sx, sy = view.scale_x, view.scale_y
+        ox, oy = self.origin
+        return np.array(
+            [
+                [sx, 0.0, view.rect.x - ox + 0.5 * sx - 0.5],
+                [0.0, sy, view.rect.y - oy + 0.5 * sy - 0.5],
+            ]
+        )
+
+    def _footprint(self, view: View) -> tuple[int, int, int, int]:
+        """Mosaic pixel bounds [x0, x1) x [y0, y1) of the view."""
+        ox, oy = self.origin
+        h, w = self.mean.shape
+        x0 = max(int(np.floor(view.rect.x - ox)), 0)
+        y0 = max(int(np.floor(view.rect.y - oy)), 0)
+        x1 = min(int(np.ceil(view.rect.x + view.rect.width - ox)), w)
+        y1 = min(int(np.ceil(view.rect.y + view.rect.height - oy)), h)
+        return x0, y0, x1, y1
+
+    def _cover(self, view: View) -> None:
+        """Grow the mosaic (by at least GROW_MARGIN) until it contains `view`."""
+        r = view.rect
+        ox, oy = self.origin
+        h, w = self.mean.shape
+        if not self.empty and (
+            r.x >= ox and r.y >= oy and r.x + r.width <= ox + w and r.y + r.height <= oy + h
+        ):
+            return
+        if self.empty:
+            left, top = int(np.floor(r.x)), int(np.floor(r.y))
+            right, bottom = int(np.ceil(r.x + r.width)), int(np.ceil(r.y + r.height))
+        else:
+            left = min(ox, int(np.floor(r.x)) - GROW_MARGIN) if r.x < ox else ox
+            top = min(oy, int(np.floor(r.y)) - GROW_MARGIN) if r.y < oy else oy
+            right = max(ox + w, int(np.ceil(r.x + r.width)) + GROW_MARGIN)
+            bottom = max(oy + h, int(np.ceil(r.y + r.height)) + GROW_MARGIN)
+            if r.x + r.width <= ox + w:
+                right = ox + w
+            if r.y + r.height <= oy + h:
+                bottom = oy + h
+        shape = (bottom - top, right - left)
+        layers = []
+        for old in (self.mean, self.observations, self.flicker):
+            new = np.zeros(shape, np.float32)
+            if old.size:
+                new[oy - top : oy - top + h, ox - left : ox - left + w] = old
+            layers.append(new)
+        self.mean, self.observations, self.flicker = layers
+        self.origin = (left, top)
