@@ -55,14 +55,20 @@ install_python_packages() {
   local reqs
   if [ "$mode" = apt ]; then
     # The apt install provides rclpy, the messages and the build tools: take only the libraries.
-    reqs="$(sed -n '/^# --- libs ---/,$p' "$ROOT/requirements.txt" | grep -v '^#')"
+    reqs="$(sed -n '/^# --- libs ---/,/^# --- no-deps ---/p' "$ROOT/requirements.txt" | grep -v '^#')"
   else
-    reqs="$(grep -v '^#' "$ROOT/requirements.txt")"
+    reqs="$(sed '/^# --- no-deps ---/,$d' "$ROOT/requirements.txt" | grep -v '^#')"
   fi
+  local nodeps
+  nodeps="$(sed -n '/^# --- no-deps ---/,$p' "$ROOT/requirements.txt" | grep -v '^#')"
   say "installing Python packages ($mode mode, pinned by constraints.txt)"
   # shellcheck disable=SC2086
   "$VENV/bin/pip" install -q --disable-pip-version-check -c "$ROOT/constraints.txt" $reqs \
     2> >(grep -v "is ignored: it is neither a file nor a directory" >&2)
+  if [ -n "$nodeps" ]; then
+    # shellcheck disable=SC2086
+    "$VENV/bin/pip" install -q --disable-pip-version-check --no-deps -c "$ROOT/constraints.txt" $nodeps
+  fi
   echo "$want" > "$VENV/.setup-stamp"
 }
 

@@ -7,7 +7,15 @@ import math
 import pytest
 
 from tracker_msgs_py.geometry import Rect
-from tracker_ptz_sim.evaluation.metrics import clear_mot, follow_scores, in_view, load_mot
+from tracker_ptz_sim.evaluation.metrics import (
+    clear_mot,
+    every_object,
+    follow_scores,
+    hota,
+    in_view,
+    load_mot,
+    without_ignored,
+)
 
 
 def _two_walkers(frames: int = 10):
@@ -101,3 +109,45 @@ def test_iou_distances_match_rect_iou():
     )
     assert d[0, 0] == pytest.approx(1 - a[0].iou(b[0])) and d[0, 1] == 0.0
     assert np.isnan(d[0, 2]) and np.isnan(d[1]).all()
+
+
+def test_in_view_clips_boxes_to_the_window():
+    truth = {1: {1: Rect(90, 10, 20, 20)}}  # centre (100, 20) on the window's right edge
+    visible = in_view(truth, {1: Rect(0, 0, 101, 100)})
+    assert visible[1][1] == Rect(90, 10, 11, 20)
+
+
+def test_hota_perfect_swapped_and_missed():
+    truth = _two_walkers()
+    perfect = {f: {11: b[1], 12: b[2]} for f, b in truth.items()}
+    assert hota(truth, perfect, list(truth)).hota == pytest.approx(1.0)
+    # An identity swap halfway: detection stays perfect; each match shares 5 of its 15 frames of
+    # ground truth or hypothesis with its partner: AssA = 5 / (5 + 5 + 5).
+    swapped = {
+        f: ({11: b[1], 12: b[2]} if f <= 5 else {11: b[2], 12: b[1]}) for f, b in truth.items()
+    }
+    scores = hota(truth, swapped, list(truth))
+    assert scores.deta == pytest.approx(1.0) and scores.assa == pytest.approx(1 / 3)
+    assert scores.hota == pytest.approx(math.sqrt(1 / 3))
+    # One of two objects never found: DetA = 10 / (10 + 10), AssA = 1.
+    half = {f: {11: b[1]} for f, b in truth.items()}
+    scores = hota(truth, half, list(truth))
+    assert scores.deta == pytest.approx(0.5) and scores.assa == pytest.approx(1.0)
+    # Boxes shifted to IoU 1/3 count at thresholds up to 1/3 only: HOTA(0.5) is 0.
+    shifted = {f: {11: Rect(b[1].x + 5, b[1].y, 10, 20)} for f, b in truth.items()}
+    assert hota(truth, shifted, list(truth)).hota_50 == pytest.approx(0.0)
+
+
+def test_hypotheses_on_ignored_objects_are_dropped():
+    truth = {1: {1: Rect(0, 0, 10, 10)}}
+    ignored = {1: {2: Rect(50, 50, 10, 10)}}
+    hypotheses = {1: {7: Rect(0, 0, 10, 10), 8: Rect(51, 50, 10, 10), 9: Rect(200, 0, 5, 5)}}
+    assert set(without_ignored(hypotheses, truth, ignored)[1]) == {7, 9}
+
+
+def test_load_mot_splits_counted_and_ignored_rows(tmp_path):
+    gt = tmp_path / "gt.txt"
+    gt.write_text("1,1,0,0,10,10,1,1,1\n1,2,5,5,10,10,0,1,0.1\n")
+    assert list(load_mot(gt)[1]) == [1]
+    assert list(load_mot(gt, ignored=True)[1]) == [2]
+    assert sorted(every_object(gt)[1]) == [1, 2]

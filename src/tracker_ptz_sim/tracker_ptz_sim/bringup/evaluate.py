@@ -4,9 +4,10 @@
     evaluate --video FILE --gt gt.txt     any video with MOTChallenge ground truth
     evaluate --bag out/bag --gt gt.txt    score a run recorded before, without replaying
 
-Reports the scores of `tracker_ptz_sim.evaluation.scoring` (CLEAR MOT and IDF1 in the camera view
-and in the whole scene, and how well the camera followed its object). Writes summary.json (the
-run) and evaluation.json (the scores) to --out.
+Reports the scores of `tracker_ptz_sim.evaluation.scoring` (CLEAR MOT, IDF1 and HOTA at IoU >= 0.5
+in the camera view and in the whole scene, and the pan-tilt figures). Writes to --out:
+summary.json (the run: frames, throughput, latencies, lock share), evaluation.json (the scores),
+tracks.txt (observed tracks, MOTChallenge) and plots.png (centring error, pan/tilt, followed ids).
 """
 
 from __future__ import annotations
@@ -14,7 +15,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from tracker_ptz_sim.evaluation.scoring import format_scores, score
+from tracker_ptz_sim.evaluation import run_report, scoring
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -36,7 +37,7 @@ def main(argv: list[str] | None = None) -> int:
     if gt is None or not gt.exists():
         parser.error(f"ground truth not found: {gt} (pass --gt)")
     args.out.mkdir(parents=True, exist_ok=True)
-    bag = args.bag
+    bag, run = args.bag, None
     if bag is None:
         from tracker_ptz_sim.bringup import demo
         from tracker_ptz_sim.bringup.graph import load_graph
@@ -53,8 +54,12 @@ def main(argv: list[str] | None = None) -> int:
         if not run.complete:
             print(f"the run is incomplete: {'; '.join(run.problems)} (see {args.out}/logs)")
             return 130 if run.interrupted_by else 1
-    result = score(bag, gt, args.out)
-    print(f"Evaluation against {gt}:\n{format_scores(result)}")
+    frames = run_report.collect(bag)
+    summary = run_report.summarize(frames, run_report.message_counts(frames))
+    run_report.write_summary(summary, args.out / "summary.json", run.as_dict() if run else None)
+    result = scoring.write_evaluation(scoring.trace_from_frames(frames), gt, args.out)
+    print(f"Evaluation against {gt}:\n{scoring.format_scores(result)}")
+    print(f"Wrote {args.out}/: summary.json, evaluation.json, tracks.txt, plots.png")
     return 0
 
 

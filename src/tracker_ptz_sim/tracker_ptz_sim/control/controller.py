@@ -17,10 +17,12 @@ States:
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
 from enum import Enum
+from typing import Any
 
-from tracker_msgs_py.params import check_config
+from tracker_msgs_py.params import check_config, config_from_params
 
 
 class ControlState(Enum):
@@ -102,6 +104,26 @@ class ControllerConfig:
         if self.pan_limits[0] >= self.pan_limits[1]:
             found.append(f"pan_limits must be increasing, got {self.pan_limits}")
         return found
+
+
+def _pairs(flat: list[float], name: str) -> list[tuple[float, float]]:
+    if len(flat) % 2:
+        raise ValueError(f"{name} needs an even number of values, got {len(flat)}")
+    return [(float(flat[i]), float(flat[i + 1])) for i in range(0, len(flat), 2)]
+
+
+def controller_config(values: Mapping[str, Any]) -> ControllerConfig:
+    """The controller configuration the ptz_controller parameters describe (raises ValueError
+    when invalid): pan_limits and home are [a, b] lists, presets a flat [pan1, tilt1, ...] list."""
+    if len(values["pan_limits"]) != 2 or len(values["home"]) != 2:
+        raise ValueError("pan_limits and home need exactly two values")
+    return config_from_params(
+        ControllerConfig,
+        values,
+        pan_limits=(float(values["pan_limits"][0]), float(values["pan_limits"][1])),
+        home=(float(values["home"][0]), float(values["home"][1])),
+        presets=tuple(_pairs(values["presets"], "presets")),
+    )
 
 
 class PanTiltController:

@@ -19,7 +19,7 @@ from sensor_msgs.msg import JointState
 from tracker_msgs.msg import PtzCommand, PtzState, Target
 from tracker_msgs_py.codec import NS_PER_S, msg_to_window, stamp_to_ns
 from tracker_msgs_py.node_main import SuiteNode, run_node
-from tracker_msgs_py.params import ParamSpec, config_from_params, declare_parameters
+from tracker_msgs_py.params import ParamSpec, declare_parameters
 from tracker_msgs_py.stamps import Order, StampOrder
 from tracker_ptz_sim.control.controller import (
     CameraPose,
@@ -28,6 +28,7 @@ from tracker_ptz_sim.control.controller import (
     ControllerConfig,
     PanTiltController,
     TargetEstimate,
+    controller_config,
 )
 
 STATE_BUFFER = 16  # pan-tilt states kept to pair with targets by stamp
@@ -98,28 +99,9 @@ PARAMS = [
 ]
 
 
-def _pairs(flat: list[float], name: str) -> list[tuple[float, float]]:
-    if len(flat) % 2:
-        raise ValueError(f"{name} needs an even number of values, got {len(flat)}")
-    return [(float(flat[i]), float(flat[i + 1])) for i in range(0, len(flat), 2)]
-
-
-def config_from(values: dict[str, Any]) -> ControllerConfig:
-    """The controller configuration the parameters describe (raises ValueError when invalid)."""
-    if len(values["pan_limits"]) != 2 or len(values["home"]) != 2:
-        raise ValueError("pan_limits and home need exactly two values")
-    return config_from_params(
-        ControllerConfig,
-        values,
-        pan_limits=(float(values["pan_limits"][0]), float(values["pan_limits"][1])),
-        home=(float(values["home"][0]), float(values["home"][1])),
-        presets=tuple(_pairs(values["presets"], "presets")),
-    )
-
-
 def _check(values: dict[str, Any]) -> str | None:
     try:
-        config_from(values)
+        controller_config(values)
     except ValueError as error:
         return str(error)
     if len(values["joint_names"]) != 2:
@@ -132,7 +114,7 @@ class PtzControllerNode(SuiteNode):
         """node_options go to rclpy's Node (parameter_overrides, context...)."""
         super().__init__("ptz_controller", **node_options)
         self.params = declare_parameters(self, PARAMS, on_change=self._on_change, check_all=_check)
-        self.controller = PanTiltController(config_from(self.params))
+        self.controller = PanTiltController(controller_config(self.params))
         # Pan-tilt states by stamp; None marks a state that came but is unusable.
         self.states: dict[int, CameraPose | None] = {}
         # Targets whose image's PtzState has not arrived yet (the two travel on different paths),
@@ -151,7 +133,7 @@ class PtzControllerNode(SuiteNode):
         return self.create_publisher(JointState, topic, 10) if topic else None
 
     def _on_change(self, changed: dict[str, Any]) -> None:
-        self.controller.config = config_from(self.params)
+        self.controller.config = controller_config(self.params)
         if "joint_command_topic" in changed:
             if self.joint_pub is not None:
                 self.destroy_publisher(self.joint_pub)

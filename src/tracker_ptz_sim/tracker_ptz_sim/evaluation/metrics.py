@@ -1,11 +1,14 @@
-"""Accuracy of a run against ground truth (no rclpy): CLEAR MOT and IDF1 through motmetrics, and the
-pan-tilt figures (how often the followed target is inside the view, how well it is centred).
+"""Accuracy of a run against ground truth (no rclpy): CLEAR MOT and IDF1 through motmetrics, HOTA
+through trackeval (both at MOTChallenge's IoU >= 0.5 matching), and the pan-tilt figures (how often
+the followed target is inside the view, how well it is centred).
 
 Boxes are MOTChallenge rows: frame (1-based), id, x, y, width, height in scene pixels.
 """
 
 from __future__ import annotations
 
+import contextlib
+import io
 from collections import Counter
 from dataclasses import dataclass
 from pathlib import Path
@@ -13,14 +16,18 @@ from pathlib import Path
 import motmetrics
 import numpy as np
 
+with contextlib.redirect_stdout(io.StringIO()):  # it prints which optional datasets it cannot load
+    from trackeval.metrics import HOTA
+
 from tracker_msgs_py.geometry import Rect
 
 Boxes = dict[int, dict[int, Rect]]  # frame -> id -> box
 
 
-def load_mot(path: Path) -> Boxes:
-    """A MOTChallenge file (gt.txt or a tracker's output) as boxes per frame; rows with conf 0
-    (MOTChallenge's "ignore") are skipped."""
+def load_mot(path: Path, ignored: bool = False) -> Boxes:
+    """A MOTChallenge file (gt.txt or a tracker's output) as boxes per frame. Rows of a gt.txt with
+    conf 0 (MOTChallenge's "ignore": e.g. a person almost fully hidden) are left out, or, with
+    `ignored`, are the only ones returned."""
     boxes: Boxes = {}
     text = path.read_text().strip()
     if not text:
@@ -30,20 +37,52 @@ def load_mot(path: Path) -> Boxes:
         if len(fields) < 6:
             raise ValueError(f"{path}:{number}: expected at least 6 comma-separated fields")
         frame, object_id = int(float(fields[0])), int(float(fields[1]))
-        if len(fields) > 6 and float(fields[6]) == 0.0 and path.name == "gt.txt":
+        is_ignored = len(fields) > 6 and float(fields[6]) == 0.0 and path.name == "gt.txt"
+        if is_ignored != ignored:
             continue
         x, y, w, h = (float(v) for v in fields[2:6])
         boxes.setdefault(frame, {})[object_id] = Rect(x, y, w, h)
     return boxes
 
 
+def every_object(gt: Path) -> Boxes:
+    """Every ground-truth box of a gt.txt, ignored ones included (they are still real objects)."""
+    boxes = load_mot(gt, ignored=True)
+    for frame, frame_boxes in load_mot(gt).items():
+        boxes.setdefault(frame, {}).update(frame_boxes)
+    return boxes
+
+
 def in_view(boxes: Boxes, windows: dict[int, Rect]) -> Boxes:
-    """The boxes whose centre lies inside that frame's camera window (what the camera could see)."""
+    """What the camera could see: the boxes whose centre lies inside that frame's camera window,
+    clipped to the window (the part of the object the camera image shows)."""
     return {
-        frame: {i: b for i, b in frame_boxes.items() if windows[frame].contains(*b.center)}
+        frame: {
+            i: clipped
+            for i, b in frame_boxes.items()
+            if windows[frame].contains(*b.center)
+            and (clipped := b.intersection(windows[frame])) is not None
+        }
         for frame, frame_boxes in boxes.items()
         if frame in windows
     }
+
+
+def without_ignored(hypotheses: Boxes, truth: Boxes, ignored: Boxes, min_iou: float = 0.5) -> Boxes:
+    """The hypotheses minus those on an ignored ground-truth object (IoU >= `min_iou` with it and
+    with no counted object), as MOTChallenge drops matches to its distractors before scoring."""
+    kept: Boxes = {}
+    for frame, frame_boxes in hypotheses.items():
+        skip = ignored.get(frame, {})
+        counted = truth.get(frame, {})
+        kept[frame] = {
+            i: b
+            for i, b in frame_boxes.items()
+            if not skip
+            or max((b.iou(g) for g in skip.values()), default=0.0) < min_iou
+            or max((b.iou(g) for g in counted.values()), default=0.0) >= min_iou
+        }
+    return kept
 
 
 @dataclass(frozen=True)
@@ -77,6 +116,40 @@ def clear_mot(
         recall=float(row["recall"]),
         precision=float(row["precision"]),
         frames=int(row["num_frames"]),
+    )
+
+
+@dataclass(frozen=True)
+class HotaScores:
+    hota: float  # HOTA averaged over the IoU thresholds 0.05 ... 0.95 (its definition)
+    deta: float  # detection accuracy, same average
+    assa: float  # association accuracy, same average
+    hota_50: float  # HOTA at IoU 0.5 alone
+
+
+def hota(truth: Boxes, hypotheses: Boxes, frames: list[int]) -> HotaScores:
+    """HOTA (Luiten et al. 2021) of `hypotheses` against `truth` over `frames`, by trackeval."""
+    truth_ids = sorted({i for f in frames for i in truth.get(f, {})})
+    hyp_ids = sorted({i for f in frames for i in hypotheses.get(f, {})})
+    truth_index = {i: n for n, i in enumerate(truth_ids)}
+    hyp_index = {i: n for n, i in enumerate(hyp_ids)}
+    data: dict = {"gt_ids": [], "tracker_ids": [], "similarity_scores": []}
+    for frame in frames:
+        t_ids, t_boxes = _columns(truth.get(frame, {}))
+        h_ids, h_boxes = _columns(hypotheses.get(frame, {}))
+        data["gt_ids"].append(np.array([truth_index[i] for i in t_ids], dtype=int))
+        data["tracker_ids"].append(np.array([hyp_index[i] for i in h_ids], dtype=int))
+        data["similarity_scores"].append(1.0 - iou_distances(t_boxes, h_boxes, np.inf))
+    data["num_gt_ids"], data["num_tracker_ids"] = len(truth_ids), len(hyp_ids)
+    data["num_gt_dets"] = sum(len(ids) for ids in data["gt_ids"])
+    data["num_tracker_dets"] = sum(len(ids) for ids in data["tracker_ids"])
+    result = HOTA().eval_sequence(data)
+    alpha_50 = int(np.argmin(np.abs(np.arange(0.05, 0.99, 0.05) - 0.5)))
+    return HotaScores(
+        hota=float(np.mean(result["HOTA"])),
+        deta=float(np.mean(result["DetA"])),
+        assa=float(np.mean(result["AssA"])),
+        hota_50=float(result["HOTA"][alpha_50]),
     )
 
 

@@ -1,57 +1,235 @@
-"""Scores of a recorded run against MOTChallenge ground truth (no rclpy).
+"""Scores of a run against MOTChallenge ground truth (no rclpy), whichever way it ran.
 
-CLEAR MOT (MOTA, MOTP, id switches) and IDF1 via `metrics`, for the objects inside the camera
-view (what the camera could see) and for the whole scene, plus the pan-tilt figures: share of
-frames (after the first lock) with the followed object inside the view, and its centring error.
+A run, from the graph's bag (`trace_from_frames`) or the in-process pipeline (`trace_from_steps`),
+becomes a `RunTrace`: per MOTChallenge frame number the camera window and pose, the observed track
+boxes and the locked target. `score_trace` then gives
+- CLEAR MOT, IDF1 and HOTA at IoU >= 0.5 for the objects inside the camera view (their boxes
+  clipped to it: what the camera could see) and over the whole scene;
+- the pan-tilt figures (`PanTiltScores`): share of locked frames whose target lies on a real object,
+  how often the followed object changes (and how often without a reason: it neither left nor was
+  lost for `REASON_GAP_S`), centring error, time to the first lock and to re-acquire after a loss.
 """
 
 from __future__ import annotations
 
 import json
 import math
-from dataclasses import asdict
+from collections.abc import Iterable
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
+from typing import Any
 
+import numpy as np
+
+from tracker_filter.tracking import TrackStatus
+from tracker_msgs_py.codec import msg_to_rect
 from tracker_msgs_py.geometry import Rect
 from tracker_ptz_sim.evaluation import metrics, run_report
+from tracker_ptz_sim.evaluation.metrics import Boxes
+
+REASON_GAP_S = 2.0  # a lock lost this long may move on to another object
+
+
+@dataclass
+class RunTrace:
+    """What a run did, per MOTChallenge frame number (from 1)."""
+
+    fps: float
+    windows: dict[int, Rect] = field(default_factory=dict)  # scene px
+    pan_tilt: dict[int, tuple[float, float]] = field(default_factory=dict)  # rad
+    hypotheses: Boxes = field(default_factory=dict)  # observed confirmed tracks
+    targets: dict[int, tuple[float, float]] = field(default_factory=dict)  # locked target
+    target_ids: dict[int, int] = field(default_factory=dict)  # locked track id
+
+    def write_mot(self, path: Path) -> int:
+        """The observed tracks in MOTChallenge format; how many rows."""
+        rows = [
+            f"{frame},{i},{b.x:.2f},{b.y:.2f},{b.width:.2f},{b.height:.2f},1,-1,-1,-1"
+            for frame, boxes in sorted(self.hypotheses.items())
+            for i, b in sorted(boxes.items())
+        ]
+        path.write_text("".join(row + "\n" for row in rows))
+        return len(rows)
+
+
+def trace_from_frames(frames: dict[int, run_report.FrameRecord]) -> RunTrace:
+    """The trace of a recorded graph run (`run_report.collect`)."""
+    numbers = run_report.frame_numbers(frames)
+    trace = RunTrace(run_report.stream_fps(frames))
+    for stamp, record in frames.items():
+        number = numbers[stamp]
+        if record.state is not None:
+            trace.windows[number] = msg_to_rect(record.state.window)
+            trace.pan_tilt[number] = (record.state.pan, record.state.tilt)
+        if record.tracks is not None:
+            trace.hypotheses[number] = {
+                t.id: msg_to_rect(t.bbox)
+                for t in record.tracks.tracks
+                if t.status == run_report.OBSERVED
+            }
+        if record.target is not None and record.target.locked:
+            trace.targets[number] = (record.target.track.x, record.target.track.y)
+            trace.target_ids[number] = record.target.track.id
+    return trace
+
+
+def trace_from_steps(steps: Iterable[Any], fps: float) -> RunTrace:
+    """The trace of an in-process run (`pipeline.Step`s, frame n stamped (n - 1) / fps)."""
+    trace = RunTrace(fps)
+    for number, step in enumerate(steps, start=1):
+        trace.windows[number] = step.camera.window
+        trace.pan_tilt[number] = (step.camera.pan, step.camera.tilt)
+        tracks = step.tracks
+        observed = np.flatnonzero(tracks.status == TrackStatus.CONFIRMED)
+        trace.hypotheses[number] = {
+            int(tracks.ids[i]): Rect(*(float(v) for v in tracks.bboxes[i])) for i in observed
+        }
+        if step.target is not None and step.target_id is not None:
+            trace.targets[number] = (step.target.x, step.target.y)
+            trace.target_ids[number] = step.target_id
+    return trace
 
 
 def windows_and_targets(
     frames: dict[int, run_report.FrameRecord],
 ) -> tuple[dict[int, Rect], dict[int, tuple[float, float]]]:
     """Camera window and locked target position per MOTChallenge frame number."""
-    numbers = run_report.frame_numbers(frames)
-    windows, targets = {}, {}
-    for stamp, record in frames.items():
-        number = numbers[stamp]
-        if record.state is not None:
-            w = record.state.window
-            windows[number] = Rect(w.x, w.y, w.width, w.height)
-        if record.target is not None and record.target.locked:
-            targets[number] = (record.target.track.x, record.target.track.y)
-    return windows, targets
+    trace = trace_from_frames(frames)
+    return trace.windows, trace.targets
 
 
-def score(bag: Path, gt: Path, out: Path) -> dict:
-    """Scores of a recorded run against ground truth; also writes tracks.txt and evaluation.json."""
-    frames = run_report.collect(bag)
-    run_report.write_mot(frames, out / "tracks.txt")
+@dataclass(frozen=True)
+class PanTiltScores:
+    locked_share: float  # frames with a locked target
+    on_object_share: float  # locked frames whose target position lies on a real object's box
+    followed_changes: int  # times the followed object changed
+    unexplained_changes: int  # ... while the previous one was still there and lost < REASON_GAP_S
+    mean_center_error_px: float  # followed object's box centre to the view centre, on-object frames
+    mean_center_error_share: float  # the same, as a share of the view width
+    first_lock_s: float | None  # from the first object in the scene to the first on-object lock
+    reacquire_s: list[float]  # each time on-object lock was lost: how long until it was back
+
+
+def followed_objects(truth: Boxes, targets: dict[int, tuple[float, float]]) -> dict[int, int]:
+    """Per locked frame, the ground-truth object under the target (the box containing it whose
+    centre is nearest); frames where it is on no object are left out."""
+    followed = {}
+    for frame, (x, y) in targets.items():
+        under = [
+            (math.hypot(b.center[0] - x, b.center[1] - y), i)
+            for i, b in truth.get(frame, {}).items()
+            if b.contains(x, y)
+        ]
+        if under:
+            followed[frame] = min(under)[1]
+    return followed
+
+
+def pan_tilt_scores(truth: Boxes, trace: RunTrace) -> PanTiltScores:
+    """The pan-tilt figures of a run against every ground-truth object (ignored ones included:
+    a mostly hidden person is still a real object)."""
+    frames = sorted(trace.windows)
+    followed = followed_objects(truth, trace.targets)
+    changes, unexplained, previous, last_seen = 0, 0, None, {}
+    errors, shares = [], []
+    for frame in frames:
+        current = followed.get(frame)
+        if current is None:
+            continue
+        if previous is not None and current != previous:
+            changes += 1
+            still_there = previous in truth.get(frame, {})
+            lost_for = (frame - last_seen[previous]) / trace.fps
+            unexplained += still_there and lost_for < REASON_GAP_S
+        previous, last_seen[current] = current, frame
+        window = trace.windows[frame]
+        box = truth[frame][current]
+        errors.append(
+            math.hypot(box.center[0] - window.center[0], box.center[1] - window.center[1])
+        )
+        shares.append(errors[-1] / window.width)
+    first_object = next((f for f in frames if truth.get(f)), None)
+    first_lock = next((f for f in frames if f in followed), None)
+    return PanTiltScores(
+        locked_share=len(trace.targets) / len(frames) if frames else 0.0,
+        on_object_share=len(followed) / len(trace.targets) if trace.targets else 0.0,
+        followed_changes=changes,
+        unexplained_changes=int(unexplained),
+        mean_center_error_px=float(np.mean(errors)) if errors else math.nan,
+        mean_center_error_share=float(np.mean(shares)) if shares else math.nan,
+        first_lock_s=(first_lock - first_object) / trace.fps
+        if first_lock is not None and first_object is not None
+        else None,
+        reacquire_s=_reacquire_times(frames, set(followed), first_lock, trace.fps),
+    )
+
+
+def _reacquire_times(
+    frames: list[int], on_object: set[int], first_lock: int | None, fps: float
+) -> list[float]:
+    times, lost_at = [], None
+    for frame in frames:
+        if first_lock is None or frame < first_lock:
+            continue
+        if frame in on_object:
+            if lost_at is not None:
+                times.append((frame - lost_at) / fps)
+            lost_at = None
+        elif lost_at is None:
+            lost_at = frame
+    return times
+
+
+def score_trace(trace: RunTrace, gt: Path) -> dict[str, Any]:
+    """Every score of a run against a MOTChallenge gt.txt (conf-0 rows: ignored objects)."""
     truth = metrics.load_mot(gt)
-    hypotheses = metrics.load_mot(out / "tracks.txt")
-    windows, targets = windows_and_targets(frames)
-    numbers = sorted(windows)
-    result = {
-        "frames": len(numbers),
-        "in_view": asdict(metrics.clear_mot(metrics.in_view(truth, windows), hypotheses, numbers)),
-        "whole_scene": asdict(metrics.clear_mot(truth, hypotheses, numbers)),
-        "follow": asdict(metrics.follow_scores(truth, windows, targets)),
+    ignored = metrics.load_mot(gt, ignored=True)
+    hypotheses = metrics.without_ignored(trace.hypotheses, truth, ignored)
+    frames = sorted(trace.windows)
+    view_truth = metrics.in_view(truth, trace.windows)
+    view_hypotheses = metrics.without_ignored(
+        hypotheses, view_truth, metrics.in_view(ignored, trace.windows)
+    )
+    return {
+        "frames": len(frames),
+        "in_view": _tracking_scores(view_truth, view_hypotheses, frames),
+        "whole_scene": _tracking_scores(truth, hypotheses, frames),
+        "pan_tilt": asdict(pan_tilt_scores(metrics.every_object(gt), trace)),
     }
-    (out / "evaluation.json").write_text(json.dumps(result, indent=2, default=_json_number) + "\n")
+
+
+def _tracking_scores(truth: Boxes, hypotheses: Boxes, frames: list[int]) -> dict[str, Any]:
+    return {
+        **asdict(metrics.clear_mot(truth, hypotheses, frames)),
+        **asdict(metrics.hota(truth, hypotheses, frames)),
+    }
+
+
+def write_evaluation(trace: RunTrace, gt: Path, out: Path, title: str = "") -> dict[str, Any]:
+    """Score a run and write tracks.txt, evaluation.json and plots.png into `out`; the scores."""
+    from tracker_ptz_sim.evaluation.plots import plot_run  # matplotlib only when plotting
+
+    out.mkdir(parents=True, exist_ok=True)
+    trace.write_mot(out / "tracks.txt")
+    result = score_trace(trace, gt)
+    write_json(result, out / "evaluation.json")
+    plot_run(trace, metrics.every_object(gt), out / "plots.png", title or str(gt))
     return result
 
 
-def _json_number(value: object) -> object:
-    return None if isinstance(value, float) and math.isnan(value) else value
+def write_json(data: Any, path: Path) -> None:
+    """JSON with NaN written as null (JSON has no NaN)."""
+    path.write_text(json.dumps(_nan_to_none(data), indent=2) + "\n")
+
+
+def _nan_to_none(value: Any) -> Any:
+    if isinstance(value, float) and math.isnan(value):
+        return None
+    if isinstance(value, dict):
+        return {k: _nan_to_none(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [_nan_to_none(v) for v in value]
+    return value
 
 
 def format_scores(result: dict) -> str:
@@ -60,29 +238,34 @@ def format_scores(result: dict) -> str:
         s = result[name]
         rows.append(
             (
-                f"CLEAR MOT ({name.replace('_', ' ')})",
-                f"MOTA {s['mota']:.3f}  MOTP {s['motp']:.3f}  IDF1 {s['idf1']:.3f}  "
-                f"id switches {s['id_switches']}  recall {s['recall']:.3f}  precision {s['precision']:.3f}",
+                name.replace("_", " "),
+                f"MOTA {s['mota']:.3f}  IDF1 {s['idf1']:.3f}  HOTA {s['hota']:.3f}  "
+                f"MOTP {s['motp']:.3f}  id switches {s['id_switches']}  "
+                f"recall {s['recall']:.3f}  precision {s['precision']:.3f}",
             )
         )
-    follow = result["follow"]
-    if follow["followed_id"] is None:
-        rows.append(("followed object", "none (the camera never locked onto an object)"))
-    else:
-        rows += [
-            (
-                "followed object",
-                f"id {follow['followed_id']}, first lock at frame {follow['first_lock_frame']}",
-            ),
-            (
-                "inside the view",
-                f"{100 * follow['inside_share']:.1f} % of {follow['frames_after_lock']} frames",
-            ),
-            (
-                "centring error",
-                f"{follow['mean_center_error_px']:.1f} px "
-                f"({100 * follow['mean_center_error_share']:.1f} % of view width)",
-            ),
-        ]
+    p = result["pan_tilt"]
+    first = "never" if p["first_lock_s"] is None else f"{p['first_lock_s']:.1f} s"
+    reacquire = p["reacquire_s"]
+    rows += [
+        (
+            "target",
+            f"locked {100 * p['locked_share']:.1f} % of frames, on a real object in "
+            f"{100 * p['on_object_share']:.1f} % of those; first lock after {first}",
+        ),
+        (
+            "followed object",
+            f"changed {p['followed_changes']} times, {p['unexplained_changes']} without a reason; "
+            f"re-acquired {len(reacquire)} times"
+            + (f" (mean {np.mean(reacquire):.1f} s)" if reacquire else ""),
+        ),
+        (
+            "centring error",
+            "n/a"
+            if p["mean_center_error_px"] is None or math.isnan(p["mean_center_error_px"])
+            else f"{p['mean_center_error_px']:.1f} px "
+            f"({100 * p['mean_center_error_share']:.1f} % of view width)",
+        ),
+    ]
     width = max(len(n) for n, _ in rows)
     return "\n".join(f"  {n:<{width}}  {v}" for n, v in rows)

@@ -1,0 +1,85 @@
+"""Run scores against hand-made runs: the pan-tilt figures and the whole evaluation."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import pytest
+
+from tracker_msgs_py.geometry import Rect
+from tracker_ptz_sim.evaluation.scoring import RunTrace, pan_tilt_scores, write_evaluation
+
+FPS = 10.0
+
+
+def _walkers(frames: int):
+    """Object 1 walks right from frame 1 on; object 2 stands at x 300 from frame 1 to `frames`."""
+    return {
+        f: {1: Rect(10 + 2 * f, 100, 20, 40), 2: Rect(300, 100, 20, 40)}
+        for f in range(1, frames + 1)
+    }
+
+
+def _trace(frames: int, targets: dict[int, tuple[float, float]]) -> RunTrace:
+    trace = RunTrace(FPS)
+    for f in range(1, frames + 1):
+        trace.windows[f] = Rect(0, 0, 400, 400)
+        trace.pan_tilt[f] = (0.0, 0.0)
+    trace.targets = targets
+    trace.target_ids = dict.fromkeys(targets, 5)
+    return trace
+
+
+def test_target_on_one_object_all_along():
+    truth = _walkers(50)
+    targets = {f: truth[f][1].center for f in range(11, 51)}
+    scores = pan_tilt_scores(truth, _trace(50, targets))
+    assert scores.locked_share == pytest.approx(40 / 50)
+    assert scores.on_object_share == 1.0
+    assert scores.followed_changes == 0 and scores.reacquire_s == []
+    assert scores.first_lock_s == pytest.approx(1.0)  # objects from frame 1, lock at frame 11
+    errors = [math.hypot(truth[f][1].center[0] - 200, 120 - 200) for f in range(11, 51)]
+    assert scores.mean_center_error_px == pytest.approx(sum(errors) / 40)
+
+
+def test_target_on_nothing_and_unexplained_switch():
+    truth = _walkers(40)
+    targets = {f: truth[f][1].center for f in range(1, 11)}
+    targets |= {f: (390.0, 390.0) for f in range(11, 16)}  # on no object for 0.5 s
+    targets |= {f: truth[f][2].center for f in range(16, 41)}  # then object 2: 1 is still there
+    scores = pan_tilt_scores(truth, _trace(40, targets))
+    assert scores.on_object_share == pytest.approx(35 / 40)
+    assert scores.followed_changes == 1 and scores.unexplained_changes == 1
+    assert scores.reacquire_s == [pytest.approx(0.5)]
+
+
+def test_switch_after_the_object_left_is_explained():
+    truth = _walkers(40)
+    for f in range(21, 41):
+        del truth[f][1]  # object 1 leaves after frame 20
+    targets = {f: truth[f][1].center for f in range(1, 21)}
+    targets |= {f: truth[f][2].center for f in range(21, 41)}
+    scores = pan_tilt_scores(truth, _trace(40, targets))
+    assert scores.followed_changes == 1 and scores.unexplained_changes == 0
+
+
+def test_write_evaluation_writes_scores_tracks_and_plots(tmp_path):
+    truth = _walkers(20)
+    gt = tmp_path / "gt.txt"
+    gt.write_text(
+        "".join(
+            f"{f},{i},{b.x},{b.y},{b.width},{b.height},1,1,1\n"
+            for f, boxes in truth.items()
+            for i, b in boxes.items()
+        )
+    )
+    trace = _trace(20, {f: truth[f][1].center for f in range(1, 21)})
+    trace.hypotheses = {f: {7: truth[f][1], 8: truth[f][2]} for f in truth}
+    result = write_evaluation(trace, gt, tmp_path / "out")
+    assert result["whole_scene"]["mota"] == pytest.approx(1.0)
+    assert result["in_view"]["hota"] == pytest.approx(1.0)
+    saved = json.loads((tmp_path / "out" / "evaluation.json").read_text())
+    assert saved["pan_tilt"]["on_object_share"] == 1.0
+    assert len((tmp_path / "out" / "tracks.txt").read_text().splitlines()) == 40
+    assert (tmp_path / "out" / "plots.png").read_bytes()[:4] == b"\x89PNG"
