@@ -11,7 +11,7 @@ from tracker_msgs_py.geometry import Rect
 C, K, T, L = TrackStatus.CONFIRMED, TrackStatus.COASTING, TrackStatus.TENTATIVE, TrackStatus.LOST
 
 
-def track_set(time, ids, positions, status=None, ages=None, areas=None, box=10.0):
+def track_set(time, ids, positions, status=None, ages=None, areas=None, box=10.0, travel=None):
     n = len(ids)
     positions = np.asarray(positions, dtype=float).reshape(n, 2)
     means = np.column_stack([positions, np.zeros((n, 2))])
@@ -29,6 +29,7 @@ def track_set(time, ids, positions, status=None, ages=None, areas=None, box=10.0
         existence=np.ones(n),
         areas=np.asarray(areas if areas is not None else [100.0] * n, dtype=float),
         detections=np.arange(n),
+        travel=None if travel is None else np.asarray(travel, dtype=float),
     )
 
 
@@ -56,6 +57,13 @@ def test_each_automatic_policy_picks_its_best_confirmed_track():
         TargetSelector(SelectionPolicy.NEAREST_CENTRE).update(tracks).track_id == 2
     )  # no centre: oldest
     assert TargetSelector().update(track_set(5.0, [7], [[0, 0]], status=[T])) is None
+
+
+def test_farthest_travelled_prefers_a_walker_to_a_long_lived_flutter():
+    # Track 1 has fluttered in place for 60 s; track 2 has walked 80 px in 4 s.
+    tracks = track_set(60.0, [1, 2], [[10, 10], [200, 50]], ages=[60, 4], travel=[6, 80])
+    assert TargetSelector(SelectionPolicy.LONGEST_LIVED).update(tracks).track_id == 1
+    assert TargetSelector(SelectionPolicy.FARTHEST_TRAVELLED).update(tracks).track_id == 2
 
 
 def test_hysteresis_keeps_the_target_for_the_minimum_lock_time_then_needs_a_margin():

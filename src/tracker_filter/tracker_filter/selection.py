@@ -6,7 +6,9 @@ COASTING) every frame:
 - LARGEST_BLOB (seed 000): area of the track's last associated detection;
 - LONGEST_LIVED: track age;
 - NEAREST_CENTRE: minus the distance to the camera view centre (PtzState.window's centre);
-  without a known view centre it falls back to LONGEST_LIVED.
+  without a known view centre it falls back to LONGEST_LIVED;
+- FARTHEST_TRAVELLED: distance from where the track started, so a person walking through wins
+  over a thing that flutters, sways or flickers in place however long it lives.
 
 Hysteresis: once locked, the selector keeps its track for at least `min_lock_time` seconds (scene
 time) and afterwards switches only to a track scoring better by `switch_margin` x |current score|;
@@ -33,12 +35,14 @@ class SelectionPolicy(IntEnum):
     NEAREST_CENTRE = 2
     MANUAL_ID = 3
     MANUAL_RECT = 4
+    FARTHEST_TRAVELLED = 5
 
 
 AUTOMATIC_POLICIES = {
     "largest_blob": SelectionPolicy.LARGEST_BLOB,
     "longest_lived": SelectionPolicy.LONGEST_LIVED,
     "nearest_centre": SelectionPolicy.NEAREST_CENTRE,
+    "farthest_travelled": SelectionPolicy.FARTHEST_TRAVELLED,
 }
 
 
@@ -192,6 +196,8 @@ class TargetSelector:
             return tracks.areas.astype(float)
         if self.policy is SelectionPolicy.NEAREST_CENTRE and view_centre is not None:
             return -np.hypot(*(tracks.positions - np.asarray(view_centre, dtype=float)).T)
+        if self.policy is SelectionPolicy.FARTHEST_TRAVELLED and tracks.travel is not None:
+            return tracks.travel.astype(float)
         return tracks.ages.astype(float)
 
     def _update_automatic(

@@ -95,6 +95,7 @@ class TrackSet:
     areas: np.ndarray
     detections: np.ndarray
     rejections: dict[str, int] = field(default_factory=dict)  # invalid detections dropped, by cause
+    travel: np.ndarray | None = None  # px from where each track started (None: all 0)
     layout: StateLayout = field(init=False)
 
     def __post_init__(self) -> None:
@@ -102,6 +103,8 @@ class TrackSet:
         layout = given if isinstance(given, StateLayout) else StateLayout.from_names(given)
         object.__setattr__(self, "layout", layout)
         object.__setattr__(self, "state_layout", layout.names)
+        if self.travel is None:
+            object.__setattr__(self, "travel", np.zeros(len(self.ids)))
 
     def __len__(self) -> int:
         return len(self.ids)
@@ -325,6 +328,7 @@ class TrackBook:
             areas=self.areas.copy(),
             detections=self.detections.copy(),
             rejections=rejections,
+            travel=self.travel(layout.positions(means)),
         )
 
     def keep(self, mask: np.ndarray) -> None:

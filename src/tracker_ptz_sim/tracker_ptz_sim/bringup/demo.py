@@ -8,6 +8,7 @@ config/surveillance.yaml, replays the video in lockstep, records every topic int
 `rosbags`, shows progress, and writes to the output directory:
     bag/            rosbag2 (MCAP) of every topic
     annotated.mp4   scene with camera window, blobs, tracks, target; camera view beside it
+    contact_sheet.png  the followed target every 2 s, cropped from the scene
     tracks.txt      confirmed tracks, MOTChallenge format
     summary.json    frames, throughput, per-hop latency, lock share, centring error (also
                     printed), and the run's account: complete or not, and why
@@ -45,6 +46,7 @@ from tracker_msgs_py import stop_signals
 from tracker_ptz_sim.bringup.graph import Graph, load_graph
 from tracker_ptz_sim.bringup.processes import GraphProcesses, describe_exit
 from tracker_ptz_sim.evaluation import run_report
+from tracker_ptz_sim.evaluation.contact_sheet import write_contact_sheet
 from tracker_ptz_sim.evaluation.recording import BagWriter
 
 RESPAWN_LIMIT = 5  # --respawn: restarts per node before the run gives up on it
@@ -415,6 +417,7 @@ def report(
             run_report.render_video(bag, frames, out / "annotated.mp4", fps, show)
         finally:
             progress.done()
+        write_contact_sheet(bag, frames, out / "contact_sheet.png")
     return summary
 
 
@@ -493,7 +496,7 @@ def main(argv: list[str] | None = None) -> int:
             + (f" ({replay['message']})" if replay["message"] else "")
         )
     products = "bag/, tracks.txt, summary.json, logs/" + (
-        "" if args.no_video or not summary.frames else ", annotated.mp4"
+        "" if args.no_video or not summary.frames else ", annotated.mp4, contact_sheet.png"
     )
     print(f"\nWrote {args.out}/: {products}")
     if not run.complete:
