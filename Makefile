@@ -7,8 +7,11 @@ PYTEST_ARGS ?=
 VIDEO ?=
 DEMO_ARGS ?=
 STRESS_ARGS ?=
+BENCHMARK_ARGS ?=
+SCENE ?=
+GT ?=
 
-.PHONY: help setup build test lint format shell sample demo bench stress evaluate clean freeze
+.PHONY: help setup build test lint format shell sample demo bench benchmark stress evaluate clean freeze
 
 help:  ## List the targets
 	@grep -E '^[a-z]+:.*## ' $(MAKEFILE_LIST) | awk -F':.*## ' '{printf "  make %-10s %s\n", $$1, $$2}'
@@ -39,6 +42,15 @@ demo: setup  ## Run the surveillance demo (VIDEO=path/to/video to use your own)
 
 bench: setup  ## Benchmarks: prints tables, writes out/bench/*.json
 	@$(ENV) for b in bench/bench_*.py; do echo "== $$b"; python "$$b" || exit 1; done
+
+benchmark: setup  ## Accuracy of record: realistic scenes, graph + in-process, table/JSON/plots in out/benchmark
+	@$(ENV) $(SIM)/benchmark --graph $(BENCHMARK_ARGS)
+
+evaluate: setup  ## Score the graph against ground truth: SCENE=dir, or VIDEO=file GT=gt.txt (default: a street scene)
+	@$(ENV) if [ -n "$(VIDEO)" ]; then $(SIM)/evaluate --video "$(VIDEO)" --gt "$(GT)" $(DEMO_ARGS); \
+	  else scene="$(or $(SCENE),out/scenes/walkers)"; \
+	    [ -n "$(SCENE)" ] || [ -f "$$scene/scene.json" ] || $(SIM)/make_scene "$$scene" --street walkers; \
+	    $(SIM)/evaluate --scene "$$scene" --out out/eval $(DEMO_ARGS); fi
 
 stress: setup  ## Shutdown stress: 50 SIGINT/SIGTERM per node at random moments, exit-code histogram
 	@$(ENV) python scripts/stress_signals.py $(STRESS_ARGS)

@@ -33,6 +33,7 @@ setup(
             "fetch_sample = tracker_ptz_sim.bringup.sample:main",
             "make_scene = tracker_ptz_sim.simulation.scene_cli:main",
             "evaluate = tracker_ptz_sim.entry_points:evaluate",
+            "benchmark = tracker_ptz_sim.entry_points:benchmark",
         ],
     },
 )

@@ -89,8 +89,9 @@ def servo_run(one_walker):
 def test_in_process_pipeline_matches_the_graph(one_walker, servo_run):
     """The benchmark's fast path steps the graph's own components in the graph's order: on the
     same scene with the same parameters it gives the same windows, observed tracks and targets."""
+    from tracker_ptz_sim.bringup import pipeline
     from tracker_ptz_sim.bringup.graph import load_graph
-    from tracker_ptz_sim.evaluation import pipeline, run_report, scoring
+    from tracker_ptz_sim.evaluation import run_report, scoring
 
     scene, _, _ = one_walker
     graph = scoring.trace_from_frames(run_report.collect(servo_run / "bag"))

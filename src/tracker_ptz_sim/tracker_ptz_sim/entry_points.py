@@ -26,3 +26,7 @@ def run_demo() -> int:
 
 def evaluate() -> int:
     return guarded_main("tracker_ptz_sim.bringup.evaluate")
+
+
+def benchmark() -> int:
+    return guarded_main("tracker_ptz_sim.bringup.benchmark")

@@ -20,7 +20,10 @@ shifted image coordinates (world position = image position - jitter).
 Files (:func:`write_scene` / :func:`load_scene`): a lossless FFV1 video (or a PNG folder when
 OpenCV cannot write FFV1), MOTChallenge ``gt/gt.txt`` (``frame,id,x,y,w,h,conf,class,visibility``
 with 1-based frames and x, y in the pixel convention above), 16-bit label PNGs in ``masks/``,
-``seqinfo.ini`` and ``scene.json`` (the config and jitter, to load the scene back exactly).
+``seqinfo.ini`` and ``scene.json`` (the config and jitter, to load the scene back exactly). The same
+functions write and read the street scenes of :mod:`tracker_ptz_sim.simulation.street` (whose
+ground truth boxes are the visible boxes, with ``conf`` 0 for the barely visible ones, and whose
+labels are uint16); ``scene.json`` names the ``generator`` ("objects" or "street").
 """
 
 from __future__ import annotations
@@ -30,13 +33,16 @@ import json
 import math
 from dataclasses import asdict, dataclass, field, fields
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any, ClassVar
 
 import cv2
 import numpy as np
 
 from tracker_msgs_py.codec import frame_stamp_ns
 from tracker_msgs_py.params import check_config
+
+if TYPE_CHECKING:
+    from tracker_ptz_sim.simulation.street import StreetConfig
 
 VIDEO_NAME = "video.avi"
 FRAMES_DIR = "frames"  # PNG fallback when FFV1 cannot be written
@@ -48,6 +54,8 @@ META_NAME = "scene.json"
 @dataclass(frozen=True)
 class SceneConfig:
     """Everything that defines a synthetic scene; the same config always renders the same scene."""
+
+    generator: ClassVar[str] = "objects"  # scene.json's "generator" for this kind of config
 
     width: int = 320  # px
     height: int = 240  # px
@@ -104,7 +112,10 @@ class SceneConfig:
 
 @dataclass(frozen=True)
 class GroundTruthBox:
-    """One object's full box in one frame (image px) and the visible fraction of its pixels."""
+    """One object's box in one frame (image px) and the visible fraction of its pixels.
+
+    ``conf`` is the MOTChallenge gt.txt flag: 1 = score it, 0 = ignore it (street scenes set 0
+    for boxes that are barely visible)."""
 
     frame: int  # 0-based frame index
     object_id: int  # >= 1
@@ -113,6 +124,7 @@ class GroundTruthBox:
     width: float
     height: float
     visibility: float  # [0, 1]
+    conf: int = 1
 
 
 @dataclass
@@ -121,10 +133,10 @@ class Scene:
 
     frames: np.ndarray  # (N, H, W, 3) uint8 BGR
     fps: float
-    labels: np.ndarray  # (N, H, W) int32, id of the visible object, 0 = background
+    labels: np.ndarray  # (N, H, W) int32 (street: uint16), id of the visible object, 0 = none
     boxes: list[list[GroundTruthBox]]  # per frame
     jitter: np.ndarray  # (N, 2) int, camera offset (dx, dy) applied to frame n
-    config: SceneConfig | None = None
+    config: SceneConfig | StreetConfig | None = None
 
     @property
     def num_frames(self) -> int:
@@ -425,7 +437,17 @@ def write_scene(scene: Scene, out_dir: str | Path) -> ScenePaths:
     with gt.open("w") as f:
         for frame_boxes in scene.boxes:
             for b in frame_boxes:
-                row = (b.frame + 1, b.object_id, b.x, b.y, b.width, b.height, 1, 1, b.visibility)
+                row = (
+                    b.frame + 1,
+                    b.object_id,
+                    b.x,
+                    b.y,
+                    b.width,
+                    b.height,
+                    b.conf,
+                    1,
+                    b.visibility,
+                )
                 f.write(",".join(f"{v:g}" for v in row) + "\n")
     masks = root / MASKS_DIR
     masks.mkdir(exist_ok=True)
@@ -451,6 +473,7 @@ def write_scene(scene: Scene, out_dir: str | Path) -> ScenePaths:
     meta.write_text(
         json.dumps(
             {
+                "generator": scene.config.generator if scene.config else None,
                 "fps": scene.fps,
                 "num_frames": scene.num_frames,
                 "video": video.name,
@@ -481,24 +504,35 @@ def _read_frames(path: Path) -> np.ndarray:
     return np.stack(readable)
 
 
-def _config_from_dict(data: dict) -> SceneConfig:
+def _config_type(generator: str | None) -> type[SceneConfig] | type[StreetConfig]:
+    if generator in (None, SceneConfig.generator):
+        return SceneConfig
+    if generator == "street":
+        from tracker_ptz_sim.simulation.street import StreetConfig  # imports this module
+
+        return StreetConfig
+    raise ValueError(f"unknown scene generator {generator!r}")
+
+
+def _config_from_dict(data: dict, kind: type[SceneConfig] | type[StreetConfig]) -> Any:
     kwargs: dict[str, Any] = {}
-    for f in fields(SceneConfig):
+    for f in fields(kind):
         if f.name in data:
             value = data[f.name]
             kwargs[f.name] = tuple(value) if isinstance(value, list) else value
-    return SceneConfig(**kwargs)
+    return kind(**kwargs)
 
 
-def _read_mask(path: Path) -> np.ndarray:
+def _read_mask(path: Path, dtype: type[np.integer]) -> np.ndarray:
     mask = cv2.imread(str(path), cv2.IMREAD_UNCHANGED)
     if mask is None:
         raise ValueError(f"{path}: missing or unreadable label mask")
-    return mask.astype(np.int32)
+    return mask.astype(dtype)
 
 
 def load_scene(directory: str | Path) -> Scene:
-    """Read back a scene written by :func:`write_scene` (frames, labels, boxes, jitter, fps)."""
+    """Read back a scene written by :func:`write_scene` (frames, labels, boxes, jitter, fps);
+    labels are int32, or uint16 for street scenes (as generated)."""
     root = Path(directory)
     meta_path = root / META_NAME
     if not meta_path.is_file():
@@ -508,17 +542,21 @@ def load_scene(directory: str | Path) -> Scene:
     n = frames.shape[0]
     if n != meta["num_frames"]:
         raise ValueError(f"{root}: {n} frames in the video, {meta['num_frames']} expected")
-    labels = np.stack([_read_mask(root / MASKS_DIR / f"{i + 1:06d}.png") for i in range(n)])
+    kind = _config_type(meta.get("generator"))
+    dtype = np.uint16 if kind.generator == "street" else np.int32
+    labels = np.stack([_read_mask(root / MASKS_DIR / f"{i + 1:06d}.png", dtype) for i in range(n)])
     boxes: list[list[GroundTruthBox]] = [[] for _ in range(n)]
     for line in (root / GT_PATH).read_text().splitlines():
         if not line.strip():
             continue
-        frame, obj, x, y, w, h, _conf, _cls, vis = line.split(",")
+        frame, obj, x, y, w, h, conf, _cls, vis = line.split(",")
         k = int(frame) - 1
         boxes[k].append(
-            GroundTruthBox(k, int(obj), float(x), float(y), float(w), float(h), float(vis))
+            GroundTruthBox(
+                k, int(obj), float(x), float(y), float(w), float(h), float(vis), int(float(conf))
+            )
         )
-    config = _config_from_dict(meta["config"]) if meta.get("config") else None
+    config = _config_from_dict(meta["config"], kind) if meta.get("config") else None
     return Scene(
         frames,
         float(meta["fps"]),
