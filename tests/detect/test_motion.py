@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 from scipy import ndimage
 
+from tracker_detect.detector import Blob
 from tracker_detect.motion import (
     SEED_KERNEL,
     DetectorConfig,
@@ -15,6 +16,7 @@ from tracker_detect.motion import (
     fill_holes,
     find_blobs,
     largest_blob,
+    merge_stacked,
     motion_mask,
     presence_test,
     structuring_element,
@@ -87,6 +89,26 @@ def test_blobs_in_scene_coordinates_with_pixel_centre_convention():
     assert largest_blob(blobs) is big
     assert len(find_blobs(mask, similarity, view, connectivity=8)) == 2
     assert find_blobs(np.zeros((5, 5), np.uint8), np.ones((5, 5)), View.identity(5, 5)) == []
+
+
+def _blob(x, y, w, h):
+    return Blob(x + w / 2, y + h / 2, Rect(x, y, w, h), float(w * h), w * h, 0.2)
+
+
+def test_stacked_fragments_of_one_person_are_joined():
+    torso, legs = _blob(100, 50, 30, 40), _blob(104, 96, 22, 50)  # 6 px apart, one above the other
+    beside = _blob(140, 60, 30, 80)  # a second person next to the first
+    joined = merge_stacked([torso, legs, beside], max_gap=0.45)
+    assert len(joined) == 2
+    person = next(b for b in joined if b.bbox.x == 100)
+    assert person.bbox == Rect(100, 50, 30, 96) and person.pixel_count == 30 * 40 + 22 * 50
+    expected_y = (torso.centroid_y * torso.pixel_count + legs.centroid_y * legs.pixel_count) / (
+        torso.pixel_count + legs.pixel_count
+    )
+    assert person.centroid_y == pytest.approx(expected_y)
+    assert merge_stacked([torso, legs], max_gap=0.0) == [torso, legs]
+    far_below = _blob(104, 200, 22, 50)  # 110 px below: another object
+    assert len(merge_stacked([torso, far_below], max_gap=0.45)) == 2
 
 
 def test_presence_test_is_0_08_percent_of_the_compared_area():

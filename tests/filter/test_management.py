@@ -142,6 +142,37 @@ def test_m_of_n_confirmation_and_clutter():
         assert not np.any(tracks.status == TrackStatus.CONFIRMED)
 
 
+def _statuses(tracker, xs):
+    """Step a tracker with one detection per frame at (x, 100) for x in xs; every TrackSet."""
+    return [
+        tracker.step(
+            Observation(k * DT, Detections.from_positions(np.array([[x, 100.0]]), size=10))
+        )
+        for k, x in enumerate(xs)
+    ]
+
+
+def test_only_consistent_movers_are_confirmed():
+    rules = {"confirm_travel": 12.0, "confirm_straightness": 0.7}
+    walker = _statuses(multi(**rules), [100.0 + 4.0 * k for k in range(20)])
+    assert walker[3].status.tolist() == [TrackStatus.CONFIRMED]  # 12 px in 3 frames, straight
+    assert walker[-1].straightness[0] == pytest.approx(1.0)
+    # A swaying thing (8 px to and fro, period 8 frames) drifting 0.8 px a frame: 23 px from where
+    # it began after 40 frames, along a path six times longer.
+    sway = [100.0 + 0.8 * k + 8.0 * np.sin(2 * np.pi * k / 8) for k in range(40)]
+    tracks = _statuses(multi(**rules), sway)
+    assert not any(np.any(t.status == TrackStatus.CONFIRMED) for t in tracks)
+    assert tracks[-1].ids.tolist() == [1]  # one track all along, kept tentative
+    assert tracks[-1].travel[0] > 12.0 and tracks[-1].straightness[0] < 0.2
+    # Without the straightness rule the same sway is taken for a mover.
+    lenient = _statuses(multi(confirm_travel=12.0), sway)
+    assert lenient[-1].status.tolist() == [TrackStatus.CONFIRMED]
+    # A thing that stays put is dropped when the travel window ends, never confirmed.
+    still = _statuses(multi(**rules, confirm_travel_window=10), [100.0] * 12)
+    assert [t.status.tolist() for t in still[8:10]] == [[0], [TrackStatus.LOST]]  # 10th frame
+    assert not any(np.any(t.status == TrackStatus.CONFIRMED) for t in still)
+
+
 def test_many_targets_with_clutter_keep_their_ids():
     # paths that stay clear of the borders: a bounce reverses a target within one frame, which a
     # constant-velocity gate cannot follow (the track is lost and restarted under a new id)

@@ -36,6 +36,7 @@ from tracker_detect.motion import (
     MotionDetector,
     fill_holes,
     find_blobs,
+    merge_stacked,
     paste_map,
     presence_test,
 )
@@ -61,6 +62,7 @@ class BackgroundConfig:
     shrink_size: int = 3  # px, elliptic erosion that undoes the SSIM window's spread (1: none)
     connectivity: int = 8
     min_blob_area: float = 60.0  # scene px^2; smaller blobs are dropped
+    merge_gap: float = 0.0  # join stacked blobs this close (x the taller's height; 0: never)
     presence_fraction: float = 0.0008  # presence test, as the seed
     auto_downsample: bool = True
     ssim: SsimParams = field(default_factory=SsimParams)
@@ -88,6 +90,8 @@ class BackgroundConfig:
                 found.append(f"{name} must be odd and >= 1, got {getattr(self, name)}")
         if self.connectivity not in (4, 8):
             found.append(f"connectivity must be 4 or 8, got {self.connectivity}")
+        if not (math.isfinite(self.merge_gap) and 0.0 <= self.merge_gap <= 10.0):
+            found.append(f"merge_gap must be in [0, 10], got {self.merge_gap}")
         if not (math.isfinite(self.min_blob_area) and self.min_blob_area >= 0):
             found.append(f"min_blob_area must be >= 0, got {self.min_blob_area}")
         return found
@@ -170,11 +174,8 @@ class BackgroundDetector:
         moving = self._clean((different & changing).astype(np.uint8), shrink=False)
         self.mosaic.update(view, gray, rate, moving)
         mask = self._clean(foreground.astype(np.uint8))
-        blobs = [
-            b
-            for b in find_blobs(mask, similarity, view, c.connectivity)
-            if b.area >= c.min_blob_area
-        ]
+        found = merge_stacked(find_blobs(mask, similarity, view, c.connectivity), c.merge_gap)
+        blobs = [b for b in found if b.area >= c.min_blob_area]
         compared = int(np.count_nonzero(judged))
         present = presence_test(sum(b.pixel_count for b in blobs), compared, c.presence_fraction)
         return Detection(

@@ -250,6 +250,13 @@ BACKGROUND_PARAMETERS: tuple[ParamSpec, ...] = (
         "min_blob_area", _B.min_blob_area, "drop blobs smaller than this [scene px^2]", 0.0, 1e9
     ),
     ParamSpec(
+        "merge_gap",
+        _B.merge_gap,
+        "join blobs stacked one above the other this close [x the taller's height] (0: never)",
+        0.0,
+        10.0,
+    ),
+    ParamSpec(
         "presence_fraction",
         _B.presence_fraction,
         "presence test: total blob area >= this fraction of the judged area",

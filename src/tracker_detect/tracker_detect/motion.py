@@ -14,6 +14,7 @@ shared detector types of `tracker_detect.detector`.
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections import deque
 from collections.abc import Sequence
@@ -34,6 +35,7 @@ from tracker_detect.registration import (
     ssim_shift_search,
 )
 from tracker_detect.ssim import SsimParams, auto_downsample_factor, ssim_map
+from tracker_msgs_py.geometry import Rect
 from tracker_msgs_py.params import check_config
 
 #: The seed's dilation element H (Principal.m), a 7x7 "diamond".
@@ -133,6 +135,49 @@ def find_blobs(
         )
     blobs.sort(key=lambda b: (-b.pixel_count, b.centroid_y, b.centroid_x))
     return blobs
+
+
+def merge_stacked(blobs: Sequence[Blob], max_gap: float) -> list[Blob]:
+    """Join blobs stacked one above the other, largest first: a person whose clothes match the
+    ground in the middle falls apart into head-and-shoulders and legs. Two blobs are stacked when
+    the narrower overlaps the other horizontally by at least half its width and the vertical gap
+    between them is at most `max_gap` x the taller one's height (0: nothing is joined)."""
+    merged = list(blobs)
+    if max_gap <= 0:
+        return merged
+    joined = True
+    while joined:
+        joined = False
+        for i, j in itertools.combinations(range(len(merged)), 2):
+            if _stacked(merged[i].bbox, merged[j].bbox, max_gap):
+                union = _union(merged[i], merged[j])
+                merged = [b for k, b in enumerate(merged) if k not in (i, j)] + [union]
+                joined = True
+                break
+    merged.sort(key=lambda b: (-b.pixel_count, b.centroid_y, b.centroid_x))
+    return merged
+
+
+def _stacked(a: Rect, b: Rect, max_gap: float) -> bool:
+    overlap = min(a.x + a.width, b.x + b.width) - max(a.x, b.x)
+    gap = max(a.y, b.y) - min(a.y + a.height, b.y + b.height)
+    return overlap >= 0.5 * min(a.width, b.width) and gap <= max_gap * max(a.height, b.height)
+
+
+def _union(a: Blob, b: Blob) -> Blob:
+    """One blob of the pixels of both."""
+    n = a.pixel_count + b.pixel_count
+    x0, y0 = min(a.bbox.x, b.bbox.x), min(a.bbox.y, b.bbox.y)
+    x1 = max(a.bbox.x + a.bbox.width, b.bbox.x + b.bbox.width)
+    y1 = max(a.bbox.y + a.bbox.height, b.bbox.y + b.bbox.height)
+    return Blob(
+        (a.centroid_x * a.pixel_count + b.centroid_x * b.pixel_count) / n,
+        (a.centroid_y * a.pixel_count + b.centroid_y * b.pixel_count) / n,
+        Rect(x0, y0, x1 - x0, y1 - y0),
+        a.area + b.area,
+        n,
+        (a.score * a.pixel_count + b.score * b.pixel_count) / n,
+    )
 
 
 def largest_blob(blobs: Sequence[Blob]) -> Blob | None:

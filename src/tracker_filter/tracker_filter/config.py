@@ -71,6 +71,7 @@ _MULTI: dict[str, Any] = {
     "confirm_window": 4,
     "confirm_travel": 0.0,
     "confirm_travel_window": 30,
+    "confirm_straightness": 0.0,
     "max_misses": 12,
     "selection_policy": "longest_lived",
     "min_lock_time": 2.0,
@@ -139,6 +140,13 @@ TRACKING_PARAMETERS: tuple[ParamSpec, ...] = (
         1,
         10000,
     ),
+    _spec(
+        "confirm_straightness",
+        "net distance / path of a tentative track's detections needed to confirm it (0: no need; "
+        "a walker is near 1, a flutter in place near 0)",
+        0.0,
+        1.0,
+    ),
     _spec("max_misses", "consecutive missed frames before a track is lost", 1, 10000),
 )
 
@@ -169,6 +177,7 @@ _SEED000 = _MULTI | {
     "confirm_hits": 1,
     "confirm_window": 1,
     "confirm_travel": 0.0,
+    "confirm_straightness": 0.0,
     "max_misses": 4,
     "selection_policy": "largest_blob",
     "min_lock_time": 0.0,
@@ -194,6 +203,7 @@ class TrackerConfig:
     confirm_window: int
     confirm_travel: float
     confirm_travel_window: int
+    confirm_straightness: float
     max_misses: int
     selection_policy: SelectionPolicy
     min_lock_time: float
@@ -227,6 +237,7 @@ class TrackerConfig:
             confirm_window=params["confirm_window"],
             confirm_travel=params["confirm_travel"],
             confirm_travel_window=params["confirm_travel_window"],
+            confirm_straightness=params["confirm_straightness"],
             max_misses=params["max_misses"],
             selection_policy=AUTOMATIC_POLICIES[params["selection_policy"]],
             min_lock_time=params["min_lock_time"],
@@ -251,6 +262,7 @@ class TrackerConfig:
                 self.confirm_window,
                 self.confirm_travel,
                 self.confirm_travel_window,
+                self.confirm_straightness,
             ),
             MissCountDeleter(self.max_misses),
             LargestDetection() if self.measurements == "largest" else AllDetections(),

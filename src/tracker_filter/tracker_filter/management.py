@@ -70,24 +70,36 @@ class CappedInitiator:
 
 class MofNConfirmation:
     """A tentative track is confirmed once it has M hits within its first N frames and, when
-    `min_travel` > 0, has moved at least that far (px) from where it was initiated: a thing that
-    flutters in place is not a mover. It fails (is deleted) as soon as it can no longer get
-    there: too few hits for M of N, or not travelled within `travel_window` frames."""
+    `min_travel` > 0, has moved at least that far (px) from where it was initiated, at least
+    `min_straightness` of the way its detections went directly (net distance / path): a thing that
+    flutters, sways or flickers in place is not a mover. It fails (is deleted) as soon as it can no
+    longer get there: too few hits for M of N, or not travelled within `travel_window` frames."""
 
     def __init__(
-        self, hits: int = 3, window: int = 4, min_travel: float = 0.0, travel_window: int = 30
+        self,
+        hits: int = 3,
+        window: int = 4,
+        min_travel: float = 0.0,
+        travel_window: int = 30,
+        min_straightness: float = 0.0,
     ) -> None:
         if not 1 <= hits <= window:
             raise ValueError(f"confirmation needs 1 <= M <= N, got M = {hits}, N = {window}")
         if not min_travel >= 0 or travel_window < 1:
             raise ValueError("min_travel must be >= 0 px and travel_window >= 1 frame")
+        if not 0.0 <= min_straightness <= 1.0:
+            raise ValueError(f"min_straightness must be in [0, 1], got {min_straightness}")
         self.hits, self.window = hits, window
         self.min_travel, self.travel_window = min_travel, travel_window
+        self.min_straightness = min_straightness
 
-    def confirmed(self, hits: np.ndarray, frames: np.ndarray, travel: np.ndarray) -> np.ndarray:
+    def confirmed(
+        self, hits: np.ndarray, frames: np.ndarray, travel: np.ndarray, straightness: np.ndarray
+    ) -> np.ndarray:
         # A tentative track older than N frames has had its M hits (else it failed), so only
         # the travel can still be missing.
-        return (hits >= self.hits) & (travel >= self.min_travel)
+        moved = (travel >= self.min_travel) & (straightness >= self.min_straightness)
+        return (hits >= self.hits) & moved
 
     def failed(self, hits: np.ndarray, frames: np.ndarray, travel: np.ndarray) -> np.ndarray:
         stalled = (frames >= self.travel_window) & (travel < self.min_travel)
@@ -180,8 +192,10 @@ class TrackManager:
         rows, cols = association.tracks, association.measurements
         self.bank.update(rows, detections.positions[cols])
         updated = book.record_frame(rows, cols, detections, self.layout.positions(self.bank.means))
-        travel = book.travel(self.layout.positions(self.bank.means))
-        book.confirm(self.confirmation.confirmed(book.hits, book.frames, travel))
+        travel = book.measured_travel()
+        book.confirm(
+            self.confirmation.confirmed(book.hits, book.frames, travel, book.straightness())
+        )
 
         lost = self.deleter.lost(book.misses, book.confirmed) | (
             ~book.confirmed & self.confirmation.failed(book.hits, book.frames, travel)
@@ -194,7 +208,9 @@ class TrackManager:
         if len(new):
             self.bank.add(detections.positions[new])
             ones = np.ones(len(new), dtype=np.int64)
-            confirmed = self.confirmation.confirmed(ones, ones, np.zeros(len(new)))
+            confirmed = self.confirmation.confirmed(
+                ones, ones, np.zeros(len(new)), np.ones(len(new))
+            )
             book.add(t, detections, new, confirmed)
         updated = np.concatenate([updated, np.ones(len(new), dtype=bool)])
         lost = np.concatenate([lost, np.zeros(len(new), dtype=bool)])

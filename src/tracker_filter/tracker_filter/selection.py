@@ -7,8 +7,9 @@ COASTING) every frame:
 - LONGEST_LIVED: track age;
 - NEAREST_CENTRE: minus the distance to the camera view centre (PtzState.window's centre);
   without a known view centre it falls back to LONGEST_LIVED;
-- FARTHEST_TRAVELLED: distance from where the track started, so a person walking through wins
-  over a thing that flutters, sways or flickers in place however long it lives.
+- FARTHEST_TRAVELLED: distance from where the track started, times how directly it got there
+  (`TrackSet.straightness`), so a person walking through wins over a thing that flutters, sways or
+  flickers in place however long it lives and however far its blob wanders.
 
 Hysteresis: once locked, the selector keeps its track for at least `min_lock_time` seconds (scene
 time) and afterwards switches only to a track scoring better by `switch_margin` x |current score|;
@@ -196,8 +197,9 @@ class TargetSelector:
             return tracks.areas.astype(float)
         if self.policy is SelectionPolicy.NEAREST_CENTRE and view_centre is not None:
             return -np.hypot(*(tracks.positions - np.asarray(view_centre, dtype=float)).T)
-        if self.policy is SelectionPolicy.FARTHEST_TRAVELLED and tracks.travel is not None:
-            return tracks.travel.astype(float)
+        if self.policy is SelectionPolicy.FARTHEST_TRAVELLED:
+            assert tracks.travel is not None and tracks.straightness is not None  # __post_init__
+            return tracks.travel * tracks.straightness
         return tracks.ages.astype(float)
 
     def _update_automatic(

@@ -96,6 +96,7 @@ class TrackSet:
     detections: np.ndarray
     rejections: dict[str, int] = field(default_factory=dict)  # invalid detections dropped, by cause
     travel: np.ndarray | None = None  # px from where each track started (None: all 0)
+    straightness: np.ndarray | None = None  # net distance / path of its detections (None: all 1)
     layout: StateLayout = field(init=False)
 
     def __post_init__(self) -> None:
@@ -105,6 +106,8 @@ class TrackSet:
         object.__setattr__(self, "state_layout", layout.names)
         if self.travel is None:
             object.__setattr__(self, "travel", np.zeros(len(self.ids)))
+        if self.straightness is None:
+            object.__setattr__(self, "straightness", np.ones(len(self.ids)))
 
     def __len__(self) -> int:
         return len(self.ids)
@@ -230,6 +233,8 @@ class TrackBook:
         self.bboxes = np.zeros((0, 4))
         self.anchors = np.zeros((0, AXES))  # estimated position when the box was measured
         self.origins = np.zeros((0, AXES))  # the initiating detection's position
+        self.measured = np.zeros((0, AXES))  # the last associated detection's position
+        self.path = np.zeros(0)  # px walked from detection to associated detection
         self.areas = np.zeros(0)
 
     def reset(self, reset_ids: bool = False) -> int:
@@ -263,12 +268,27 @@ class TrackBook:
         self.bboxes[rows] = detections.bboxes[cols]
         self.areas[rows] = detections.areas[cols]
         self.anchors[rows] = positions[rows]
+        self.path[rows] += np.hypot(*(detections.positions[cols] - self.measured[rows]).T)
+        self.measured[rows] = detections.positions[cols]
         return updated
 
     def travel(self, positions: np.ndarray) -> np.ndarray:
         """Distance (px) of every track's `positions` (N, 2) from where it was initiated."""
         result: np.ndarray = np.hypot(*(positions - self.origins).T)
         return result
+
+    def measured_travel(self) -> np.ndarray:
+        """Distance (px) from each track's first detection to its last associated one (what the
+        thing did, not what its filter predicts)."""
+        result: np.ndarray = np.hypot(*(self.measured - self.origins).T)
+        return result
+
+    def straightness(self) -> np.ndarray:
+        """Per track, how directly its detections moved: the distance from the first to the last
+        divided by the path through all of them (1 for a walker, near 0 for a flutter in place;
+        1 before a track has moved)."""
+        net = self.measured_travel()
+        return np.divide(net, self.path, out=np.ones(len(self)), where=self.path > 0)
 
     def confirm(self, confirmed: np.ndarray) -> None:
         """Tracks that pass the confirmation rule this frame stay confirmed."""
@@ -291,6 +311,8 @@ class TrackBook:
         self.bboxes = np.concatenate([self.bboxes, detections.bboxes[new]])
         self.anchors = np.concatenate([self.anchors, detections.positions[new]])
         self.origins = np.concatenate([self.origins, detections.positions[new]])
+        self.measured = np.concatenate([self.measured, detections.positions[new]])
+        self.path = np.concatenate([self.path, np.zeros(count)])
         self.areas = np.concatenate([self.areas, detections.areas[new]])
 
     def snapshot(
@@ -329,6 +351,7 @@ class TrackBook:
             detections=self.detections.copy(),
             rejections=rejections,
             travel=self.travel(layout.positions(means)),
+            straightness=self.straightness(),
         )
 
     def keep(self, mask: np.ndarray) -> None:
@@ -341,6 +364,8 @@ class TrackBook:
             "bboxes",
             "anchors",
             "origins",
+            "measured",
+            "path",
             "areas",
         ):
             setattr(self, name, getattr(self, name)[mask])

@@ -22,6 +22,7 @@ from __future__ import annotations
 import argparse
 import hashlib
 import json
+import math
 import sys
 import time
 from dataclasses import asdict, dataclass, replace
@@ -56,6 +57,7 @@ class RunScores:
     frames: int
     seconds: float  # wall time of the run (rendering the scene excluded)
     scores: dict[str, Any]
+    seed: int = 0  # the scene's seed
 
 
 def background_image(kind: str) -> tuple[np.ndarray | None, str]:
@@ -110,10 +112,10 @@ def benchmark_one(
     scene_dir: Path,
     scene: Scene,
     configuration: str,
+    overrides: dict[str, dict[str, Any]],
     path: str,
     out: Path,
 ) -> RunScores:
-    overrides = CONFIGURATIONS[configuration]
     run_dir = out / "runs" / f"{scene_name}-{configuration}-{path}"
     run_dir.mkdir(parents=True, exist_ok=True)
     started = time.perf_counter()
@@ -130,24 +132,43 @@ def benchmark_one(
     return RunScores(scene_name, configuration, path, scores["frames"], seconds, scores)
 
 
+def _merged(
+    base: dict[str, dict[str, Any]], extra: dict[str, dict[str, Any]]
+) -> dict[str, dict[str, Any]]:
+    return {node: {**base.get(node, {}), **extra.get(node, {})} for node in {*base, *extra}}
+
+
 def table(results: list[RunScores]) -> str:
-    """The results as one Markdown table."""
+    """The results as one Markdown table: per scene preset, configuration and path, the mean over
+    the preset's seeds (object changes summed)."""
     header = (
-        "| scene | configuration | path | view MOTA | view IDF1 | view HOTA | scene MOTA | "
+        "| scene | configuration | path | runs | view MOTA | view IDF1 | view HOTA | scene MOTA | "
         "scene IDF1 | scene HOTA | target on object | object changes (unexplained) | "
         "centring error | frames/s |"
     )
     lines = [header, "|" + "---|" * (header.count("|") - 1)]
+    groups: dict[tuple[str, str, str], list[RunScores]] = {}
     for r in results:
-        v, s, p = r.scores["in_view"], r.scores["whole_scene"], r.scores["pan_tilt"]
-        error = p["mean_center_error_px"]
+        groups.setdefault((r.scene, r.configuration, r.path), []).append(r)
+    for (scene, configuration, path), runs in groups.items():
+
+        def mean(part: str, name: str, runs: list[RunScores] = runs) -> float:
+            values = [r.scores[part][name] for r in runs]
+            finite = [v for v in values if v is not None and v == v]
+            return float(np.mean(finite)) if finite else math.nan
+
+        changes = sum(r.scores["pan_tilt"]["followed_changes"] for r in runs)
+        unexplained = sum(r.scores["pan_tilt"]["unexplained_changes"] for r in runs)
+        error = mean("pan_tilt", "mean_center_error_px")
+        speed = sum(r.frames for r in runs) / sum(r.seconds for r in runs)
         lines.append(
-            f"| {r.scene} | {r.configuration} | {r.path} | {v['mota']:.3f} | {v['idf1']:.3f} | "
-            f"{v['hota']:.3f} | {s['mota']:.3f} | {s['idf1']:.3f} | {s['hota']:.3f} | "
-            f"{100 * p['on_object_share']:.1f} % | {p['followed_changes']} "
-            f"({p['unexplained_changes']}) | "
-            + ("n/a" if error is None or error != error else f"{error:.0f} px")
-            + f" | {r.frames / r.seconds:.1f} |"
+            f"| {scene} | {configuration} | {path} | {len(runs)} | {mean('in_view', 'mota'):.3f} | "
+            f"{mean('in_view', 'idf1'):.3f} | {mean('in_view', 'hota'):.3f} | "
+            f"{mean('whole_scene', 'mota'):.3f} | {mean('whole_scene', 'idf1'):.3f} | "
+            f"{mean('whole_scene', 'hota'):.3f} | "
+            f"{100 * mean('pan_tilt', 'on_object_share'):.1f} % | {changes} ({unexplained}) | "
+            + ("n/a" if math.isnan(error) else f"{error:.0f} px")
+            + f" | {speed:.1f} |"
         )
     return "\n".join(lines)
 
@@ -162,9 +183,22 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--graph", action="store_true", help="also run through the node graph")
     parser.add_argument("--frames", type=int, help="shorten every scene to this many frames")
     parser.add_argument(
+        "--seeds", type=int, default=3, help="scenes per preset (its seed, seed + 1, ...)"
+    )
+    parser.add_argument(
         "--background", choices=("vtest", "generated"), default="vtest", help="scene background"
     )
+    parser.add_argument(
+        "--set",
+        action="append",
+        default=[],
+        metavar="NODE.PARAM=VALUE",
+        help="override a parameter in every configuration",
+    )
     args = parser.parse_args(argv)
+    from tracker_ptz_sim.bringup.demo import parse_overrides
+
+    extra = parse_overrides(args.set)
     scene_names = args.scenes or list(street.STREET_PRESETS)
     configurations = args.configs or list(CONFIGURATIONS)
     paths = PATHS if args.graph else PATHS[:1]
@@ -172,17 +206,23 @@ def main(argv: list[str] | None = None) -> int:
     background, described = background_image(args.background)
     results: list[RunScores] = []
     for name in scene_names:
-        config = street.STREET_PRESETS[name]
-        if args.frames:
-            config = replace(config, num_frames=args.frames)
-        scene_dir = prepare_scene(name, config, background, args.out / "scenes")
-        scene = load_scene(scene_dir)
-        for configuration in configurations:
-            for path in paths:
-                print(f"{name} / {configuration} / {path} ...", flush=True)
-                result = benchmark_one(name, scene_dir, scene, configuration, path, args.out)
-                print(scoring.format_scores(result.scores), flush=True)
-                results.append(result)
+        for k in range(args.seeds):
+            preset = street.STREET_PRESETS[name]
+            config = replace(
+                preset, seed=preset.seed + k, num_frames=args.frames or preset.num_frames
+            )
+            scene_dir = prepare_scene(name, config, background, args.out / "scenes")
+            scene = load_scene(scene_dir)
+            for configuration in configurations:
+                for path in paths:
+                    label = f"{name}-{config.seed}"
+                    print(f"{label} / {configuration} / {path} ...", flush=True)
+                    overrides = _merged(CONFIGURATIONS[configuration], extra)
+                    result = benchmark_one(
+                        label, scene_dir, scene, configuration, overrides, path, args.out
+                    )
+                    results.append(replace(result, scene=name, seed=config.seed))
+                    print(scoring.format_scores(result.scores), flush=True)
     text = table(results)
     note = f"Scenes over: {described}; {args.out}/runs/* hold each run's tracks, scores and plots."
     (args.out / "table.md").write_text(text + "\n\n" + note + "\n")

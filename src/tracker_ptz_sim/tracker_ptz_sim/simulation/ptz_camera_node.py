@@ -160,8 +160,11 @@ class PtzCameraNode(SuiteNode):
                 self.model.command(command)
             else:
                 self.early_commands.append(command)  # before the first image: applied at start
-        # Even a rejected command acknowledges its image: the controller did answer it.
-        self.last_command_ns = max(self.last_command_ns, stamp_to_ns(msg.header.stamp))
+        # Even a rejected command acknowledges its image: the controller did answer it. One
+        # stamped after the newest image answers another epoch's image and acknowledges nothing.
+        stamp = stamp_to_ns(msg.header.stamp)
+        if self.last_image_ns is None or stamp <= self.last_image_ns:
+            self.last_command_ns = max(self.last_command_ns, stamp)
         self._process_pending()
 
     def _command_from(self, msg: PtzCommandMsg) -> PtzCommand | None:

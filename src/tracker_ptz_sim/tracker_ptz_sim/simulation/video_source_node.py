@@ -134,6 +134,7 @@ class VideoSourceNode(SuiteNode):
             else None
         )
         self.acked_ns = -1
+        self.published_ns = -1  # stamp of the newest frame published (set before it goes out)
         self.ack_event = threading.Event()
         self.pace_event = threading.Event()
         self.pacer = Pacer(self.params["rate"])
@@ -146,6 +147,10 @@ class VideoSourceNode(SuiteNode):
 
     def _on_ack(self, msg: PtzCommand) -> None:
         stamp = stamp_to_ns(msg.header.stamp)
+        # An acknowledgement stamped after every frame published answers another replay (the one
+        # before a restart, still draining the graph): taken, it would let frames through unanswered.
+        if stamp > self.published_ns:
+            return
         if stamp > self.acked_ns:
             self.acked_ns = stamp
             self.ack_event.set()
@@ -237,6 +242,9 @@ class VideoSourceNode(SuiteNode):
             self.pace_event.wait(delay)
 
     def _publish(self, frame: Frame, stamp_ns: int) -> None:
+        if stamp_ns <= self.published_ns:
+            self.acked_ns = -1  # time went back (a loop): older acknowledgements answer nothing
+        self.published_ns = stamp_ns
         stamp = ns_to_stamp(stamp_ns)
         if self.clock_pub is not None:
             self.clock_pub.publish(Clock(clock=stamp))
