@@ -1,4 +1,9 @@
-"""The detector against the ground truth of synthetic scenes (tracker_ptz_sim.simulation.scenes).
+"""Ego-motion compensation of seed 000's k - gap SSIM detector, against synthetic scenes.
+
+These overlap counts say whether compensation keeps the moving camera's own motion out of the
+mask (with it off, precision collapses); they are not box accuracy: a k - gap blob covers the old
+and the new position. Box-level accuracy (IoU >= 0.5 against the visible box) is asserted in
+test_background_detector.py and measured by the benchmark (`make benchmark`).
 
 A camera window is sliced from each scene frame along a known path, so the true window shift is
 exact. Scores, pooled over all compared frames:
