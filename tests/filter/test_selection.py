@@ -1,5 +1,7 @@
 """Target selection: the policies, hysteresis, and the manual modes of the select_target service."""
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -130,3 +132,13 @@ def test_auto_request_and_configuration():
         selector.configure(SelectionPolicy.MANUAL_ID, 1.0, 0.2)
     with pytest.raises(ValueError, match="min_lock_time"):
         selector.configure(SelectionPolicy.LONGEST_LIVED, -1.0, 0.2)
+
+
+def test_a_target_coasting_too_long_is_let_go():
+    coasting = track_set(5.0, [1, 2], [[0, 0], [50, 0]], status=[K, C], ages=[9, 1])
+    coasting = dataclasses.replace(coasting, misses=np.array([3, 0]))
+    assert TargetSelector(SelectionPolicy.LONGEST_LIVED).update(coasting).track_id == 1
+    strict = TargetSelector(SelectionPolicy.LONGEST_LIVED, max_misses=2)
+    assert strict.update(coasting).track_id == 2  # its prediction has strayed: follow the other
+    alone = track_set(5.0, [1], [[0, 0]], status=[K])
+    assert strict.update(dataclasses.replace(alone, misses=np.array([3]))) is None

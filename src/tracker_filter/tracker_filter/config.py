@@ -77,6 +77,7 @@ _MULTI: dict[str, Any] = {
     "min_lock_time": 2.0,
     "switch_margin": 0.2,
     "lead_time": SEED_CYCLE,
+    "target_max_misses": 10000,
 }
 
 
@@ -155,6 +156,12 @@ SELECTION_PARAMETERS: tuple[ParamSpec, ...] = (
     _spec("min_lock_time", "s, shortest time on a target before switching to another", 0.0, 3600.0),
     _spec("switch_margin", "relative score advantage needed to switch targets", 0.0, 100.0),
     _spec("lead_time", "s, horizon of the target's predicted position", 0.0, 10.0),
+    _spec(
+        "target_max_misses",
+        "frames a target may coast (no detection) before the camera stops following it",
+        0,
+        10000,
+    ),
 )
 
 #: The target selection's defaults, whatever the tracker.
@@ -164,7 +171,9 @@ SELECTION_DEFAULTS: dict[str, Any] = {spec.name: spec.default for spec in SELECT
 PARAMETERS: tuple[ParamSpec, ...] = TRACKING_PARAMETERS + SELECTION_PARAMETERS
 
 #: Parameters that take effect without rebuilding the tracker (the others clear its tracks).
-LIVE_PARAMETERS = frozenset({"selection_policy", "min_lock_time", "switch_margin", "lead_time"})
+LIVE_PARAMETERS = frozenset(
+    {"selection_policy", "min_lock_time", "switch_margin", "lead_time", "target_max_misses"}
+)
 
 _SEED000 = _MULTI | {
     "filter": "alpha_beta",
@@ -209,6 +218,7 @@ class TrackerConfig:
     min_lock_time: float
     switch_margin: float
     lead_time: float
+    target_max_misses: int
 
     @classmethod
     def from_params(cls, params: Mapping[str, Any]) -> TrackerConfig:
@@ -243,6 +253,7 @@ class TrackerConfig:
             min_lock_time=params["min_lock_time"],
             switch_margin=params["switch_margin"],
             lead_time=params["lead_time"],
+            target_max_misses=params["target_max_misses"],
         )
 
     @classmethod
@@ -270,4 +281,6 @@ class TrackerConfig:
         )
 
     def build_selector(self) -> TargetSelector:
-        return TargetSelector(self.selection_policy, self.min_lock_time, self.switch_margin)
+        return TargetSelector(
+            self.selection_policy, self.min_lock_time, self.switch_margin, self.target_max_misses
+        )

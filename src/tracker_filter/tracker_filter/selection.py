@@ -75,12 +75,17 @@ class TargetSelector:
         policy: SelectionPolicy = SelectionPolicy.LONGEST_LIVED,
         min_lock_time: float = 2.0,
         switch_margin: float = 0.2,
+        max_misses: int = 10000,
     ) -> None:
-        self.configure(policy, min_lock_time, switch_margin)
+        self.configure(policy, min_lock_time, switch_margin, max_misses)
         self.reset()
 
     def configure(
-        self, policy: SelectionPolicy, min_lock_time: float, switch_margin: float
+        self,
+        policy: SelectionPolicy,
+        min_lock_time: float,
+        switch_margin: float,
+        max_misses: int = 10000,
     ) -> None:
         policy = SelectionPolicy(policy)
         if policy not in AUTOMATIC_POLICIES.values():
@@ -91,7 +96,10 @@ class TargetSelector:
             raise ValueError(f"min_lock_time must be >= 0 s, got {min_lock_time}")
         if not (math.isfinite(switch_margin) and switch_margin >= 0.0):
             raise ValueError(f"switch_margin must be >= 0, got {switch_margin}")
+        if max_misses < 0:
+            raise ValueError(f"max_misses must be >= 0, got {max_misses}")
         self.policy, self.min_lock_time, self.switch_margin = policy, min_lock_time, switch_margin
+        self.max_misses = max_misses
 
     def reset(self) -> None:
         """Back to the automatic policy with nothing locked."""
@@ -205,9 +213,10 @@ class TargetSelector:
     def _update_automatic(
         self, tracks: TrackSet, view_centre: tuple[float, float] | None
     ) -> Selection | None:
-        candidates = np.flatnonzero(
-            (tracks.status == TrackStatus.CONFIRMED) | (tracks.status == TrackStatus.COASTING)
+        confirmed = (tracks.status == TrackStatus.CONFIRMED) | (
+            tracks.status == TrackStatus.COASTING
         )
+        candidates = np.flatnonzero(confirmed & (tracks.misses <= self.max_misses))
         if candidates.size == 0:
             self.selection = None
             return None

@@ -206,12 +206,13 @@ class TrackerNode(SuiteNode):
     def _build_tracker(self, first_id: int) -> Tracker:
         return self._method.build(self._method_values(self._params), first_id)
 
-    def _selection_settings(self) -> tuple[SelectionPolicy, float, float]:
+    def _selection_settings(self) -> tuple[SelectionPolicy, float, float, int]:
         params = self._params
         return (
             AUTOMATIC_POLICIES[params["selection_policy"]],
             params["min_lock_time"],
             params["switch_margin"],
+            params["target_max_misses"],
         )
 
     def _check_parameters(self, values: dict[str, Any]) -> str | None:

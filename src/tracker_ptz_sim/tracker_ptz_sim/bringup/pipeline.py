@@ -62,7 +62,7 @@ class PipelineSettings:
     detector_values: dict[str, Any]
     tracker_method: str
     tracker_values: dict[str, Any]
-    selection: dict[str, Any]  # selection_policy, min_lock_time, switch_margin, lead_time
+    selection: dict[str, Any]  # the tracker's selection parameters (config.SELECTION_PARAMETERS)
     controller: ControllerConfig
 
     @classmethod
@@ -143,6 +143,7 @@ class InProcessGraph:
             AUTOMATIC_POLICIES[s.selection["selection_policy"]],
             s.selection["min_lock_time"],
             s.selection["switch_margin"],
+            s.selection["target_max_misses"],
         )
         self.controller = PanTiltController(s.controller)
 
