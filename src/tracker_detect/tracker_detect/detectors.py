@@ -9,6 +9,7 @@ registered detector keeps is checked by tests/detect/test_detector_contract.py.
 from __future__ import annotations
 
 from collections.abc import Mapping
+from dataclasses import replace
 from typing import Any
 
 from tracker_detect.background import BackgroundConfig, BackgroundDetector
@@ -175,6 +176,13 @@ DETECTORS.register(
 
 
 _B = BackgroundConfig()
+_SSIM_SPECS = {spec.name: spec for spec in SSIM_PARAMETERS}
+
+
+def _like_ssim(name: str, default: Any) -> ParamSpec:
+    """The `ssim` method's parameter of that name (range, validator, meaning) with this default."""
+    return replace(_SSIM_SPECS[name], default=default)
+
 
 BACKGROUND_PARAMETERS: tuple[ParamSpec, ...] = (
     ParamSpec("threshold", _B.threshold, "SSIM at or below which a pixel is foreground", -1.0, 1.0),
@@ -238,17 +246,8 @@ BACKGROUND_PARAMETERS: tuple[ParamSpec, ...] = (
         51,
         validator=lambda v: None if v % 2 else "shrink_size must be odd",
     ),
-    ParamSpec(
-        "connectivity",
-        _B.connectivity,
-        "blob pixel connectivity (4 or 8)",
-        4,
-        8,
-        validator=lambda v: None if v in (4, 8) else "connectivity must be 4 or 8",
-    ),
-    ParamSpec(
-        "min_blob_area", _B.min_blob_area, "drop blobs smaller than this [scene px^2]", 0.0, 1e9
-    ),
+    _like_ssim("connectivity", _B.connectivity),
+    _like_ssim("min_blob_area", _B.min_blob_area),
     ParamSpec(
         "merge_gap",
         _B.merge_gap,
@@ -256,18 +255,8 @@ BACKGROUND_PARAMETERS: tuple[ParamSpec, ...] = (
         0.0,
         10.0,
     ),
-    ParamSpec(
-        "presence_fraction",
-        _B.presence_fraction,
-        "presence test: total blob area >= this fraction of the judged area",
-        0.0,
-        1.0,
-    ),
-    ParamSpec(
-        "auto_downsample",
-        _B.auto_downsample,
-        "Wang's automatic downsampling, f = round(min(H, W) / 256)",
-    ),
+    _like_ssim("presence_fraction", _B.presence_fraction),
+    _like_ssim("auto_downsample", _B.auto_downsample),
 )
 
 

@@ -45,6 +45,25 @@ def load_mot(path: Path, ignored: bool = False) -> Boxes:
     return boxes
 
 
+def mot_row(frame: int, track_id: int, box: Rect, confidence: float = 1.0) -> str:
+    """One MOTChallenge result row (frame from 1, box in scene px), the reader of `load_mot`."""
+    return (
+        f"{frame},{track_id},{box.x:.2f},{box.y:.2f},{box.width:.2f},{box.height:.2f},"
+        f"{confidence:.3f},-1,-1,-1"
+    )
+
+
+def write_mot(rows: list[str], path: Path) -> int:
+    """Write `mot_row` rows to `path`; how many."""
+    path.write_text("".join(row + "\n" for row in rows))
+    return len(rows)
+
+
+def centre_distance(box: Rect, window: Rect) -> float:
+    """px from a box's centre to the camera window's centre (the centring error)."""
+    return float(np.hypot(box.center[0] - window.center[0], box.center[1] - window.center[1]))
+
+
 def every_object(gt: Path) -> Boxes:
     """Every ground-truth box of a gt.txt, ignored ones included (they are still real objects)."""
     boxes = load_mot(gt, ignored=True)

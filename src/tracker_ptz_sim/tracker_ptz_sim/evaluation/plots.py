@@ -11,7 +11,7 @@ import matplotlib
 matplotlib.use("Agg")  # files only: no display on robots and CI machines
 import matplotlib.pyplot as plt  # noqa: E402 - after choosing the backend
 
-from tracker_ptz_sim.evaluation.metrics import Boxes  # noqa: E402
+from tracker_ptz_sim.evaluation.metrics import Boxes, centre_distance  # noqa: E402
 from tracker_ptz_sim.evaluation.scoring import RunTrace, followed_objects  # noqa: E402
 
 
@@ -48,6 +48,4 @@ def _centring_error(trace: RunTrace, truth: Boxes, followed: dict[int, int], fra
     """The followed object's distance from the view centre; NaN when no object is followed."""
     if frame not in followed:
         return math.nan
-    box = truth[frame][followed[frame]]
-    window = trace.windows[frame]
-    return math.hypot(box.center[0] - window.center[0], box.center[1] - window.center[1])
+    return centre_distance(truth[frame][followed[frame]], trace.windows[frame])

@@ -18,6 +18,8 @@ import cv2
 import numpy as np
 
 from tracker_msgs_py.codec import NS_PER_S, decode_image, msg_to_rect, stamp_to_ns
+from tracker_ptz_sim.evaluation.metrics import mot_row
+from tracker_ptz_sim.evaluation.metrics import write_mot as write_mot_rows
 from tracker_ptz_sim.evaluation.recording import read_bag
 
 SCENE, CAMERA = "/scene/image_raw", "/camera/image_raw"
@@ -160,22 +162,15 @@ def frame_numbers(frames: dict[int, FrameRecord]) -> dict[int, int]:
 def write_mot(frames: dict[int, FrameRecord], path: Path) -> int:
     """Confirmed tracks observed in each frame, in MOTChallenge format (coasting predictions are
     not observed boxes, so they are left out, as MOTChallenge trackers do)."""
-    lines = []
     numbers = frame_numbers(frames)
-    for stamp, record in frames.items():
-        number = numbers[stamp]
-        if record.tracks is None:
-            continue
-        for track in record.tracks.tracks:
-            if track.status != OBSERVED:
-                continue
-            box = track.bbox
-            lines.append(
-                f"{number},{track.id},{box.x:.2f},{box.y:.2f},{box.width:.2f},{box.height:.2f},"
-                f"{track.existence:.3f},-1,-1,-1"
-            )
-    path.write_text("\n".join(lines) + ("\n" if lines else ""))
-    return len(lines)
+    rows = [
+        mot_row(numbers[stamp], track.id, msg_to_rect(track.bbox), track.existence)
+        for stamp, record in frames.items()
+        if record.tracks is not None
+        for track in record.tracks.tracks
+        if track.status == OBSERVED
+    ]
+    return write_mot_rows(rows, path)
 
 
 PAIRING_WINDOW = 3  # scene frames kept waiting for their camera image while rendering

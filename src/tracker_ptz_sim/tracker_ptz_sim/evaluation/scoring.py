@@ -44,12 +44,11 @@ class RunTrace:
     def write_mot(self, path: Path) -> int:
         """The observed tracks in MOTChallenge format; how many rows."""
         rows = [
-            f"{frame},{i},{b.x:.2f},{b.y:.2f},{b.width:.2f},{b.height:.2f},1,-1,-1,-1"
+            metrics.mot_row(frame, i, b)
             for frame, boxes in sorted(self.hypotheses.items())
             for i, b in sorted(boxes.items())
         ]
-        path.write_text("".join(row + "\n" for row in rows))
-        return len(rows)
+        return metrics.write_mot(rows, path)
 
 
 def trace_from_frames(frames: dict[int, run_report.FrameRecord]) -> RunTrace:
@@ -143,10 +142,7 @@ def pan_tilt_scores(truth: Boxes, trace: RunTrace) -> PanTiltScores:
             unexplained += still_there and lost_for < REASON_GAP_S
         previous, last_seen[current] = current, frame
         window = trace.windows[frame]
-        box = truth[frame][current]
-        errors.append(
-            math.hypot(box.center[0] - window.center[0], box.center[1] - window.center[1])
-        )
+        errors.append(metrics.centre_distance(truth[frame][current], window))
         shares.append(errors[-1] / window.width)
     first_object = next((f for f in frames if truth.get(f)), None)
     first_lock = next((f for f in frames if f in followed), None)

@@ -84,16 +84,10 @@ class SceneConfig:
     def problems(self) -> list[str]:
         """Why this scene cannot be rendered (empty: it can)."""
         c = self
-        problems: list[str] = []
-        if c.width < 16 or c.height < 16:
-            problems.append(f"scene size must be at least 16x16, got {c.width}x{c.height}")
-        if c.num_frames < 1:
-            problems.append(f"num_frames must be >= 1, got {c.num_frames}")
-        if not (math.isfinite(c.fps) and c.fps > 0):
-            problems.append(f"fps must be positive, got {c.fps}")
-        for name in ("num_objects", "turns", "stops", "num_occluders", "camera_jitter"):
-            if getattr(c, name) < 0:
-                problems.append(f"{name} must be >= 0, got {getattr(c, name)}")
+        problems = clip_problems(c, min_side=16)
+        problems += negative_counts(
+            c, ("num_objects", "turns", "stops", "num_occluders", "camera_jitter")
+        )
         for name in ("object_size_range", "occluder_size_range"):
             lo, hi = getattr(c, name)
             if not 2 <= lo <= hi <= min(c.width, c.height):
@@ -108,6 +102,25 @@ class SceneConfig:
         if c.illumination_drift >= 1.0:
             problems.append(f"illumination_drift must be < 1, got {c.illumination_drift}")
         return problems
+
+
+def clip_problems(config: Any, min_side: int) -> list[str]:
+    """Why a scene config's clip (width, height, num_frames, fps) cannot be rendered."""
+    c, problems = config, []
+    if c.width < min_side or c.height < min_side:
+        problems.append(
+            f"scene size must be at least {min_side}x{min_side}, got {c.width}x{c.height}"
+        )
+    if c.num_frames < 1:
+        problems.append(f"num_frames must be >= 1, got {c.num_frames}")
+    if not (math.isfinite(c.fps) and c.fps > 0):
+        problems.append(f"fps must be positive, got {c.fps}")
+    return problems
+
+
+def negative_counts(config: Any, names: tuple[str, ...]) -> list[str]:
+    """A problem for each of the config's count fields `names` that is negative."""
+    return [f"{n} must be >= 0, got {getattr(config, n)}" for n in names if getattr(config, n) < 0]
 
 
 @dataclass(frozen=True)

@@ -48,7 +48,12 @@ import cv2
 import numpy as np
 
 from tracker_msgs_py.params import check_config
-from tracker_ptz_sim.simulation.scenes import GroundTruthBox, Scene
+from tracker_ptz_sim.simulation.scenes import (
+    GroundTruthBox,
+    Scene,
+    clip_problems,
+    negative_counts,
+)
 
 STATURE_M = 1.7  # the person height the perspective sizes refer to
 STEP_FRACTION = 0.4  # step length / stature
@@ -93,18 +98,10 @@ class StreetConfig:
     def problems(self) -> list[str]:
         """Why this scene cannot be rendered (empty: it can)."""
         c = self
-        problems: list[str] = []
-        if c.width < 64 or c.height < 64:
-            problems.append(f"scene size must be at least 64x64, got {c.width}x{c.height}")
-        if c.num_frames < 1:
-            problems.append(f"num_frames must be >= 1, got {c.num_frames}")
-        if not (math.isfinite(c.fps) and c.fps > 0):
-            problems.append(f"fps must be positive, got {c.fps}")
-        for name in ("walkers", "groups", "crossings", "flutter", "foliage", "flicker"):
-            if getattr(c, name) < 0:
-                problems.append(f"{name} must be >= 0, got {getattr(c, name)}")
-        if c.camera_jitter < 0:
-            problems.append(f"camera_jitter must be >= 0, got {c.camera_jitter}")
+        problems = clip_problems(c, min_side=64)
+        problems += negative_counts(
+            c, ("walkers", "groups", "crossings", "flutter", "foliage", "flicker", "camera_jitter")
+        )
         problems += _perspective_problems(c)
         lo, hi = c.speed_range
         if not (math.isfinite(lo) and math.isfinite(hi) and 0.1 <= lo <= hi <= 10.0):
