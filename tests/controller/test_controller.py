@@ -177,3 +177,41 @@ def test_reentering_track_resets_integral():
     controller.step(1.0, unit.pose(), None)
     command = controller.step(1.1, unit.pose(), target_at(CX + 100.0, CY))
     assert math.isclose(command.pan_rate, 0.0, abs_tol=1e-12)
+
+
+def test_zoom_keeps_the_target_within_the_fill_band():
+    """A person walking towards the camera grows from 60 to 240 px in a view 264 px tall at zoom 1:
+    the controller zooms out, a step of at most zoom_step at a time, once the person fills more than
+    fill_high, until they fill fill_target; when they are small again it zooms back in, and
+    without a target it returns to home_zoom."""
+    config = ControllerConfig(
+        zoom_control=True, fill_low=0.2, fill_high=0.8, fill_target=0.5, max_zoom=2.0
+    )
+    controller = PanTiltController(config)
+    zoom, fills, commands = 1.0, [], []
+    for k in range(60):
+        height = 60.0 + 4.0 * min(k, 45)  # then stands still at 240 px
+        target = TargetEstimate(CX, CY, 0.0, 0.0, CX, CY, height=height)
+        pose = CameraPose(0.0, 0.0, CX, CY, F, zoom, 264.0 / zoom)
+        command = controller.step(k * DT, pose, target)
+        commands.append(command.zoom)
+        if command.zoom:
+            assert 1 / config.zoom_step - 1e-9 <= command.zoom / zoom <= config.zoom_step + 1e-9
+            zoom = command.zoom
+        fills.append(height * zoom / 264.0)
+    assert max(fills) <= config.fill_high * config.zoom_step  # never long out of the band
+    assert fills[-1] == pytest.approx(config.fill_target, abs=0.1)
+    assert zoom == pytest.approx(0.55, abs=0.06)  # 240 px in a 264 px view: zoomed out
+    assert all(c == 0.0 for c in commands[:30])  # 60..176 px fill 0.23..0.67: kept
+    small = TargetEstimate(CX, CY, 0.0, 0.0, CX, CY, height=20.0)
+    command = controller.step(6.1, CameraPose(0.0, 0.0, CX, CY, F, zoom, 264.0 / zoom), small)
+    assert command.zoom == pytest.approx(zoom * config.zoom_step)  # zooms in again
+    at_limit = CameraPose(0.0, 0.0, CX, CY, F, 2.0, 132.0)
+    assert controller.step(6.15, at_limit, small).zoom == 0.0  # ... up to max_zoom
+    lost = controller.step(6.2, CameraPose(0.0, 0.0, CX, CY, F, 1.0, 264.0), None)
+    assert lost.zoom == 0.0  # already at home_zoom
+    away = controller.step(6.3, CameraPose(0.0, 0.0, CX, CY, F, 0.6, 440.0), None)
+    assert away.zoom == pytest.approx(0.6 * config.zoom_step)  # back towards home_zoom 1
+    assert PanTiltController(ControllerConfig()).step(0.0, pose, target).zoom == 0.0  # off
+    with pytest.raises(ValueError, match="fill_low"):
+        PanTiltController(ControllerConfig(fill_low=0.6, fill_target=0.5))

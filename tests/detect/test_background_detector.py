@@ -197,6 +197,25 @@ def test_things_that_move_in_place_are_learned_and_ignored():
     assert flicker_blobs >= 40  # without the flicker map the patch is "motion" in every frame
 
 
+def test_flat_blobs_are_dropped_when_min_aspect_is_set():
+    """A standing object (24 x 50) and a strip lying flat (60 x 8, like barrier tape blown
+    along) both move: with min_aspect 0.5 only the standing one is a blob."""
+    rng = np.random.default_rng(3)
+    base = cv2.GaussianBlur(rng.integers(0, 255, (240, 320), dtype=np.uint8), (0, 0), 2)
+    standing = BackgroundDetector(BackgroundConfig(min_aspect=0.5))
+    everything = BackgroundDetector()
+    for k in range(40):
+        image = base.copy()
+        x = 20 + 5 * k
+        image[140:190, x : x + 24] = 30
+        image[40:48, x + 10 : x + 70] = 220
+        kept = standing.process(CameraFrame(k * NS, image))
+        found = everything.process(CameraFrame(k * NS, image))
+        if k >= 25:  # the first frame's ghosts have healed
+            assert [iou(b.bbox, Rect(x, 140, 24, 50)) >= 0.5 for b in kept.blobs] == [True]
+            assert any(b.bbox.y < 60 and b.bbox.height < b.bbox.width / 2 for b in found.blobs)
+
+
 def test_a_ghost_of_an_object_seen_at_start_fades():
     """An object present in the first frames is learned as background; once it leaves, its old
     place differs from the mosaic but does not change, and heals."""

@@ -7,7 +7,7 @@ import pytest
 
 from tracker_filter.config import TrackerConfig
 from tracker_filter.filters import PerTrackFactory
-from tracker_filter.management import TrackManager
+from tracker_filter.management import MergedSplitter, TrackManager
 from tracker_filter.observation import Detections, Observation
 from tracker_filter.synthetic import bouncing_scene, piecewise_constant_velocity
 from tracker_filter.tracking import OutOfOrderError, TrackStatus
@@ -327,3 +327,67 @@ def test_object_bank_plugs_in_and_gives_the_same_tracks():
         np.testing.assert_array_equal(a.ids, b.ids)
         np.testing.assert_array_equal(a.status, b.status)
         np.testing.assert_allclose(a.means, b.means, rtol=1e-9, atol=1e-8)
+
+
+def test_a_detection_holding_two_tracked_objects_is_split_between_them():
+    splitter = MergedSplitter(min_growth=1.25)
+    merged = Detections(
+        np.array([[130.0, 125.0]]),
+        np.array([4000.0]),
+        np.array([[100.0, 100.0, 60.0, 52.0]]),
+        [0.3],
+    )
+    boxes = np.array([[96.0, 100.0, 24.0, 50.0], [134.0, 101.0, 26.0, 50.0]])  # left, right
+    positions = boxes[:, :2] + boxes[:, 2:] / 2
+    pieces = splitter.split(merged, boxes, positions, np.array([True, True]))
+    assert len(pieces) == 2
+    left, right = pieces.bboxes
+    assert list(left) == [100.0, 100.0, 24.0, 50.0]  # pushed 4 px inside the detection
+    assert list(right) == [134.0, 101.0, 26.0, 50.0]
+    assert pieces.positions[0] == pytest.approx(positions[0] + [4.0, 0.0])
+    assert pieces.areas.sum() == pytest.approx(4000.0)
+    # a tentative track, a head track inside a body track, a detection no bigger than one object:
+    # the detection is one object's
+    assert splitter.split(merged, boxes, positions, np.array([True, False])) is merged
+    nested = np.array([[100.0, 100.0, 60.0, 52.0], [120.0, 100.0, 20.0, 20.0]])
+    assert splitter.split(merged, nested, positions, np.array([True, True])) is merged
+    assert MergedSplitter(min_growth=3.0).split(merged, boxes, positions, np.array([True] * 2)) is (
+        merged
+    )
+
+
+def test_people_walking_past_each_other_keep_their_tracks_while_one_blob():
+    """Two people (24 x 50) walk towards each other, pass and walk on; while their boxes overlap
+    the detector sees one blob. Split by the predicted tracks, both stay observed with their own
+    ids as the blob forms (once one hides the other by half, nothing tells two people from two
+    tracks on one, and one coasts), and both come out of it with their ids."""
+
+    def run(split_merged: float) -> tuple[list[int], dict[int, float]]:
+        tracker = multi(split_merged=split_merged, filter="kalman_cv")
+        observed_while_forming = []
+        for k in range(40):
+            t = k * 0.1
+            a = np.array([40.0 + 40.0 * t, 100.0, 24.0, 50.0])  # walks right
+            b = np.array([240.0 - 40.0 * t, 104.0, 24.0, 50.0])  # walks left
+            if abs(a[0] - b[0]) < 24.0:
+                x0, y0 = min(a[0], b[0]), min(a[1], b[1])
+                x1, y1 = max(a[0], b[0]) + 24.0, max(a[1], b[1]) + 50.0
+                box = np.array([[x0, y0, x1 - x0, y1 - y0]])
+            else:
+                box = np.array([a, b])
+            centres = box[:, :2] + box[:, 2:] / 2
+            tracks = tracker.step(
+                Observation(t, Detections(centres, box[:, 2] * box[:, 3], box, np.zeros(len(box))))
+            )
+            observed = tracks.status == TrackStatus.CONFIRMED
+            if len(box) == 1 and a[0] < b[0] and box[0, 2] >= 1.5 * 24.0:
+                observed_while_forming.append(int(observed.sum()))
+        return observed_while_forming, dict(
+            zip(tracks.ids.tolist(), tracks.bboxes[:, 0], strict=True)
+        )
+
+    forming, last_x = run(1.25)
+    assert forming == [2]
+    assert last_x == pytest.approx({1: 40.0 + 40.0 * 3.9, 2: 240.0 - 40.0 * 3.9})
+    forming, _ = run(0.0)
+    assert forming == [1]

@@ -185,7 +185,12 @@ def test_demo_outputs_bag_mot_and_video(one_walker, servo_run):
 
 def test_search_locks_a_newcomer_then_scans_and_returns_home(tmp_path):
     """An object enters while the camera sweeps: locked within 2 s of entering the view. After it
-    leaves, the camera scans the last region for lost_scan_time, then goes home."""
+    leaves, the camera scans the last region for lost_scan_time, then goes home.
+
+    The object is an ellipse, not a standing person, and its path grazes the bottom of the sweep:
+    the sweep first sees thin slices of it (6-15 px of 44), which the surveillance graph's person
+    prior (min_aspect) rightly takes for something lying flat. This test is about the search,
+    lock, scan and home sequence, so that prior is off here."""
     from tracker_ptz_sim.evaluation import run_report
     from tracker_ptz_sim.evaluation.metrics import load_mot
     from tracker_ptz_sim.evaluation.scoring import windows_and_targets
@@ -210,6 +215,7 @@ def test_search_locks_a_newcomer_then_scans_and_returns_home(tmp_path):
         f"ptz_controller.lost_scan_time={scan_time}",
         f"ptz_controller.home=[{home[0]}, {home[1]}]",
         "ptz_controller.home_dwell_time=100.0",
+        "ssim_detector.min_aspect=0.0",
         mode="servo",
     )
     frames = run_report.collect(out / "bag")

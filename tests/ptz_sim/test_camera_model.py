@@ -121,6 +121,22 @@ def test_zoom_shrinks_the_window_and_keeps_the_output_size():
     assert camera.advance(0.1).zoom == camera.config.max_zoom
 
 
+def test_zoom_below_one_widens_the_window_up_to_the_scene():
+    camera = PtzCameraModel(PtzConfig(min_zoom=0.25), 320, 240)
+    base_w, base_h = camera.base_size
+    camera.command(PtzCommand(0.0, "hold", zoom=0.5))
+    snapshot = camera.advance(0.0)
+    assert (snapshot.window.width, snapshot.window.height) == (2 * base_w, 2 * base_h)
+    assert camera.render(np.zeros((240, 320, 3), np.uint8)).shape[:2] == (base_h, base_w)
+    camera.command(PtzCommand(0.1, "hold", zoom=0.01))  # clamped to min_zoom: the whole height
+    snapshot = camera.advance(0.1)
+    assert snapshot.zoom == 0.25 and snapshot.window.height == 240
+    assert snapshot.window.width == pytest.approx(240 * base_w / base_h, abs=1)
+    assert PtzCameraModel(PtzConfig(), 320, 240).config.min_zoom == 1.0  # the seed cannot widen
+    with pytest.raises(ValueError, match="min_zoom"):
+        PtzCameraModel(PtzConfig(min_zoom=1.5), 320, 240)
+
+
 def test_render_is_an_exact_slice_at_zoom_one():
     camera = model(servo="instant")
     scene = np.random.default_rng(1).integers(0, 255, (H, W, 3), dtype=np.uint8)

@@ -15,7 +15,11 @@ silhouettes:
    place -- tape, leaves, flicker -- and are never foreground;
 4. the mask is closed (joins a silhouette's fragments), hole-filled and shrunk by the SSIM
    window's spread across object edges (1 px), *not dilated*; blobs are its connected
-   components, boxes their tight boxes;
+   components, boxes their tight boxes; blobs flatter than `min_aspect` (height / width) are
+   dropped when it is set (a person stands, a strip of barrier tape or a foot's shadow lies;
+   a blob cut by the view's top or bottom edge needs half that: only a slice of it is in view),
+   then a person's fragments are joined (stacked head and legs: `merge_gap`; a hand or foot
+   beside the body: `satellite_share`);
 5. the mosaic learns the view: quickly (learning_rate) where nothing is foreground, at heal_rate
    where the view differs but does not change (ghosts fade, a stopped object joins the
    background), not at all under movers.
@@ -36,13 +40,20 @@ from tracker_detect.motion import (
     MotionDetector,
     fill_holes,
     find_blobs,
+    merge_satellites,
     merge_stacked,
     paste_map,
     presence_test,
 )
 from tracker_detect.registration import View
 from tracker_detect.ssim import SsimParams, auto_downsample_factor, ssim_map
+from tracker_msgs_py.geometry import Rect
 from tracker_msgs_py.params import check_config
+
+EDGE_MARGIN = (
+    0.08  # share of the view's height within which a blob is cut by its top or bottom (the
+)
+# judged area ends a few px inside the view: SSIM window, erosion)
 
 
 @dataclass(frozen=True)
@@ -63,6 +74,8 @@ class BackgroundConfig:
     connectivity: int = 8
     min_blob_area: float = 60.0  # scene px^2; smaller blobs are dropped
     merge_gap: float = 0.0  # join stacked blobs this close (x the taller's height; 0: never)
+    satellite_share: float = 0.0  # join a blob this much smaller to a big one it touches (0: never)
+    min_aspect: float = 0.0  # height / width below which a blob is dropped (0: keep all)
     presence_fraction: float = 0.0008  # presence test, as the seed
     auto_downsample: bool = True
     ssim: SsimParams = field(default_factory=SsimParams)
@@ -92,6 +105,10 @@ class BackgroundConfig:
             found.append(f"connectivity must be 4 or 8, got {self.connectivity}")
         if not (math.isfinite(self.merge_gap) and 0.0 <= self.merge_gap <= 10.0):
             found.append(f"merge_gap must be in [0, 10], got {self.merge_gap}")
+        if not (math.isfinite(self.satellite_share) and 0.0 <= self.satellite_share <= 1.0):
+            found.append(f"satellite_share must be in [0, 1], got {self.satellite_share}")
+        if not (math.isfinite(self.min_aspect) and 0.0 <= self.min_aspect <= 10.0):
+            found.append(f"min_aspect must be in [0, 10], got {self.min_aspect}")
         if not (math.isfinite(self.min_blob_area) and self.min_blob_area >= 0):
             found.append(f"min_blob_area must be >= 0, got {self.min_blob_area}")
         return found
@@ -174,8 +191,12 @@ class BackgroundDetector:
         moving = self._clean((different & changing).astype(np.uint8), shrink=False)
         self.mosaic.update(view, gray, rate, moving)
         mask = self._clean(foreground.astype(np.uint8))
-        found = merge_stacked(find_blobs(mask, similarity, view, c.connectivity), c.merge_gap)
-        blobs = [b for b in found if b.area >= c.min_blob_area]
+        found = [
+            b
+            for b in find_blobs(mask, similarity, view, c.connectivity)
+            if b.area >= c.min_blob_area and self._upright(b.bbox, view.rect)
+        ]
+        blobs = merge_satellites(merge_stacked(found, c.merge_gap), c.satellite_share)
         compared = int(np.count_nonzero(judged))
         present = presence_test(sum(b.pixel_count for b in blobs), compared, c.presence_fraction)
         return Detection(
@@ -189,6 +210,17 @@ class BackgroundDetector:
             mask=mask,
             history_reset=history_reset,
         )
+
+    def _upright(self, box: Rect, window: Rect) -> bool:
+        """Whether a blob is at least `min_aspect` tall for its width; one cut by the top or
+        bottom of the view (within EDGE_MARGIN of its height) needs only half that: only a slice
+        of it is in view (a strip of tape is flatter still)."""
+        aspect = self.config.min_aspect
+        if box.height >= aspect * box.width:
+            return True
+        margin = EDGE_MARGIN * window.height
+        cut = box.y <= window.y + margin or box.y + box.height >= window.y + window.height - margin
+        return cut and box.height >= 0.5 * aspect * box.width
 
     def _changing(self, gray: np.ndarray, stamp_ns: int, view: View) -> np.ndarray:
         """Pixels whose SSIM against frame k - gap (aligned) is at most the threshold."""

@@ -255,6 +255,21 @@ BACKGROUND_PARAMETERS: tuple[ParamSpec, ...] = (
         0.0,
         10.0,
     ),
+    ParamSpec(
+        "satellite_share",
+        _B.satellite_share,
+        "join a blob with at most this share of a neighbour's pixels to it when their boxes "
+        "touch (a hand or foot split from the body; 0: never)",
+        0.0,
+        1.0,
+    ),
+    ParamSpec(
+        "min_aspect",
+        _B.min_aspect,
+        "drop blobs flatter than this height / width (0: keep all; people stand, tape lies)",
+        0.0,
+        10.0,
+    ),
     _like_ssim("presence_fraction", _B.presence_fraction),
     _like_ssim("auto_downsample", _B.auto_downsample),
 )

@@ -17,7 +17,7 @@ from __future__ import annotations
 import itertools
 import math
 from collections import deque
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
 import cv2
@@ -142,14 +142,33 @@ def merge_stacked(blobs: Sequence[Blob], max_gap: float) -> list[Blob]:
     ground in the middle falls apart into head-and-shoulders and legs. Two blobs are stacked when
     the narrower overlaps the other horizontally by at least half its width and the vertical gap
     between them is at most `max_gap` x the taller one's height (0: nothing is joined)."""
-    merged = list(blobs)
     if max_gap <= 0:
-        return merged
+        return list(blobs)
+    return _join(blobs, lambda a, b: _stacked(a.bbox, b.bbox, max_gap))
+
+
+def merge_satellites(blobs: Sequence[Blob], max_share: float) -> list[Blob]:
+    """Join each small blob to a big one it touches: a swinging hand or a foot that the SSIM
+    window separates from the body. A blob is a satellite of another when it has at most
+    `max_share` of the other's pixels and its box meets the other's box grown by
+    `SATELLITE_REACH` x that box's height on every side (0: nothing is joined). People of a
+    group are of a size, so they stay apart."""
+    if max_share <= 0:
+        return list(blobs)
+    return _join(blobs, lambda a, b: _satellite(a, b, max_share) or _satellite(b, a, max_share))
+
+
+SATELLITE_REACH = 0.1
+
+
+def _join(blobs: Sequence[Blob], belong: Callable[[Blob, Blob], bool]) -> list[Blob]:
+    """Join pairs of blobs that `belong` together until none do; largest first."""
+    merged = list(blobs)
     joined = True
     while joined:
         joined = False
         for i, j in itertools.combinations(range(len(merged)), 2):
-            if _stacked(merged[i].bbox, merged[j].bbox, max_gap):
+            if belong(merged[i], merged[j]):
                 union = _union(merged[i], merged[j])
                 merged = [b for k, b in enumerate(merged) if k not in (i, j)] + [union]
                 joined = True
@@ -162,6 +181,19 @@ def _stacked(a: Rect, b: Rect, max_gap: float) -> bool:
     overlap = min(a.x + a.width, b.x + b.width) - max(a.x, b.x)
     gap = max(a.y, b.y) - min(a.y + a.height, b.y + b.height)
     return overlap >= 0.5 * min(a.width, b.width) and gap <= max_gap * max(a.height, b.height)
+
+
+def _satellite(small: Blob, big: Blob, max_share: float) -> bool:
+    if small.pixel_count > max_share * big.pixel_count:
+        return False
+    reach = SATELLITE_REACH * big.bbox.height
+    s, b = small.bbox, big.bbox
+    return (
+        s.x <= b.x + b.width + reach
+        and b.x - reach <= s.x + s.width
+        and s.y <= b.y + b.height + reach
+        and b.y - reach <= s.y + s.height
+    )
 
 
 def _union(a: Blob, b: Blob) -> Blob:

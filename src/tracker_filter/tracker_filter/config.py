@@ -25,8 +25,10 @@ from tracker_filter.management import (
     AllDetections,
     CappedInitiator,
     LargestDetection,
+    MergedSplitter,
     MissCountDeleter,
     MofNConfirmation,
+    NoSplit,
     TrackManager,
 )
 from tracker_filter.models import seed001_nominal_model
@@ -73,6 +75,7 @@ _MULTI: dict[str, Any] = {
     "confirm_travel_window": 30,
     "confirm_straightness": 0.0,
     "max_misses": 12,
+    "split_merged": 0.0,
     "selection_policy": "longest_lived",
     "min_lock_time": 2.0,
     "switch_margin": 0.2,
@@ -149,6 +152,13 @@ TRACKING_PARAMETERS: tuple[ParamSpec, ...] = (
         1.0,
     ),
     _spec("max_misses", "consecutive missed frames before a track is lost", 1, 10000),
+    _spec(
+        "split_merged",
+        "split a detection holding two or more confirmed tracks' predicted boxes into one piece "
+        "per track when its box is at least this x the largest of theirs in area (0: never)",
+        0.0,
+        100.0,
+    ),
 )
 
 SELECTION_PARAMETERS: tuple[ParamSpec, ...] = (
@@ -214,6 +224,7 @@ class TrackerConfig:
     confirm_travel_window: int
     confirm_straightness: float
     max_misses: int
+    split_merged: float
     selection_policy: SelectionPolicy
     min_lock_time: float
     switch_margin: float
@@ -238,6 +249,8 @@ class TrackerConfig:
         if params["confirm_hits"] > params["confirm_window"]:
             hits, window = params["confirm_hits"], params["confirm_window"]
             raise ValueError(f"confirm_hits ({hits}) must not exceed confirm_window ({window})")
+        if 0.0 < params["split_merged"] < 1.0:
+            raise ValueError(f"split_merged must be 0 (off) or >= 1, got {params['split_merged']}")
         return cls(
             filter=filter_factory,
             gate_probability=params["gate_probability"],
@@ -249,6 +262,7 @@ class TrackerConfig:
             confirm_travel_window=params["confirm_travel_window"],
             confirm_straightness=params["confirm_straightness"],
             max_misses=params["max_misses"],
+            split_merged=params["split_merged"],
             selection_policy=AUTOMATIC_POLICIES[params["selection_policy"]],
             min_lock_time=params["min_lock_time"],
             switch_margin=params["switch_margin"],
@@ -278,6 +292,7 @@ class TrackerConfig:
             MissCountDeleter(self.max_misses),
             LargestDetection() if self.measurements == "largest" else AllDetections(),
             first_id=first_id,
+            splitter=MergedSplitter(self.split_merged) if self.split_merged else NoSplit(),
         )
 
     def build_selector(self) -> TargetSelector:

@@ -46,6 +46,114 @@ class LargestDetection:
         return detections.subset(np.array([int(np.argmax(detections.areas))]))
 
 
+class Splitter(Protocol):
+    def split(
+        self, detections: Detections, boxes: np.ndarray, positions: np.ndarray, live: np.ndarray
+    ) -> Detections: ...
+
+
+class NoSplit:
+    """Detections are measurements as they come."""
+
+    def split(
+        self, detections: Detections, boxes: np.ndarray, positions: np.ndarray, live: np.ndarray
+    ) -> Detections:
+        return detections
+
+
+class MergedSplitter:
+    """Split a detection that holds several tracked objects into one measurement per object.
+
+    People walking together or crossing make one blob. When the predicted box centres of two or
+    more `live` tracks (confirmed ones) lie inside a detection's box and that box is at least
+    `min_growth` x the largest of their boxes in area, their boxes fill at least `MIN_FILL` of it,
+    and no box lies half inside another (a head and a torso track on one person are parts of one
+    object, not two objects), the detection is replaced by one piece per
+    track: the track's box (its size, at most the detection's) at its predicted place, pushed
+    inside the detection's box; the piece's centroid is the predicted position moved as far as
+    its box was pushed, its area the detection's shared in proportion to the boxes' areas. So
+    each track keeps its own box and identity while the group is one blob, and is still pulled
+    by the blob's outline.
+    """
+
+    def __init__(self, min_growth: float = 1.25) -> None:
+        if not min_growth >= 1.0:
+            raise ValueError(f"min_growth must be >= 1, got {min_growth}")
+        self.min_growth = min_growth
+
+    def split(
+        self, detections: Detections, boxes: np.ndarray, positions: np.ndarray, live: np.ndarray
+    ) -> Detections:
+        """`boxes` (N, 4) and `positions` (N, 2): the tracks' predicted boxes and centroids."""
+        if len(detections) == 0 or np.count_nonzero(live) < 2:
+            return detections
+        centres = boxes[:, :2] + boxes[:, 2:] / 2.0
+        kept, pieces = [], []
+        for j, (x, y, w, h) in enumerate(detections.bboxes):
+            inside = live & (
+                (centres[:, 0] >= x)
+                & (centres[:, 0] <= x + w)
+                & (centres[:, 1] >= y)
+                & (centres[:, 1] <= y + h)
+            )
+            members = np.flatnonzero(inside)
+            if not self._holds_several(w * h, boxes[members]):
+                kept.append(j)
+                continue
+            pieces.append(self._pieces(detections, j, boxes[members], positions[members]))
+        if not pieces:
+            return detections
+        rest = detections.subset(np.array(kept, dtype=np.int64))
+        return Detections(
+            np.concatenate([rest.positions, *(p.positions for p in pieces)]),
+            np.concatenate([rest.areas, *(p.areas for p in pieces)]),
+            np.concatenate([rest.bboxes, *(p.bboxes for p in pieces)]),
+            np.concatenate([rest.scores, *(p.scores for p in pieces)]),
+        )
+
+    def _holds_several(self, area: float, boxes: np.ndarray) -> bool:
+        """Whether a detection box of `area` holds the objects of these predicted boxes."""
+        areas = boxes[:, 2] * boxes[:, 3]
+        return (
+            len(boxes) >= 2
+            and area >= self.min_growth * float(np.max(areas))
+            and float(np.sum(areas)) >= MIN_FILL * area
+            and not _nested(boxes)
+        )
+
+    @staticmethod
+    def _pieces(
+        detections: Detections, j: int, boxes: np.ndarray, positions: np.ndarray
+    ) -> Detections:
+        x, y, w, h = detections.bboxes[j]
+        sizes = np.minimum(boxes[:, 2:], [w, h])
+        corners = np.clip(boxes[:, :2], [x, y], [x + w, y + h] - sizes)
+        shares = np.prod(sizes, axis=1) / max(float(np.sum(np.prod(sizes, axis=1))), 1e-12)
+        return Detections(
+            positions + (corners - boxes[:, :2]),
+            detections.areas[j] * shares,
+            np.column_stack([corners, sizes]),
+            np.full(len(boxes), detections.scores[j]),
+        )
+
+
+MIN_FILL = 0.6  # share of a merged detection's box that its members' boxes cover
+
+
+def _nested(boxes: np.ndarray) -> bool:
+    """Whether any of the boxes (N, 4) has half its area or more inside another."""
+    x0, y0 = boxes[:, 0], boxes[:, 1]
+    x1, y1 = x0 + boxes[:, 2], y0 + boxes[:, 3]
+    width = np.clip(np.minimum.outer(x1, x1) - np.maximum.outer(x0, x0), 0.0, None)
+    height = np.clip(np.minimum.outer(y1, y1) - np.maximum.outer(y0, y0), 0.0, None)
+    inter = width * height
+    areas = boxes[:, 2] * boxes[:, 3]
+    smaller = np.minimum.outer(areas, areas)
+    inside = np.divide(inter, smaller, out=np.ones_like(inter), where=smaller > 0)
+    np.fill_diagonal(inside, 0.0)
+    return bool((inside >= 0.5).any())
+
+
 class Initiator(Protocol):
     def initiate(
         self, detections: Detections, free: np.ndarray, live_tracks: int
@@ -139,6 +247,7 @@ class TrackManager:
         deleter: Deleter,
         selector: MeasurementSelector | None = None,
         first_id: int = 1,
+        splitter: Splitter | None = None,
     ) -> None:
         self.filter_factory = filter_factory
         self.associator = associator
@@ -146,6 +255,7 @@ class TrackManager:
         self.confirmation = confirmation
         self.deleter = deleter
         self.selector = selector or AllDetections()
+        self.splitter = splitter or NoSplit()
         self.bank = filter_factory.new_bank()
         self.layout = StateLayout.from_names(self.bank.state_layout)
         self.book = TrackBook(first_id)
@@ -186,6 +296,10 @@ class TrackManager:
         detections = self.selector.select(detections)
 
         self.bank.predict(t)
+        predicted = self.layout.positions(self.bank.means)
+        detections = self.splitter.split(
+            detections, book.moved_boxes(predicted), predicted, book.confirmed
+        )
         association = self.associator.associate(
             *self.bank.measurement_prediction(), detections.positions
         )

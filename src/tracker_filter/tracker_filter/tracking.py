@@ -290,6 +290,12 @@ class TrackBook:
         net = self.measured_travel()
         return np.divide(net, self.path, out=np.ones(len(self)), where=self.path > 0)
 
+    def moved_boxes(self, positions: np.ndarray) -> np.ndarray:
+        """Every track's last measured box (N, 4), moved with its estimate to `positions` (N, 2)."""
+        boxes = self.bboxes.copy()
+        boxes[:, :AXES] += positions - self.anchors
+        return boxes
+
     def confirm(self, confirmed: np.ndarray) -> None:
         """Tracks that pass the confirmation rule this frame stay confirmed."""
         self.confirmed = self.confirmed | confirmed
@@ -333,8 +339,7 @@ class TrackBook:
             TrackStatus.TENTATIVE,
         )
         status = np.where(lost, TrackStatus.LOST, status).astype(np.uint8)
-        bboxes = self.bboxes.copy()
-        bboxes[:, :AXES] += layout.positions(means) - self.anchors
+        bboxes = self.moved_boxes(layout.positions(means))
         return TrackSet(
             time=float(t),
             state_layout=layout,

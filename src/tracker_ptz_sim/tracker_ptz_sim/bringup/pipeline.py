@@ -160,7 +160,12 @@ class InProcessGraph:
         target_id = selection.track_id if selection is not None else None
         target = self._target(tracks, target_id)
         pose = CameraPose(
-            snapshot.pan, snapshot.tilt, *snapshot.window.center, self.camera.geometry.focal_length
+            snapshot.pan,
+            snapshot.tilt,
+            *snapshot.window.center,
+            self.camera.geometry.focal_length,
+            snapshot.zoom,
+            snapshot.window.height,
         )
         command = self.controller.step(t, pose, target)
         self.camera.command(
@@ -171,6 +176,7 @@ class InProcessGraph:
                 command.tilt,
                 command.pan_rate,
                 command.tilt_rate,
+                command.zoom,
             )
         )
         locked = target_id if target is not None else None
@@ -205,7 +211,8 @@ class InProcessGraph:
         lead = float(self.settings.selection["lead_time"])
         px, py = (float(v) for v in extrapolate_positions(mean, layout, lead)[0])
         values = (x, y, vx, vy, px, py)
-        return TargetEstimate(*values) if all(np.isfinite(values)) else None
+        height = float(tracks.bboxes[index][3])
+        return TargetEstimate(*values, height=height) if all(np.isfinite(values)) else None
 
 
 def detections_of(detection: Detection) -> Detections:

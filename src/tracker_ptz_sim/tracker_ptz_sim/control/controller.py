@@ -12,13 +12,19 @@ States:
 - HOME: go to the home preset and dwell there for `home_dwell_time` s.
 - SEARCH: nothing tracked; sweep horizontally, reversing at the pan limits (seed 000), or visit a
   list of preset poses in turn.
+
+Zoom (`zoom_control`): while tracking, the target's box should fill between `fill_low` and
+`fill_high` of the view's height; outside that band the zoom moves towards `fill_target`
+(zoom out when the target no longer fits, back in when it is small, up to `max_zoom`: a target
+seen only in part looks small too), by at most `zoom_step` per command so the detector's
+background keeps up, until it fills `fill_target`. Without a target the zoom returns to `home_zoom`.
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from enum import Enum
 from typing import Any
 
@@ -47,6 +53,7 @@ class Command:
     tilt: float = 0.0
     pan_rate: float = 0.0
     tilt_rate: float = 0.0
+    zoom: float = 0.0  # magnification to move to; 0 keeps the current one
 
 
 @dataclass(frozen=True)
@@ -58,6 +65,8 @@ class CameraPose:
     center_x: float
     center_y: float
     focal_length: float  # scene px per radian
+    zoom: float = 1.0
+    view_height: float = math.nan  # scene px, the height of the part of the scene in view
 
 
 @dataclass(frozen=True)
@@ -70,6 +79,7 @@ class TargetEstimate:
     vy: float
     predicted_x: float
     predicted_y: float
+    height: float = math.nan  # scene px, the target's box height
 
 
 @dataclass(frozen=True)
@@ -91,6 +101,13 @@ class ControllerConfig:
     scan_amplitude: float = 0.15  # rad, half-width of the scan around the last position
     scan_period: float = 2.0  # s for one scan oscillation
     home_dwell_time: float = 5.0  # s at home before searching again
+    zoom_control: bool = False  # keep the target's height within [fill_low, fill_high] of the view
+    fill_low: float = 0.2  # target height / view height below which the camera zooms in
+    fill_high: float = 0.8  # ... above which it zooms out
+    fill_target: float = 0.5  # ... the zoom aims at
+    zoom_step: float = 1.25  # largest zoom change per command, as a ratio
+    home_zoom: float = 1.0  # zoom without a target
+    max_zoom: float = 1.0  # the controller zooms in no further (a partly seen target looks small)
 
     def problems(self) -> list[str]:
         """Why this configuration is unusable (empty: usable)."""
@@ -103,6 +120,15 @@ class ControllerConfig:
             found.append("search 'presets' needs at least one preset pose")
         if self.pan_limits[0] >= self.pan_limits[1]:
             found.append(f"pan_limits must be increasing, got {self.pan_limits}")
+        if not 0.0 <= self.fill_low < self.fill_target < self.fill_high:
+            found.append(
+                "need 0 <= fill_low < fill_target < fill_high, got "
+                f"{self.fill_low}, {self.fill_target}, {self.fill_high}"
+            )
+        if not self.zoom_step > 1.0:
+            found.append(f"zoom_step must be > 1, got {self.zoom_step}")
+        if not 0.0 < self.home_zoom <= self.max_zoom:
+            found.append(f"need 0 < home_zoom <= max_zoom, got {self.home_zoom}, {self.max_zoom}")
         return found
 
 
@@ -145,6 +171,7 @@ class PanTiltController:
         self._sweep_direction = 1.0
         self._sweep_moved = False
         self._last_pan: float | None = None
+        self._zooming = False
 
     def reset(self) -> None:
         self._start(self.config)
@@ -165,7 +192,31 @@ class PanTiltController:
         else:
             command = self._search(t, pose)
         self._last_pan = pose.pan
+        if self.config.zoom_control:
+            command = replace(command, zoom=self._zoom(pose, target))
         return command
+
+    def _zoom(self, pose: CameraPose, target: TargetEstimate | None) -> float:
+        """The zoom to command (0: keep): the target's height back into the fill band, or the
+        home zoom without a target; at most `zoom_step` away from the current zoom."""
+        cfg = self.config
+        if not (math.isfinite(pose.zoom) and pose.zoom > 0.0):
+            return 0.0
+        if self.state is ControlState.TRACK and target is not None:
+            if not (math.isfinite(target.height) and math.isfinite(pose.view_height)):
+                return 0.0
+            if target.height <= 0.0 or pose.view_height <= 0.0:
+                return 0.0
+            fill = target.height / pose.view_height
+            if not self._zooming and cfg.fill_low <= fill <= cfg.fill_high:
+                return 0.0
+            # the view's height scales as 1 / zoom
+            wanted = min(pose.zoom * cfg.fill_target / fill, max(cfg.max_zoom, pose.zoom))
+        else:
+            wanted = cfg.home_zoom
+        step = min(max(wanted, pose.zoom / cfg.zoom_step), pose.zoom * cfg.zoom_step)
+        self._zooming = step != wanted  # a zoom once started goes on to fill_target
+        return 0.0 if math.isclose(wanted, pose.zoom, rel_tol=1e-3) else step
 
     def _enter(self, state: ControlState, t: float) -> None:
         if state is not self.state:

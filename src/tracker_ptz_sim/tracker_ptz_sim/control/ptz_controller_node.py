@@ -77,6 +77,19 @@ PARAMS = [
         3600.0,
     ),
     ParamSpec(
+        "zoom_control",
+        _DEFAULTS.zoom_control,
+        "zoom so the target's height stays within [fill_low, fill_high] of the view's",
+    ),
+    ParamSpec("fill_low", _DEFAULTS.fill_low, "target / view height to zoom in below", 0.0, 1.0),
+    ParamSpec(
+        "fill_high", _DEFAULTS.fill_high, "target / view height to zoom out above", 0.0, 10.0
+    ),
+    ParamSpec("fill_target", _DEFAULTS.fill_target, "target / view height zoomed to", 0.0, 10.0),
+    ParamSpec("zoom_step", _DEFAULTS.zoom_step, "largest zoom ratio per command", 1.001, 10.0),
+    ParamSpec("home_zoom", _DEFAULTS.home_zoom, "zoom without a target", 0.05, 100.0),
+    ParamSpec("max_zoom", _DEFAULTS.max_zoom, "largest zoom the controller commands", 0.05, 100.0),
+    ParamSpec(
         "target_timeout", 1.0, "no target for this long (scene time) -> HOLD [s]", 0.05, 60.0
     ),
     ParamSpec(
@@ -263,7 +276,7 @@ class PtzControllerNode(SuiteNode):
         }[command.mode]
         msg.pan, msg.tilt = command.pan, command.tilt
         msg.pan_rate, msg.tilt_rate = command.pan_rate, command.tilt_rate
-        msg.zoom = 0.0  # keep the current zoom
+        msg.zoom = command.zoom  # 0: keep the current zoom
         self.command_pub.publish(msg)
         if self.joint_pub is not None:
             self.joint_pub.publish(joint_command(command, msg.header, self.params["joint_names"]))
@@ -279,7 +292,12 @@ def pose_of(state: PtzState) -> tuple[CameraPose | None, str | None]:
         center_x, center_y = msg_to_window(state.window).center
     except ValueError:
         return None, "window is not a finite rectangle of positive size"
-    return CameraPose(state.pan, state.tilt, center_x, center_y, state.focal_length), None
+    window = msg_to_window(state.window)
+    zoom = state.zoom if math.isfinite(state.zoom) and state.zoom > 0.0 else 1.0
+    pose = CameraPose(
+        state.pan, state.tilt, center_x, center_y, state.focal_length, zoom, window.height
+    )
+    return pose, None
 
 
 def estimate_of(target: Target) -> TargetEstimate | None:
@@ -289,7 +307,7 @@ def estimate_of(target: Target) -> TargetEstimate | None:
     values = (track.x, track.y, track.vx, track.vy, target.predicted_x, target.predicted_y)
     if not all(math.isfinite(v) for v in values):
         return None
-    return TargetEstimate(*values)
+    return TargetEstimate(*values, height=float(track.bbox.height))
 
 
 def joint_command(command: Command, header: Any, names: list[str]) -> JointState:

@@ -8,7 +8,8 @@ seed clamps it: the reachable pan/tilt range shrinks as the window grows (zoom o
 Servo dynamics per axis: rate and acceleration limits, a command latency, position commands with a
 deceleration profile that stops on target, velocity commands with a watchdog (no command for
 `velocity_timeout` -> stop, as real pan-tilt units do). `servo="instant"` reproduces the seed's
-jumping window. Zoom shrinks the window by 1/zoom; the output image keeps its size.
+jumping window. Zoom scales the window by 1/zoom (from `min_zoom`, which may be below 1 to see
+more than the zoom-1 view, up to the whole scene, to `max_zoom`); the output image keeps its size.
 
 Everything advances on the recording's stamps, so a replay is deterministic. At zoom 1 the window
 snaps to whole scene pixels and the reported angles are those of the window shown, so every view is
@@ -42,6 +43,7 @@ class PtzConfig:
     command_latency: float = 0.0  # s from a command's stamp until the servos act on it
     velocity_timeout: float = 0.5  # s without a new velocity command before the unit stops
     max_zoom: float = 4.0
+    min_zoom: float = 1.0  # below 1 the window grows beyond the zoom-1 view (up to the scene)
     initial_pan: float = 0.0  # rad
     initial_tilt: float = 0.0  # rad
 
@@ -61,6 +63,8 @@ class PtzConfig:
                 found.append(f"{name} must be >= 0")
         if not self.max_zoom >= 1.0:
             found.append("max_zoom must be >= 1")
+        if not 0.05 <= self.min_zoom <= 1.0:
+            found.append("min_zoom must be in [0.05, 1]")
         return found
 
 
@@ -162,7 +166,7 @@ class PtzCameraModel:
         while self._pending and self._pending[0].stamp + self.config.command_latency <= now + 1e-12:
             command = self._pending.popleft()
             if command.zoom and math.isfinite(command.zoom):
-                self.zoom = min(max(command.zoom, 1.0), self.config.max_zoom)
+                self.zoom = min(max(command.zoom, self.config.min_zoom), self.config.max_zoom)
             self._active = command if command.mode != "hold" else None
             if command.mode == "hold" or self.config.servo == "instant":
                 self.pan.rate = self.tilt.rate = 0.0
@@ -209,11 +213,11 @@ class PtzCameraModel:
     # --- geometry -------------------------------------------------------------------------------
 
     def window_size(self) -> tuple[int, int]:
+        """(width, height) px of the window at the current zoom: the zoom-1 view / zoom, at most
+        as large as the scene (the aspect kept)."""
         base_w, base_h = self.base_size
-        return (
-            min(base_w, max(2, int(round(base_w / self.zoom)))),
-            min(base_h, max(2, int(round(base_h / self.zoom)))),
-        )
+        scale = min(1.0 / self.zoom, self.width / base_w, self.height / base_h)
+        return max(2, int(round(base_w * scale))), max(2, int(round(base_h * scale)))
 
     def limits(self) -> tuple[tuple[float, float], tuple[float, float]]:
         """(pan_min, pan_max), (tilt_min, tilt_max) keeping the window inside the scene [rad]."""
@@ -292,7 +296,7 @@ class PtzCameraModel:
             )
             self.base_size, self.geometry = rebuilt.base_size, rebuilt.geometry
         self.config = config
-        self.zoom = min(self.zoom, config.max_zoom)
+        self.zoom = min(max(self.zoom, config.min_zoom), config.max_zoom)
         self._clamp_axes()
 
 

@@ -76,6 +76,13 @@ PARAMS = [
     ParamSpec("velocity_timeout", _D.velocity_timeout, "velocity command watchdog [s]", 0.01, 60.0),
     ParamSpec("max_zoom", _D.max_zoom, "largest zoom factor", 1.0, 100.0),
     ParamSpec(
+        "min_zoom",
+        _D.min_zoom,
+        "smallest zoom factor; below 1 the view widens beyond the zoom-1 window (up to the scene)",
+        0.05,
+        1.0,
+    ),
+    ParamSpec(
         "initial_pan", _D.initial_pan, "pan at start [rad]", -math.pi, math.pi, read_only=True
     ),
     ParamSpec(
