@@ -31,19 +31,32 @@ from typing import Any
 
 import numpy as np
 
+from tracker_filter.config import PRESETS
 from tracker_ptz_sim.bringup import pipeline
 from tracker_ptz_sim.evaluation import scoring
 from tracker_ptz_sim.simulation import street
 from tracker_ptz_sim.simulation.scenes import META_NAME, Scene, load_scene, write_scene
 
+#: Tracker parameters config/surveillance.yaml sets (a configuration on a preset resets them).
+_SUITE_TRACKER = (
+    "lead_time",
+    "confirm_travel",
+    "confirm_straightness",
+    "selection_policy",
+    "split_merged",
+    "target_max_misses",
+)
 #: Configurations compared: name -> node -> parameter -> value, over config/surveillance.yaml.
 #: A new tracker or detector joins the benchmark with one line here.
 CONFIGURATIONS: dict[str, dict[str, dict[str, Any]]] = {
     "suite": {},
     "seed000": {
         "ssim_detector": {"method": "ssim"},
-        "tracker": {"preset": "seed000", "confirm_travel": 0.0},
-        "ptz_controller": {"mode": "direct"},
+        # the seed's tracker preset, also for what config/surveillance.yaml sets on top of presets
+        "tracker": {"preset": "seed000"}
+        | {name: PRESETS["seed000"][name] for name in _SUITE_TRACKER},
+        "ptz_controller": {"mode": "direct", "zoom_control": False},
+        "ptz_camera": {"min_zoom": 1.0},
     },
 }
 PATHS = ("in-process", "graph")
