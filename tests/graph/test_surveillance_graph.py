@@ -23,7 +23,9 @@ def _scene(root, **config):
     return scene, write_scene(scene, root)
 
 
-def run_demo(video, out, *settings, mode="servo", render=False):
+def run_demo(video, out, *settings, mode="servo", render=False, small_view=True):
+    """run_demo on `video`; `small_view`: the tests' 168 px view and fast sweep (else the
+    surveillance graph's own)."""
     command = [
         str(executable("tracker_ptz_sim", "run_demo")),
         "--video",
@@ -31,8 +33,10 @@ def run_demo(video, out, *settings, mode="servo", render=False):
         "--out",
         str(out),
     ]
-    command += ["--mode", mode, "--set", f"ptz_camera.view_height_fraction={VIEW_FRACTION}"]
-    command += ["--set", f"ptz_controller.sweep_rate={SWEEP_RATE}"]
+    command += ["--mode", mode]
+    if small_view:
+        command += ["--set", f"ptz_camera.view_height_fraction={VIEW_FRACTION}"]
+        command += ["--set", f"ptz_controller.sweep_rate={SWEEP_RATE}"]
     for setting in settings:
         command += ["--set", setting]
     if not render:
@@ -105,6 +109,34 @@ def test_in_process_pipeline_matches_the_graph(one_walker, servo_run):
     assert fast.windows == graph.windows
     assert fast.target_ids == graph.target_ids and len(fast.target_ids) >= 100
     assert fast.hypotheses == graph.hypotheses
+
+
+def test_the_camera_zooms_out_for_a_person_taller_than_its_view(tmp_path):
+    """A walker comes near the camera (up to 300 px tall; the view is 220 px at zoom 1): while
+    following them the camera zooms out (a wider window), and it is back at zoom 1 once they
+    are small again. The in-process pipeline (the benchmark's path) zooms the same way."""
+    from tracker_ptz_sim.bringup import pipeline
+    from tracker_ptz_sim.bringup.graph import load_graph
+    from tracker_ptz_sim.evaluation import run_report, scoring
+    from tracker_ptz_sim.simulation.scenes import write_scene
+    from tracker_ptz_sim.simulation.street import StreetConfig, generate_street
+
+    config = StreetConfig(
+        width=640, height=480, num_frames=120, walkers=1, person_height_near=300.0, seed=5
+    )
+    scene = generate_street(config, None)
+    paths = write_scene(scene, tmp_path / "scene")
+    run_demo(paths.video, tmp_path / "run", small_view=False)
+    graph = scoring.trace_from_frames(run_report.collect(tmp_path / "run" / "bag"))
+    nominal = 220.0
+    zoomed = [f for f, window in graph.windows.items() if window.height > nominal]
+    assert len(zoomed) >= 5 and all(f in graph.targets for f in zoomed[:3])
+    assert graph.windows[max(graph.windows)].height == nominal
+    settings = pipeline.PipelineSettings.from_params_file(load_graph().params_file)
+    fast = scoring.trace_from_steps(
+        pipeline.run(scene.frames, scene.stamps_ns(), settings), scene.fps
+    )
+    assert fast.windows == graph.windows and fast.target_ids == graph.target_ids
 
 
 def test_evaluate_scores_a_recorded_run(one_walker, servo_run, tmp_path):
