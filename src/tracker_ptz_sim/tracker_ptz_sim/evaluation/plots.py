@@ -1,4 +1,4 @@
-"""Plots of a run against its ground truth (no rclpy): per-frame centring error, pan and tilt, and
+"""Plots of a run against its ground truth (no rclpy): per-frame centring error, pan, tilt and zoom, and
 which track / ground-truth object the camera followed over time, in one PNG."""
 
 from __future__ import annotations
@@ -28,7 +28,14 @@ def plot_run(trace: RunTrace, truth: Boxes, path: Path, title: str = "") -> Path
     angle_axis.plot(seconds, [p for p, _ in pans], label="pan", lw=1)
     angle_axis.plot(seconds, [t for _, t in pans], label="tilt", lw=1)
     angle_axis.set_ylabel("angle [rad]")
-    angle_axis.legend(loc="upper right")
+    zoom_axis = angle_axis.twinx()
+    zoom_axis.plot(
+        seconds, [trace.zooms.get(f, math.nan) for f in frames], "k--", lw=1, label="zoom"
+    )
+    zoom_axis.set_ylabel("zoom")
+    handles = angle_axis.get_legend_handles_labels()
+    zoom_handles = zoom_axis.get_legend_handles_labels()
+    angle_axis.legend(handles[0] + zoom_handles[0], handles[1] + zoom_handles[1], loc="upper right")
     id_axis.plot(
         seconds, [trace.target_ids.get(f, math.nan) for f in frames], ".", ms=3, label="track id"
     )

@@ -37,6 +37,7 @@ class RunTrace:
     fps: float
     windows: dict[int, Rect] = field(default_factory=dict)  # scene px
     pan_tilt: dict[int, tuple[float, float]] = field(default_factory=dict)  # rad
+    zooms: dict[int, float] = field(default_factory=dict)  # magnification (1: the nominal view)
     hypotheses: Boxes = field(default_factory=dict)  # observed confirmed tracks
     targets: dict[int, tuple[float, float]] = field(default_factory=dict)  # locked target
     target_ids: dict[int, int] = field(default_factory=dict)  # locked track id
@@ -60,6 +61,7 @@ def trace_from_frames(frames: dict[int, run_report.FrameRecord]) -> RunTrace:
         if record.state is not None:
             trace.windows[number] = msg_to_rect(record.state.window)
             trace.pan_tilt[number] = (record.state.pan, record.state.tilt)
+            trace.zooms[number] = record.state.zoom
         if record.tracks is not None:
             trace.hypotheses[number] = {
                 t.id: msg_to_rect(t.bbox)
@@ -78,6 +80,7 @@ def trace_from_steps(steps: Iterable[Any], fps: float) -> RunTrace:
     for number, step in enumerate(steps, start=1):
         trace.windows[number] = step.camera.window
         trace.pan_tilt[number] = (step.camera.pan, step.camera.tilt)
+        trace.zooms[number] = step.camera.zoom
         tracks = step.tracks
         observed = np.flatnonzero(tracks.status == TrackStatus.CONFIRMED)
         trace.hypotheses[number] = {
