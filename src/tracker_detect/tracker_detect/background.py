@@ -50,10 +50,9 @@ from tracker_detect.ssim import SsimParams, auto_downsample_factor, ssim_map
 from tracker_msgs_py.geometry import Rect
 from tracker_msgs_py.params import check_config
 
-EDGE_MARGIN = (
-    0.08  # share of the view's height within which a blob is cut by its top or bottom (the
-)
-# judged area ends a few px inside the view: SSIM window, erosion)
+# Share of the view's height within which a blob is cut by the view's top or bottom edge (the
+# judged area ends a few px inside the view: SSIM window, erosion).
+EDGE_MARGIN = 0.08
 
 
 @dataclass(frozen=True)

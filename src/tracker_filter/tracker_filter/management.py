@@ -22,6 +22,7 @@ from tracker_filter.filters import FilterFactory
 from tracker_filter.layout import StateLayout
 from tracker_filter.observation import Detections, Need, Observation
 from tracker_filter.tracking import TrackBook, TrackSet
+from tracker_msgs_py.geometry import intersection_areas
 
 # --- components --------------------------------------------------------------------------------
 
@@ -142,11 +143,7 @@ MIN_FILL = 0.6  # share of a merged detection's box that its members' boxes cove
 
 def _nested(boxes: np.ndarray) -> bool:
     """Whether any of the boxes (N, 4) has half its area or more inside another."""
-    x0, y0 = boxes[:, 0], boxes[:, 1]
-    x1, y1 = x0 + boxes[:, 2], y0 + boxes[:, 3]
-    width = np.clip(np.minimum.outer(x1, x1) - np.maximum.outer(x0, x0), 0.0, None)
-    height = np.clip(np.minimum.outer(y1, y1) - np.maximum.outer(y0, y0), 0.0, None)
-    inter = width * height
+    inter = intersection_areas(boxes, boxes)
     areas = boxes[:, 2] * boxes[:, 3]
     smaller = np.minimum.outer(areas, areas)
     inside = np.divide(inter, smaller, out=np.ones_like(inter), where=smaller > 0)

@@ -203,10 +203,8 @@ class PanTiltController:
         if not (math.isfinite(pose.zoom) and pose.zoom > 0.0):
             return 0.0
         if self.state is ControlState.TRACK and target is not None:
-            if not (math.isfinite(target.height) and math.isfinite(pose.view_height)):
-                return 0.0
-            if target.height <= 0.0 or pose.view_height <= 0.0:
-                return 0.0
+            if not (0.0 < target.height < math.inf and 0.0 < pose.view_height < math.inf):
+                return 0.0  # no usable height (NaN, 0 or infinite): keep the zoom
             fill = target.height / pose.view_height
             if not self._zooming and cfg.fill_low <= fill <= cfg.fill_high:
                 return 0.0

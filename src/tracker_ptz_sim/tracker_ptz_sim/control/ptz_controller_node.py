@@ -289,10 +289,10 @@ def pose_of(state: PtzState) -> tuple[CameraPose | None, str | None]:
     if not (math.isfinite(state.pan) and math.isfinite(state.tilt)):
         return None, "non-finite pan or tilt"
     try:
-        center_x, center_y = msg_to_window(state.window).center
+        window = msg_to_window(state.window)
     except ValueError:
         return None, "window is not a finite rectangle of positive size"
-    window = msg_to_window(state.window)
+    center_x, center_y = window.center
     zoom = state.zoom if math.isfinite(state.zoom) and state.zoom > 0.0 else 1.0
     pose = CameraPose(
         state.pan, state.tilt, center_x, center_y, state.focal_length, zoom, window.height

@@ -19,7 +19,7 @@ import numpy as np
 with contextlib.redirect_stdout(io.StringIO()):  # it prints which optional datasets it cannot load
     from trackeval.metrics import HOTA
 
-from tracker_msgs_py.geometry import Rect
+from tracker_msgs_py.geometry import Rect, intersection_areas
 
 Boxes = dict[int, dict[int, Rect]]  # frame -> id -> box
 
@@ -177,16 +177,10 @@ def iou_distances(truth: np.ndarray, hypotheses: np.ndarray, max_distance: float
 
     motmetrics' own iou_matrix calls np.asfarray, which NumPy 2 removed.
     """
-    t = np.asarray(truth, dtype=float)[:, None, :]
-    h = np.asarray(hypotheses, dtype=float)[None, :, :]
-    width = np.minimum(t[..., 0] + t[..., 2], h[..., 0] + h[..., 2]) - np.maximum(
-        t[..., 0], h[..., 0]
-    )
-    height = np.minimum(t[..., 1] + t[..., 3], h[..., 1] + h[..., 3]) - np.maximum(
-        t[..., 1], h[..., 1]
-    )
-    inter = np.clip(width, 0, None) * np.clip(height, 0, None)
-    union = t[..., 2] * t[..., 3] + h[..., 2] * h[..., 3] - inter
+    t = np.asarray(truth, dtype=float).reshape(-1, 4)
+    h = np.asarray(hypotheses, dtype=float).reshape(-1, 4)
+    inter = intersection_areas(t, h)
+    union = (t[:, 2] * t[:, 3])[:, None] + (h[:, 2] * h[:, 3])[None, :] - inter
     distance = 1.0 - np.divide(inter, union, out=np.zeros_like(inter), where=union > 0)
     distance[distance > max_distance] = np.nan
     return distance
