@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 import pytest
 
 from tracker_msgs_py.geometry import Rect
@@ -14,6 +15,7 @@ from tracker_ptz_sim.evaluation.metrics import (
     hota,
     in_view,
     load_mot,
+    visible_in_view,
     without_ignored,
 )
 
@@ -58,6 +60,31 @@ def test_in_view_keeps_boxes_centred_in_the_window():
     windows = {1: Rect(0, 0, 100, 100), 2: Rect(150, 50, 100, 100)}
     visible = in_view(truth, windows)
     assert list(visible[1]) == [1] and list(visible[2]) == [2]
+
+
+def test_visible_in_view_boxes_what_the_image_shows():
+    """Person 1 (a 10x40 body with a 30 px stride at its feet) is cut at the window's bottom edge
+    through the body: the in-view box is the body's visible slice, not the clipped stride-wide
+    scene box. Person 2 shows a quarter of itself (a partial view, ignored); 3 is out of view."""
+    label = np.zeros((120, 200), np.int64)
+    label[10:50, 20:30] = 1  # body
+    label[50:60, 10:40] = 1  # stride
+    label[80:100, 100:110] = 2
+    label[10:30, 160:170] = 3
+    objects = {1: {1: Rect(10, 10, 30, 50), 2: Rect(100, 80, 10, 20), 3: Rect(160, 10, 10, 20)}}
+    windows = {1: Rect(0, 0, 150, 45.2)}  # row 44 (centre 44.5) is the last inside: half of 1
+
+    counted, partial = visible_in_view(lambda frame: label, objects, windows)
+
+    assert counted == {1: {1: Rect(20, 10, 10, 35)}}
+    assert in_view(objects, windows)[1][1] == Rect(10, 10, 30, 35.2)  # the stride-wide clip
+    assert partial == {}  # person 2 is not in the window at all
+    windows = {1: Rect(0, 0, 150, 85.0)}  # rows 80..84: a quarter of person 2
+    counted, partial = visible_in_view(lambda frame: label, objects, windows)
+    assert set(counted[1]) == {1} and partial == {1: {2: Rect(100, 80, 10, 5)}}
+    windows = {1: Rect(0, 0, 150, 44.4)}  # row 44 (centre 44.5) is out: under half of 1
+    counted, partial = visible_in_view(lambda frame: label, objects, windows)
+    assert counted == {} and partial == {1: {1: Rect(20, 10, 10, 34)}}
 
 
 def test_follow_scores():

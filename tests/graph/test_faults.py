@@ -68,6 +68,17 @@ def run(paths, out, during=None, respawn_limit=0, **overrides):
     )
 
 
+def with_logs(result, out, lines=40):
+    """The run's problems and the last log lines of every node they name: what a failed
+    assertion shows (the test's directory is gone after a CI run)."""
+    report = list(result.problems)
+    for log in sorted((out / "logs").glob("*.log")):
+        if any(log.stem in problem for problem in result.problems):
+            tail = log.read_text(errors="replace").splitlines()[-lines:]
+            report.append(f"--- {log.name}:\n" + "\n".join(tail))
+    return "\n".join(report)
+
+
 def stamps_of(bag, topic):
     from tracker_msgs_py.codec import stamp_to_ns
     from tracker_ptz_sim.evaluation.recording import read_bag
@@ -94,7 +105,7 @@ def test_a_restarted_video_source_starts_a_new_epoch_the_graph_accepts(walker, t
             )
 
     result = run(paths, tmp_path, during=during)
-    assert result.complete, result.problems
+    assert result.complete, with_logs(result, tmp_path)
     assert result.replay["frames_published"] == scene.num_frames  # the second source's status
     commands = stamps_of(result.bag, "/ptz/command")
     jump = next(i for i in range(1, len(commands)) if commands[i] < commands[i - 1])
@@ -134,7 +145,7 @@ def test_respawn_restarts_dying_nodes_and_completes_the_run(walker, tmp_path):
 
     result = run(paths, tmp_path, during=during, respawn_limit=3)
     assert detector_killed and source_killed
-    assert result.complete, result.problems
+    assert result.complete, with_logs(result, tmp_path)
     assert result.restarts == {"ssim_detector": 1, "video_source": 1}
     # The restarted source resumed after its last frame: the frames in order, none twice but
     # for lockstep re-sends (which every node drops), at most the one in flight lost.

@@ -14,12 +14,16 @@ node can stop its threads before its publishers and the ROS context go away.
 
 from __future__ import annotations
 
+import faulthandler
 import importlib
 import signal
 import threading
 from types import FrameType
 
 STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM)
+# A process that does not stop when asked gets this first: every thread's Python stack goes to
+# stderr (the node's log), so the log says where it hung before it is killed.
+STACK_DUMP_SIGNAL = signal.SIGUSR1
 
 _requested = threading.Event()
 _received: list[str] = []
@@ -34,9 +38,11 @@ def _on_signal(signum: int, _frame: FrameType | None) -> None:
 
 
 def install() -> None:
-    """Catch SIGINT and SIGTERM from now on (main thread only; idempotent)."""
+    """Catch SIGINT and SIGTERM from now on, and dump stacks on SIGUSR1 (main thread only;
+    idempotent)."""
     for signum in STOP_SIGNALS:
         signal.signal(signum, _on_signal)
+    faulthandler.register(STACK_DUMP_SIGNAL, all_threads=True)
 
 
 def requested() -> bool:

@@ -11,9 +11,11 @@ from collections import deque
 from pathlib import Path
 from typing import Any
 
+from tracker_msgs_py import stop_signals
 from tracker_ptz_sim.bringup.graph import Graph, executable_path, ros_args
 
 LOG_TAIL_LINES = 8
+STACK_DUMP_WAIT_S = 0.5  # for a node that does not stop to write its threads' stacks to its log
 
 
 class GraphProcesses:
@@ -51,7 +53,8 @@ class GraphProcesses:
             process.wait()
 
     def stop_all(self, timeout: float = 5.0) -> dict[str, int]:
-        """SIGINT every node, escalate to SIGKILL after `timeout`; the exit codes by node."""
+        """SIGINT every node, escalate to SIGKILL after `timeout`; the exit codes by node. A node
+        still running at the deadline first writes its threads' stacks to its log (SIGUSR1)."""
         for process in self.processes.values():
             if process.poll() is None:
                 process.send_signal(signal.SIGINT)
@@ -61,6 +64,8 @@ class GraphProcesses:
             try:
                 codes[name] = process.wait(timeout=max(0.1, deadline - time.monotonic()))
             except subprocess.TimeoutExpired:
+                process.send_signal(stop_signals.STACK_DUMP_SIGNAL)
+                time.sleep(STACK_DUMP_WAIT_S)
                 os.killpg(process.pid, signal.SIGKILL)
                 codes[name] = process.wait()
         return codes

@@ -10,6 +10,7 @@ from __future__ import annotations
 import contextlib
 import io
 from collections import Counter
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -85,6 +86,66 @@ def in_view(boxes: Boxes, windows: dict[int, Rect]) -> Boxes:
         for frame, frame_boxes in boxes.items()
         if frame in windows
     }
+
+
+MIN_VIEW_SHARE = 0.5  # an object counts in view when half of its visible pixels are in the image
+
+
+def visible_in_view(
+    label_of: Callable[[int], np.ndarray],
+    objects: Boxes,
+    windows: dict[int, Rect],
+    min_share: float = MIN_VIEW_SHARE,
+) -> tuple[Boxes, Boxes]:
+    """What each frame's camera image shows of each object, from the scene's label images
+    (`label_of(frame)`, pixel value = object id, 0 = background): the tight box of the
+    object's pixels inside the window.
+
+    Returns (counted, partial). An object of `objects` with at least `min_share` of its visible
+    pixels in the image is counted. One with fewer, but some, is a partial view (a head above
+    the image's bottom edge), to be ignored: neither missed nor a false positive.
+
+    Clipping the whole-scene box to the window (`in_view`) would keep, for a person cut by the
+    image edge, the width of their stride below it: a box the image does not show."""
+    counted: Boxes = {}
+    partial: Boxes = {}
+    for frame, window in windows.items():
+        ids = objects.get(frame)
+        if not ids:
+            continue
+        label = label_of(frame)
+        totals = np.bincount(label.ravel())
+        x0, y0, x1, y1 = _pixel_span(window, label.shape)
+        crop = label[y0:y1, x0:x1]
+        for object_id in ids:
+            if object_id >= len(totals) or totals[object_id] == 0:
+                continue
+            rows, cols = np.nonzero(crop == object_id)
+            if rows.size == 0:
+                continue
+            box = Rect(
+                float(x0 + cols.min()),
+                float(y0 + rows.min()),
+                float(cols.max() - cols.min() + 1),
+                float(rows.max() - rows.min() + 1),
+            )
+            share = rows.size / totals[object_id]
+            (counted if share >= min_share else partial).setdefault(frame, {})[object_id] = box
+    return counted, partial
+
+
+def _pixel_span(window: Rect, shape: tuple[int, ...]) -> tuple[int, int, int, int]:
+    """The pixels whose centres lie inside `window`, as slice bounds x0, y0, x1, y1."""
+    height, width = shape[:2]
+
+    def span(start: float, size: float, limit: int) -> tuple[int, int]:
+        first = int(np.ceil(start - 0.5))
+        end = int(np.ceil(start + size - 0.5))
+        return max(0, first), min(limit, max(0, end))
+
+    x0, x1 = span(window.x, window.width, width)
+    y0, y1 = span(window.y, window.height, height)
+    return x0, y0, x1, y1
 
 
 def without_ignored(hypotheses: Boxes, truth: Boxes, ignored: Boxes, min_iou: float = 0.5) -> Boxes:

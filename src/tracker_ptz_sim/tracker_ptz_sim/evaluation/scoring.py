@@ -3,8 +3,11 @@
 A run, from the graph's bag (`trace_from_frames`) or the in-process pipeline (`trace_from_steps`),
 becomes a `RunTrace`: per MOTChallenge frame number the camera window and pose, the observed track
 boxes and the locked target. `score_trace` then gives
-- CLEAR MOT, IDF1 and HOTA at IoU >= 0.5 for the objects inside the camera view (their boxes
-  clipped to it: what the camera could see) and over the whole scene;
+- CLEAR MOT, IDF1 and HOTA at IoU >= 0.5 for the objects inside the camera view and over the
+  whole scene. In view, with the scene's label masks beside gt/, an object counts when at least half
+  of its visible pixels are in the image, its box is the tight box of those pixels, and an object
+  shown only in part is ignored (`metrics.visible_in_view`); without masks, the objects whose box
+  centre is in the view, their boxes clipped to it;
 - the pan-tilt figures (`PanTiltScores`): share of locked frames whose target lies on a real object,
   how often the followed object changes (and how often without a reason: it neither left nor was
   lost for `REASON_GAP_S`), centring error, time to the first lock and to re-acquire after a loss.
@@ -16,6 +19,7 @@ import json
 import math
 from collections.abc import Iterable
 from dataclasses import asdict, dataclass, field
+from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -26,6 +30,7 @@ from tracker_msgs_py.codec import msg_to_rect
 from tracker_msgs_py.geometry import Rect
 from tracker_ptz_sim.evaluation import metrics, run_report
 from tracker_ptz_sim.evaluation.metrics import Boxes
+from tracker_ptz_sim.simulation.scenes import mask_path, read_label
 
 REASON_GAP_S = 2.0  # a lock lost this long may move on to another object
 
@@ -180,21 +185,36 @@ def _reacquire_times(
 
 
 def score_trace(trace: RunTrace, gt: Path) -> dict[str, Any]:
-    """Every score of a run against a MOTChallenge gt.txt (conf-0 rows: ignored objects)."""
+    """Every score of a run against a MOTChallenge gt.txt (conf-0 rows: ignored objects), with the
+    scene's label masks when gt.txt lies in a scene directory (<scene>/gt/gt.txt, <scene>/masks/)."""
     truth = metrics.load_mot(gt)
     ignored = metrics.load_mot(gt, ignored=True)
     hypotheses = metrics.without_ignored(trace.hypotheses, truth, ignored)
     frames = sorted(trace.windows)
-    view_truth = metrics.in_view(truth, trace.windows)
-    view_hypotheses = metrics.without_ignored(
-        hypotheses, view_truth, metrics.in_view(ignored, trace.windows)
-    )
+    view_truth, view_ignored = _view_truth(gt, truth, ignored, trace.windows)
+    view_hypotheses = metrics.without_ignored(hypotheses, view_truth, view_ignored)
     return {
         "frames": len(frames),
         "in_view": _tracking_scores(view_truth, view_hypotheses, frames),
         "whole_scene": _tracking_scores(truth, hypotheses, frames),
         "pan_tilt": asdict(pan_tilt_scores(metrics.every_object(gt), trace)),
     }
+
+
+def _view_truth(
+    gt: Path, truth: Boxes, ignored: Boxes, windows: dict[int, Rect]
+) -> tuple[Boxes, Boxes]:
+    """The counted and the ignored objects as the camera images show them."""
+    scene = gt.parent.parent
+    if not mask_path(scene, 1).is_file():
+        return metrics.in_view(truth, windows), metrics.in_view(ignored, windows)
+    label_of = partial(read_label, scene)
+    counted, partial_views = metrics.visible_in_view(label_of, truth, windows)
+    # An ignored object (barely visible in the scene) stays ignored however much of it is in view.
+    _, hidden = metrics.visible_in_view(label_of, ignored, windows, min_share=math.inf)
+    for frame, boxes in hidden.items():
+        partial_views.setdefault(frame, {}).update(boxes)
+    return counted, partial_views
 
 
 def _tracking_scores(truth: Boxes, hypotheses: Boxes, frames: list[int]) -> dict[str, Any]:

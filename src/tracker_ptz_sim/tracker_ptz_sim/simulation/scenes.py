@@ -467,7 +467,7 @@ def write_scene(scene: Scene, out_dir: str | Path) -> ScenePaths:
     if scene.labels.max(initial=0) > np.iinfo(np.uint16).max:
         raise ValueError("object ids above 65535 cannot be stored in 16-bit mask PNGs")
     for n, label in enumerate(scene.labels):
-        cv2.imwrite(str(masks / f"{n + 1:06d}.png"), label.astype(np.uint16))
+        cv2.imwrite(str(mask_path(root, n + 1)), label.astype(np.uint16))
     seqinfo = root / "seqinfo.ini"
     info = configparser.ConfigParser()
     info.optionxform = str  # type: ignore[assignment,method-assign]  # keep camelCase keys (documented use)
@@ -543,6 +543,16 @@ def _read_mask(path: Path, dtype: type[np.integer]) -> np.ndarray:
     return mask.astype(dtype)
 
 
+def mask_path(root: Path, frame: int) -> Path:
+    """The label image of a scene's 1-based `frame` (pixel value = object id, 0 = background)."""
+    return root / MASKS_DIR / f"{frame:06d}.png"
+
+
+def read_label(root: Path, frame: int) -> np.ndarray:
+    """The label image of a scene's 1-based `frame` as int64."""
+    return _read_mask(mask_path(root, frame), np.int64)
+
+
 def load_scene(directory: str | Path) -> Scene:
     """Read back a scene written by :func:`write_scene` (frames, labels, boxes, jitter, fps);
     labels are int32, or uint16 for street scenes (as generated)."""
@@ -557,7 +567,7 @@ def load_scene(directory: str | Path) -> Scene:
         raise ValueError(f"{root}: {n} frames in the video, {meta['num_frames']} expected")
     kind = _config_type(meta.get("generator"))
     dtype = np.uint16 if kind.generator == "street" else np.int32
-    labels = np.stack([_read_mask(root / MASKS_DIR / f"{i + 1:06d}.png", dtype) for i in range(n)])
+    labels = np.stack([_read_mask(mask_path(root, i + 1), dtype) for i in range(n)])
     boxes: list[list[GroundTruthBox]] = [[] for _ in range(n)]
     for line in (root / GT_PATH).read_text().splitlines():
         if not line.strip():
