@@ -3,12 +3,15 @@ the stop into; after the imports they only set the flag the node polls."""
 
 from __future__ import annotations
 
+import signal
 import subprocess
 import sys
 import time
 from pathlib import Path
 
 import pytest
+
+from tracker_msgs_py import stop_signals
 
 ROOT = Path(__file__).resolve().parents[2]
 MODULES = {
@@ -47,3 +50,32 @@ def test_a_stop_at_any_point_of_start_up_exits_0_at_once(case, tmp_path):
     )
     assert result.returncode == 0, result.stderr
     assert result.stderr == "" and time.monotonic() - started < 5.0
+
+
+def test_a_process_that_does_not_stop_writes_its_threads_stacks_when_asked():
+    """What the graph runner sends a node that ignores its stop before killing it: every
+    thread's Python stack goes to stderr (the node's log), naming where it hangs."""
+    code = (
+        "import threading, time\nfrom tracker_msgs_py import stop_signals\n"
+        "stop_signals.install()\n"
+        "def stuck_in_teardown():\n    time.sleep(30)\n"
+        "threading.Thread(target=stuck_in_teardown, daemon=True).start()\n"
+        "print('ready', flush=True)\ntime.sleep(30)\n"
+    )
+    process = subprocess.Popen(
+        [sys.executable, "-c", code],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        env={"PYTHONPATH": str(ROOT / "src" / "tracker_msgs")},
+    )
+    try:
+        assert process.stdout.readline() == "ready\n"
+        process.send_signal(signal.SIGINT)  # only sets the flag, which this process ignores
+        process.send_signal(stop_signals.STACK_DUMP_SIGNAL)
+        time.sleep(0.5)
+    finally:
+        process.kill()
+        _, stderr = process.communicate(timeout=10)
+    assert "most recent call first" in stderr
+    assert "stuck_in_teardown" in stderr  # every thread, not only the main one
