@@ -49,6 +49,7 @@ from tracker_ptz_sim.evaluation import run_report
 from tracker_ptz_sim.evaluation.contact_sheet import write_contact_sheet
 from tracker_ptz_sim.evaluation.recording import BagWriter
 
+STATUS_QUIET_S = 0.3  # no replay status for this long: a killed source's last ones have arrived
 RESPAWN_LIMIT = 5  # --respawn: restarts per node before the run gives up on it
 
 RECORD_QOS = QoSProfile(
@@ -75,6 +76,7 @@ class Recorder(Node):
         super().__init__("run_recorder")
         self.bag = bag
         self.status: ReplayStatus | None = None
+        self.status_received = time.monotonic()
         self._keep = []
         for topic in graph.topics:
             msg_type = _import_type(topic.type)
@@ -95,6 +97,17 @@ class Recorder(Node):
 
     def _on_status(self, status: ReplayStatus) -> None:
         self.status = status
+        self.status_received = time.monotonic()
+
+    def settled_status(
+        self, quiet: float = STATUS_QUIET_S, timeout: float = 2.0
+    ) -> ReplayStatus | None:
+        """The replay status once none has arrived for `quiet` s (a killed video_source's last
+        statuses may still be on their way), or after `timeout`."""
+        deadline = time.monotonic() + timeout
+        while time.monotonic() < deadline and time.monotonic() - self.status_received < quiet:
+            time.sleep(0.02)
+        return self.status
 
 
 def _import_type(name: str) -> Any:
@@ -215,8 +228,10 @@ class Supervisor:
 
     def _restart_overrides(self, name: str) -> dict[str, Any]:
         overrides = dict(self.overrides.get(name, {}))
-        status = self.recorder.status
-        if name == "video_source" and status is not None and status.frames_published:
+        if name != "video_source":
+            return overrides
+        status = self.recorder.settled_status()
+        if status is not None and status.frames_published:
             overrides["start_frame"] = int(status.frame_index) + 1
         return overrides
 

@@ -260,15 +260,17 @@ class VideoSourceNode(SuiteNode):
             camera_info(width, height, focal, focal, width / 2, height / 2, stamp, frame_id),
             array_to_image(image, self.params["encoding"], stamp, frame_id),
         )
-        self.info_pub.publish(self.last_sent[0])
-        self.image_pub.publish(self.last_sent[1])
-        self.pacer.sent(stamp_ns)
+        # The status goes first: a runner that restarts a killed source at the frame after the
+        # last status may then lose the frame in flight, but never sends one twice.
         self.status.header.stamp = stamp
         self.status.header.frame_id = frame_id
         self.status.frame_index = frame.index
         self.status.frames_published += 1
         self._note_damage()
         self.status_pub.publish(self.status)
+        self.info_pub.publish(self.last_sent[0])
+        self.image_pub.publish(self.last_sent[1])
+        self.pacer.sent(stamp_ns)
 
     def _note_damage(self) -> None:
         if self.source.skipped > self.status.frames_skipped:
