@@ -216,6 +216,34 @@ def test_flat_blobs_are_dropped_when_min_aspect_is_set():
             assert any(b.bbox.y < 60 and b.bbox.height < b.bbox.width / 2 for b in found.blobs)
 
 
+def test_cast_shadows_are_not_objects_when_shadow_ratio_is_set():
+    """A red walker (24 x 50) on faintly textured grey-green ground (asphalt) casts a shadow to
+    its right at the feet (the ground darkened to 0.7, its colour kept): with shadow_ratio 0.5 the blob is the
+    walker; without, the shadow widens it past IoU 0.5. A dark grey coat over the same ground
+    is darker *and* of another colour: still an object. (min_aspect drops the flat ghosts the
+    coat leaves where it stood in the first frames.)"""
+    rng = np.random.default_rng(4)
+    grey = cv2.GaussianBlur(rng.integers(100, 140, (240, 320), dtype=np.uint8), (0, 0), 2)
+    ground = np.dstack([grey, (grey * 1.1).clip(0, 255).astype(np.uint8), grey])
+    with_shadows = BackgroundDetector(BackgroundConfig(shadow_ratio=0.5, min_aspect=0.5))
+    without = BackgroundDetector(BackgroundConfig(min_aspect=0.5))
+    for k in range(40):
+        image = ground.copy()
+        x = 20 + 5 * k
+        shadow = (slice(175, 190), slice(x + 10, x + 60))
+        image[shadow] = (image[shadow] * 0.7).astype(np.uint8)
+        image[140:190, x : x + 24] = (40, 40, 200)  # BGR: red
+        image[60:100, 280 - 3 * k : 300 - 3 * k] = (25, 25, 25)  # the dark coat
+        kept = with_shadows.process(CameraFrame(k * NS, image))
+        found = without.process(CameraFrame(k * NS, image))
+        if k >= 25:
+            walker, coat = Rect(x, 140, 24, 50), Rect(280 - 3 * k, 60, 20, 40)
+            assert sorted(
+                round(max(iou(b.bbox, t) for t in (walker, coat))) for b in kept.blobs
+            ) == [1, 1]
+            assert max(iou(b.bbox, walker) for b in found.blobs) < 0.5
+
+
 def test_a_ghost_of_an_object_seen_at_start_fades():
     """An object present in the first frames is learned as background; once it leaves, its old
     place differs from the mosaic but does not change, and heals."""

@@ -65,6 +65,7 @@ def run(paths, out, during=None, respawn_limit=0, **overrides):
         timeout=240.0,
         during=during,
         respawn_limit=respawn_limit,
+        shared_memory=False,  # nodes are killed here (config/fastdds_udp.xml)
     )
 
 

@@ -12,7 +12,9 @@ silhouettes:
    those pixels are also *changing*: a mover; a foreground pixel that does not change is a ghost
    (the background learned a mover that has gone) or a stopped object;
 3. pixels whose flicker rate (share of frames foreground and changing) is >= flicker_level move in
-   place -- tape, leaves, flicker -- and are never foreground;
+   place -- tape, leaves, flicker -- and are never foreground; with `shadow_ratio` and a colour
+   image, neither are cast shadows: the background darkened (to shadow_ratio..SHADOW_MAX_RATIO
+   of its brightness) with its chromaticity kept, which the mosaic learns beside the grey;
 4. the mask is closed (joins a silhouette's fragments), hole-filled and shrunk by the SSIM
    window's spread across object edges (1 px), *not dilated*; blobs are its connected
    components, boxes their tight boxes; blobs flatter than `min_aspect` (height / width) are
@@ -34,7 +36,7 @@ import cv2
 import numpy as np
 
 from tracker_detect.detector import CameraFrame, Detection, StaleFrameError
-from tracker_detect.mosaic import SceneMosaic
+from tracker_detect.mosaic import MosaicSample, SceneMosaic
 from tracker_detect.motion import (
     DetectorConfig,
     MotionDetector,
@@ -53,6 +55,12 @@ from tracker_msgs_py.params import check_config
 # Share of the view's height within which a blob is cut by the view's top or bottom edge (the
 # judged area ends a few px inside the view: SSIM window, erosion).
 EDGE_MARGIN = 0.08
+# A cast shadow darkens the ground to between shadow_ratio and SHADOW_MAX_RATIO of its brightness
+# and keeps its colour: chromaticity (r, g) within SHADOW_CHROMA (L1); too dark pixels have no
+# reliable colour (their sum of B, G, R is below SHADOW_MIN_SUM).
+SHADOW_MAX_RATIO = 0.95
+SHADOW_CHROMA = 0.04
+SHADOW_MIN_SUM = 60.0
 
 
 @dataclass(frozen=True)
@@ -75,6 +83,7 @@ class BackgroundConfig:
     merge_gap: float = 0.0  # join stacked blobs this close (x the taller's height; 0: never)
     satellite_share: float = 0.0  # join a blob this much smaller to a big one it touches (0: never)
     min_aspect: float = 0.0  # height / width below which a blob is dropped (0: keep all)
+    shadow_ratio: float = 0.0  # darkest shadow, as a share of the background's brightness (0: off)
     presence_fraction: float = 0.0008  # presence test, as the seed
     auto_downsample: bool = True
     ssim: SsimParams = field(default_factory=SsimParams)
@@ -108,6 +117,10 @@ class BackgroundConfig:
             found.append(f"satellite_share must be in [0, 1], got {self.satellite_share}")
         if not (math.isfinite(self.min_aspect) and 0.0 <= self.min_aspect <= 10.0):
             found.append(f"min_aspect must be in [0, 10], got {self.min_aspect}")
+        if not (math.isfinite(self.shadow_ratio) and 0.0 <= self.shadow_ratio < SHADOW_MAX_RATIO):
+            found.append(
+                f"shadow_ratio must be in [0, {SHADOW_MAX_RATIO}), got {self.shadow_ratio}"
+            )
         if not (math.isfinite(self.min_blob_area) and self.min_blob_area >= 0):
             found.append(f"min_blob_area must be >= 0, got {self.min_blob_area}")
         return found
@@ -175,6 +188,9 @@ class BackgroundDetector:
             self.mosaic.clear()  # a static camera's mosaic is the image: a new size, a new scene
         self._last_stamp, self._size = frame.stamp_ns, (width, height)
         changing = self._changing(gray, frame.stamp_ns, view)
+        chroma = (
+            _chromaticity(frame.image) if c.shadow_ratio > 0 and frame.image.ndim == 3 else None
+        )
         background = self.mosaic.sample(view)
         judged = background.observations >= c.min_observations
         similarity = self._similarity(gray, background.mean, judged)
@@ -184,11 +200,13 @@ class BackgroundDetector:
         )
         in_place = cv2.dilate(flickers.astype(np.uint8), _ellipse(7))
         foreground = different & (in_place == 0)
+        if chroma is not None and background.chroma is not None:
+            foreground &= ~self._shadow(gray, chroma, background)
         rate = np.where(different, np.where(changing, 0.0, c.heal_rate), c.learning_rate)
         # The flicker rate follows whole moving regions, not single pixels: SSIM of two
         # textures is noisy pixel by pixel, a fluttering patch is moving as a region.
         moving = self._clean((different & changing).astype(np.uint8), shrink=False)
-        self.mosaic.update(view, gray, rate, moving)
+        self.mosaic.update(view, gray, rate, moving, None if chroma is None else chroma[..., :2])
         mask = self._clean(foreground.astype(np.uint8))
         found = [
             b
@@ -220,6 +238,19 @@ class BackgroundDetector:
         margin = EDGE_MARGIN * window.height
         cut = box.y <= window.y + margin or box.y + box.height >= window.y + window.height - margin
         return cut and box.height >= 0.5 * aspect * box.width
+
+    def _shadow(self, gray: np.ndarray, chroma: np.ndarray, background: MosaicSample) -> np.ndarray:
+        """Pixels darker than the background by a shadow's ratio, of the background's colour."""
+        ratio = (gray.astype(np.float32) + 1.0) / (background.mean + 1.0)
+        assert background.chroma is not None
+        drift = np.abs(chroma[..., :2] - background.chroma).sum(axis=2)
+        result: np.ndarray = (
+            (ratio >= self.config.shadow_ratio)
+            & (ratio <= SHADOW_MAX_RATIO)
+            & (drift <= SHADOW_CHROMA)
+            & (chroma[..., 2] >= SHADOW_MIN_SUM)
+        )
+        return result
 
     def _changing(self, gray: np.ndarray, stamp_ns: int, view: View) -> np.ndarray:
         """Pixels whose SSIM against frame k - gap (aligned) is at most the threshold."""
@@ -259,3 +290,11 @@ class BackgroundDetector:
 
 def _ellipse(size: int) -> np.ndarray:
     return cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (size, size))
+
+
+def _chromaticity(bgr: np.ndarray) -> np.ndarray:
+    """(H, W, 3) float32: r, g chromaticity (R, G over R + G + B) and the sum R + G + B."""
+    pixels = bgr.astype(np.float32)
+    total = pixels.sum(axis=2)
+    safe = np.maximum(total, 1.0)
+    return np.dstack([pixels[..., 2] / safe, pixels[..., 1] / safe, total])

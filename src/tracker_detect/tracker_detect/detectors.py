@@ -270,6 +270,14 @@ BACKGROUND_PARAMETERS: tuple[ParamSpec, ...] = (
         0.0,
         10.0,
     ),
+    ParamSpec(
+        "shadow_ratio",
+        _B.shadow_ratio,
+        "ignore cast shadows: pixels darkened to between this and 0.95 of the background's "
+        "brightness that keep its colour (colour images only; 0: off)",
+        0.0,
+        0.94,
+    ),
     _like_ssim("presence_fraction", _B.presence_fraction),
     _like_ssim("auto_downsample", _B.auto_downsample),
 )

@@ -6,7 +6,8 @@ like without its movers (`sample`), wherever the camera points. Beside the mean 
 scene pixel, how often it was observed (the first observations are averaged: rate 1/n) and a
 flicker rate: the running share of frames in which that pixel was foreground *and* changing
 (fluttering tape, foliage, flicker). That is seed 000's calibration mask of always-moving areas
-(§1, "removed from the final system"), learned instead of drawn.
+(§1, "removed from the final system"), learned instead of drawn. Given colour views, it also
+keeps the background's chromaticity (r, g), blended like the grey, to tell cast shadows apart.
 
 Coordinates: scene pixels, origin at the top-left corner of the top-left pixel; the mosaic grows
 to cover every view it is given, so no scene size is needed up front.
@@ -31,6 +32,7 @@ class MosaicSample:
     mean: np.ndarray  # (H, W) float32 grey background
     observations: np.ndarray  # (H, W) float32 times each pixel was observed (0: never)
     flicker: np.ndarray  # (H, W) float32 share of frames foreground and changing, in [0, 1]
+    chroma: np.ndarray | None = None  # (H, W, 2) float32 background r, g chromaticity, if kept
 
 
 class SceneMosaic:
@@ -45,6 +47,7 @@ class SceneMosaic:
         self.mean = np.zeros((0, 0), np.float32)
         self.observations = np.zeros((0, 0), np.float32)
         self.flicker = np.zeros((0, 0), np.float32)
+        self.chroma: np.ndarray | None = None  # (H, W, 2) once a colour view was blended in
 
     @property
     def empty(self) -> bool:
@@ -69,10 +72,19 @@ class SceneMosaic:
                 borderValue=0.0,
             )
 
-        return MosaicSample(warp(self.mean), warp(self.observations), warp(self.flicker))
+        chroma = None if self.chroma is None else warp(self.chroma)
+        return MosaicSample(warp(self.mean), warp(self.observations), warp(self.flicker), chroma)
 
-    def update(self, view: View, image: np.ndarray, rate: np.ndarray, changing: np.ndarray) -> None:
-        """Blend `image` in where it was seen: mean += r (image - mean), where r is `rate`
+    def update(
+        self,
+        view: View,
+        image: np.ndarray,
+        rate: np.ndarray,
+        changing: np.ndarray,
+        chroma: np.ndarray | None = None,
+    ) -> None:
+        """Blend `image` (and its (H, W, 2) `chroma`, when given) in where it was seen:
+        mean += r (image - mean), where r is `rate`
         (image px, per frame) or, where it is > 0, at least 1/n for a pixel's first
         `warmup_observations` observations (the first observation is always taken); the
         flicker rate is the share of observations with `changing` (0/1, image px) set, over the last
@@ -111,6 +123,18 @@ class SceneMosaic:
         )
         blend = np.where(count <= self.warmup_observations, warmup, rate_now) * inside
         mean += blend * (warped[..., 0] - mean)
+        if chroma is not None:
+            if self.chroma is None:
+                self.chroma = np.zeros((*self.mean.shape, 2), np.float32)
+            seen_chroma = cv2.warpAffine(
+                chroma.astype(np.float32),
+                matrix,
+                size,
+                flags=cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP,
+                borderMode=cv2.BORDER_REPLICATE,
+            ).reshape(size[1], size[0], 2)
+            background = self.chroma[y0:y1, x0:x1]
+            background += blend[..., None] * (seen_chroma - background)
         # The share over all observations until there are flicker_memory of them, then a running
         # share with that time constant.
         memory = np.minimum(np.maximum(count, 1.0), self.flicker_memory)
@@ -159,11 +183,16 @@ class SceneMosaic:
             if r.y + r.height <= oy + h:
                 bottom = oy + h
         shape = (bottom - top, right - left)
-        layers = []
-        for old in (self.mean, self.observations, self.flicker):
-            new = np.zeros(shape, np.float32)
+
+        def grown(old: np.ndarray) -> np.ndarray:
+            new = np.zeros(shape + old.shape[2:], np.float32)
             if old.size:
                 new[oy - top : oy - top + h, ox - left : ox - left + w] = old
-            layers.append(new)
-        self.mean, self.observations, self.flicker = layers
+            return new
+
+        self.mean, self.observations, self.flicker = (
+            grown(old) for old in (self.mean, self.observations, self.flicker)
+        )
+        if self.chroma is not None:
+            self.chroma = grown(self.chroma)
         self.origin = (left, top)

@@ -246,6 +246,7 @@ def run_graph(
     storage: str = "mcap",
     during: Callable[[ReplayStatus | None, GraphProcesses], None] | None = None,
     respawn_limit: int = 0,
+    shared_memory: bool | None = None,
 ) -> RunResult:
     """Replay `video` through the graph, recording every topic into out/bag.
 
@@ -253,6 +254,8 @@ def run_graph(
     the run ends, the bag is closed, and the result says why (`complete`, `problems`).
     `during(status, nodes)` is called while the replay runs (tests use it to kill and restart
     nodes); `respawn_limit` restarts per node (0: a node that dies ends the run).
+    `shared_memory` (default: unless nodes are restarted) lets images travel through Fast DDS
+    shared memory; a killed node can starve the other readers of it (config/fastdds_udp.xml).
     """
     bag_path = out / "bag"
     if bag_path.exists():
@@ -271,7 +274,10 @@ def run_graph(
     executor.add_node(recorder)
     spinner = threading.Thread(target=_spin_recorder, args=(executor, result), daemon=True)
     spinner.start()
-    nodes = GraphProcesses(graph, install_dir, out / "logs")
+    if shared_memory is None:
+        shared_memory = respawn_limit == 0
+    environment = {} if shared_memory else GraphProcesses.without_shared_memory(graph)
+    nodes = GraphProcesses(graph, install_dir, out / "logs", environment)
     source_overrides = {
         "path": str(video),
         "wait_for_subscribers": 2,  # the first frame goes out once ptz_camera and we listen

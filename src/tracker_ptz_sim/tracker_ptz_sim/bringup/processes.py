@@ -15,14 +15,30 @@ from tracker_msgs_py import stop_signals
 from tracker_ptz_sim.bringup.graph import Graph, executable_path, ros_args
 
 LOG_TAIL_LINES = 8
+UDP_PROFILE = "fastdds_udp.xml"  # beside the graph's parameters file
 STACK_DUMP_WAIT_S = 0.5  # for a node that does not stop to write its threads' stacks to its log
 
 
 class GraphProcesses:
     """One process and one log file (logs/<name>.log, appended across restarts) per node."""
 
-    def __init__(self, graph: Graph, install_dir: Path, log_dir: Path) -> None:
+    @staticmethod
+    def without_shared_memory(graph: Graph) -> dict[str, str]:
+        """The environment that keeps Fast DDS off shared memory (config/fastdds_udp.xml)."""
+        return {
+            "FASTRTPS_DEFAULT_PROFILES_FILE": str(graph.params_file.parent / UDP_PROFILE),
+            "FASTDDS_BUILTIN_TRANSPORTS": "UDPv4",
+        }
+
+    def __init__(
+        self,
+        graph: Graph,
+        install_dir: Path,
+        log_dir: Path,
+        environment: dict[str, str] | None = None,
+    ) -> None:
         self.graph = graph
+        self.environment = environment or {}  # set for every node, over this process's
         self.install_dir = install_dir
         self.log_dir = log_dir
         self.processes: dict[str, subprocess.Popen] = {}
@@ -40,7 +56,7 @@ class GraphProcesses:
                 command,
                 stdout=log,
                 stderr=subprocess.STDOUT,
-                env=dict(os.environ),
+                env={**os.environ, **self.environment},
                 start_new_session=True,
             )
         return self.processes[name]
