@@ -35,7 +35,13 @@ from tracker_filter.config import PRESETS
 from tracker_ptz_sim.bringup import pipeline
 from tracker_ptz_sim.evaluation import scoring
 from tracker_ptz_sim.simulation import street
-from tracker_ptz_sim.simulation.scenes import META_NAME, Scene, load_scene, write_scene
+from tracker_ptz_sim.simulation.scenes import (
+    META_NAME,
+    Scene,
+    label_reader,
+    load_scene,
+    write_scene,
+)
 
 #: Tracker parameters config/surveillance.yaml sets (a configuration on a preset resets them).
 _SUITE_TRACKER = (
@@ -141,7 +147,8 @@ def benchmark_one(
         trace = run_in_process(scene, settings)
     seconds = time.perf_counter() - started
     title = f"{scene_name}, {configuration}, {path}"
-    scores = scoring.write_evaluation(trace, scene_dir / "gt" / "gt.txt", run_dir, title)
+    gt = scene_dir / "gt" / "gt.txt"
+    scores = scoring.write_evaluation(trace, gt, run_dir, title, label_reader(scene_dir))
     return RunScores(scene_name, configuration, path, scores["frames"], seconds, scores)
 
 

@@ -16,6 +16,7 @@ import argparse
 from pathlib import Path
 
 from tracker_ptz_sim.evaluation import run_report, scoring
+from tracker_ptz_sim.simulation.scenes import label_reader
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -57,7 +58,10 @@ def main(argv: list[str] | None = None) -> int:
     frames = run_report.collect(bag)
     summary = run_report.summarize(frames, run_report.message_counts(frames))
     run_report.write_summary(summary, args.out / "summary.json", run.as_dict() if run else None)
-    result = scoring.write_evaluation(scoring.trace_from_frames(frames), gt, args.out)
+    labels = label_reader(gt.parent.parent)  # a scene directory: <scene>/gt/gt.txt, <scene>/masks
+    result = scoring.write_evaluation(
+        scoring.trace_from_frames(frames), gt, args.out, label_of=labels
+    )
     print(f"Evaluation against {gt}:\n{scoring.format_scores(result)}")
     print(f"Wrote {args.out}/: summary.json, evaluation.json, tracks.txt, plots.png")
     return 0

@@ -4,7 +4,7 @@ A run, from the graph's bag (`trace_from_frames`) or the in-process pipeline (`t
 becomes a `RunTrace`: per MOTChallenge frame number the camera window and pose, the observed track
 boxes and the locked target. `score_trace` then gives
 - CLEAR MOT, IDF1 and HOTA at IoU >= 0.5 for the objects inside the camera view and over the
-  whole scene. In view, with the scene's label masks beside gt/, an object counts when at least half
+  whole scene. In view, given the scene's label images (`label_of`), an object counts when at least half
   of its visible pixels are in the image, its box is the tight box of those pixels, and an object
   shown only in part is ignored (`metrics.visible_in_view`); without masks, the objects whose box
   centre is in the view, their boxes clipped to it;
@@ -17,9 +17,8 @@ from __future__ import annotations
 
 import json
 import math
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from dataclasses import asdict, dataclass, field
-from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -30,8 +29,8 @@ from tracker_msgs_py.codec import msg_to_rect
 from tracker_msgs_py.geometry import Rect
 from tracker_ptz_sim.evaluation import metrics, run_report
 from tracker_ptz_sim.evaluation.metrics import Boxes
-from tracker_ptz_sim.simulation.scenes import mask_path, read_label
 
+LabelImages = Callable[[int], np.ndarray]  # 1-based frame -> label image (pixel = object id)
 REASON_GAP_S = 2.0  # a lock lost this long may move on to another object
 
 
@@ -184,14 +183,14 @@ def _reacquire_times(
     return times
 
 
-def score_trace(trace: RunTrace, gt: Path) -> dict[str, Any]:
-    """Every score of a run against a MOTChallenge gt.txt (conf-0 rows: ignored objects), with the
-    scene's label masks when gt.txt lies in a scene directory (<scene>/gt/gt.txt, <scene>/masks/)."""
+def score_trace(trace: RunTrace, gt: Path, label_of: LabelImages | None = None) -> dict[str, Any]:
+    """Every score of a run against a MOTChallenge gt.txt (conf-0 rows: ignored objects) and,
+    when given, the scene's label images (`label_of(frame)`: pixel value = object id)."""
     truth = metrics.load_mot(gt)
     ignored = metrics.load_mot(gt, ignored=True)
     hypotheses = metrics.without_ignored(trace.hypotheses, truth, ignored)
     frames = sorted(trace.windows)
-    view_truth, view_ignored = _view_truth(gt, truth, ignored, trace.windows)
+    view_truth, view_ignored = _view_truth(truth, ignored, trace.windows, label_of)
     view_hypotheses = metrics.without_ignored(hypotheses, view_truth, view_ignored)
     return {
         "frames": len(frames),
@@ -202,13 +201,11 @@ def score_trace(trace: RunTrace, gt: Path) -> dict[str, Any]:
 
 
 def _view_truth(
-    gt: Path, truth: Boxes, ignored: Boxes, windows: dict[int, Rect]
+    truth: Boxes, ignored: Boxes, windows: dict[int, Rect], label_of: LabelImages | None
 ) -> tuple[Boxes, Boxes]:
     """The counted and the ignored objects as the camera images show them."""
-    scene = gt.parent.parent
-    if not mask_path(scene, 1).is_file():
+    if label_of is None:
         return metrics.in_view(truth, windows), metrics.in_view(ignored, windows)
-    label_of = partial(read_label, scene)
     counted, partial_views = metrics.visible_in_view(label_of, truth, windows)
     # An ignored object (barely visible in the scene) stays ignored however much of it is in view.
     _, hidden = metrics.visible_in_view(label_of, ignored, windows, min_share=math.inf)
@@ -224,13 +221,15 @@ def _tracking_scores(truth: Boxes, hypotheses: Boxes, frames: list[int]) -> dict
     }
 
 
-def write_evaluation(trace: RunTrace, gt: Path, out: Path, title: str = "") -> dict[str, Any]:
+def write_evaluation(
+    trace: RunTrace, gt: Path, out: Path, title: str = "", label_of: LabelImages | None = None
+) -> dict[str, Any]:
     """Score a run and write tracks.txt, evaluation.json and plots.png into `out`; the scores."""
     from tracker_ptz_sim.evaluation.plots import plot_run  # matplotlib only when plotting
 
     out.mkdir(parents=True, exist_ok=True)
     trace.write_mot(out / "tracks.txt")
-    result = score_trace(trace, gt)
+    result = score_trace(trace, gt, label_of)
     write_json(result, out / "evaluation.json")
     plot_run(trace, metrics.every_object(gt), out / "plots.png", title or str(gt))
     return result

@@ -31,7 +31,9 @@ from __future__ import annotations
 import configparser
 import json
 import math
+from collections.abc import Callable
 from dataclasses import asdict, dataclass, field, fields
+from functools import partial
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, ClassVar
 
@@ -551,6 +553,11 @@ def mask_path(root: Path, frame: int) -> Path:
 def read_label(root: Path, frame: int) -> np.ndarray:
     """The label image of a scene's 1-based `frame` as int64."""
     return _read_mask(mask_path(root, frame), np.int64)
+
+
+def label_reader(root: Path) -> Callable[[int], np.ndarray] | None:
+    """`read_label` for the scene directory `root`, or None when it has no label masks."""
+    return partial(read_label, root) if mask_path(root, 1).is_file() else None
 
 
 def load_scene(directory: str | Path) -> Scene:
