@@ -25,6 +25,7 @@ import numpy as np
 import rclpy
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+from rclpy.signals import SignalHandlerOptions
 from rosidl_parser.definition import (
     AbstractNestedType,
     AbstractString,
@@ -35,6 +36,7 @@ from rosidl_parser.definition import (
 
 import tracker_msgs.msg
 import tracker_msgs.srv
+from tracker_msgs_py import stop_signals
 
 QOS = QoSProfile(
     depth=10, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL
@@ -130,7 +132,10 @@ def serve() -> None:
             return response_for(srv, request)
 
         node.create_service(srv, f"rt/{name}", answer)
-    rclpy.spin(node)
+    # Stopped as the suite's nodes are (tracker_msgs_py.node_main): the stop only sets a flag,
+    # and the loop leaves between two waits.
+    while not stop_signals.requested():
+        rclpy.spin_once(node, timeout_sec=0.1)
 
 
 def probe() -> int:
@@ -176,7 +181,8 @@ def probe() -> int:
 
 
 def main() -> int:
-    rclpy.init()
+    stop_signals.install()  # also: every thread's stack on SIGUSR1, should it ever hang
+    rclpy.init(signal_handler_options=SignalHandlerOptions.NO)
     try:
         if sys.argv[1] == "serve":
             serve()

@@ -6,9 +6,12 @@ import json
 import os
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import pytest
+
+from tracker_msgs_py import stop_signals
 
 PEER = Path(__file__).with_name("interface_peer.py")
 EXPECTED = {
@@ -47,7 +50,17 @@ def test_every_interface_round_trips_between_processes(tmp_path):
         )
     finally:
         server.terminate()
-        server.wait(timeout=10)
+        try:
+            server.wait(timeout=10)
+        except subprocess.TimeoutExpired:
+            server.send_signal(stop_signals.STACK_DUMP_SIGNAL)
+            time.sleep(0.5)
+            server.kill()
+            stacks = server.communicate()[0]
+            raise AssertionError(
+                f"the echo server ignored SIGTERM; its output:\n{stacks}"
+            ) from None
+        assert server.returncode == 0, server.communicate()[0]
     assert probe.stdout.strip(), f"probe printed nothing; stderr:\n{probe.stderr}"
     report = json.loads(probe.stdout.strip().splitlines()[-1])
     assert set(report) == EXPECTED, "an interface was added or removed: update EXPECTED"
