@@ -34,6 +34,7 @@ setup(
             "make_scene = tracker_ptz_sim.simulation.scene_cli:main",
             "evaluate = tracker_ptz_sim.entry_points:evaluate",
             "benchmark = tracker_ptz_sim.entry_points:benchmark",
+            "predictor_study = tracker_ptz_sim.entry_points:predictor_study",
         ],
     },
 )

@@ -32,6 +32,7 @@ from tracker_filter.management import (
     TrackManager,
 )
 from tracker_filter.models import seed001_nominal_model
+from tracker_filter.robust_kalman import LambdaRule, seed001_uncertainty
 from tracker_filter.selection import AUTOMATIC_POLICIES, SelectionPolicy, TargetSelector
 from tracker_msgs_py.params import ParamSpec
 
@@ -46,6 +47,7 @@ def seed_process_noise(cycle: float = SEED_CYCLE) -> float:
 
 
 _SEED001 = seed001_nominal_model()
+_SEED001_UNCERTAINTY = seed001_uncertainty()
 
 _MULTI: dict[str, Any] = {
     "filter": "kalman_cv",
@@ -66,6 +68,12 @@ _MULTI: dict[str, Any] = {
     "model_noise_gain": _SEED001.noise_gain.ravel().tolist(),
     "model_process_covariance": _SEED001.process_covariance.ravel().tolist(),
     "model_measurement_covariance": _SEED001.measurement_covariance.ravel().tolist(),
+    # robust_kalman: seed 001's uncertainty [dF dG] = M Delta [E_f E_g]
+    "robust_lambda_rule": LambdaRule.EXACT.value,
+    "robust_alpha": 0.5,
+    "robust_m": _SEED001_UNCERTAINTY.M.ravel().tolist(),
+    "robust_e_f": _SEED001_UNCERTAINTY.E_f.ravel().tolist(),
+    "robust_e_g": _SEED001_UNCERTAINTY.E_g.ravel().tolist(),
     "gate_probability": 0.99,
     "measurements": "all",
     "max_tracks": 100,
@@ -118,11 +126,25 @@ TRACKING_PARAMETERS: tuple[ParamSpec, ...] = (
         choices=("stds", "process_noise"),
     ),
     _spec("nominal_dt", "s, frame interval for initial_covariance process_noise", 1e-4, 10.0),
-    _spec("model_state_layout", "kalman_linear_model: state element names, x y first"),
-    _spec("model_transition", "kalman_linear_model: F, row by row"),
-    _spec("model_noise_gain", "kalman_linear_model: G (n rows), row by row"),
-    _spec("model_process_covariance", "kalman_linear_model: Q, row by row"),
-    _spec("model_measurement_covariance", "kalman_linear_model: R (2x2), px^2, row by row"),
+    _spec(
+        "model_state_layout", "kalman_linear_model, robust_kalman: state element names, x y first"
+    ),
+    _spec("model_transition", "kalman_linear_model, robust_kalman: F, row by row"),
+    _spec("model_noise_gain", "kalman_linear_model, robust_kalman: G (n rows), row by row"),
+    _spec("model_process_covariance", "kalman_linear_model, robust_kalman: Q, row by row"),
+    _spec(
+        "model_measurement_covariance",
+        "kalman_linear_model, robust_kalman: R (2x2), px^2, row by row",
+    ),
+    _spec(
+        "robust_lambda_rule",
+        "robust_kalman: lambda_hat = argmin G (exact), (1 + robust_alpha) lambda_l (cheap), 0 (nominal)",
+        choices=tuple(r.value for r in LambdaRule),
+    ),
+    _spec("robust_alpha", "robust_kalman: alpha of the cheap rule", 1e-6, 1e6),
+    _spec("robust_m", "robust_kalman: M (n rows, k columns), row by row"),
+    _spec("robust_e_f", "robust_kalman: E_f (k x n), row by row"),
+    _spec("robust_e_g", "robust_kalman: E_g (k x m), row by row"),
     _spec("gate_probability", "chi-square gate probability; 1 = no gate", 0.5, 1.0),
     _spec(
         "measurements",

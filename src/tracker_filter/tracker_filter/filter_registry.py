@@ -16,6 +16,7 @@ import numpy as np
 from tracker_filter.filters import FilterConfig, FilterFactory, FilterKind, LinearModelFilterConfig
 from tracker_filter.gains import resolve_gains
 from tracker_filter.models import LinearModel
+from tracker_filter.robust_kalman import ModelUncertainty, RobustKalmanConfig
 from tracker_msgs_py.registry import Method, Registry
 
 FILTERS: Registry[FilterFactory] = Registry("filter")
@@ -68,6 +69,31 @@ def linear_model(values: Mapping[str, Any]) -> LinearModel:
     )
 
 
+def model_uncertainty(values: Mapping[str, Any], model: LinearModel) -> ModelUncertainty:
+    """M, E_f, E_g of the robust_* parameters (row-major; k = len(M) / n; raises ValueError)."""
+    n, m = model.noise_gain.shape
+    raw = {name: np.asarray(values[f"robust_{name}"], dtype=float) for name in ("m", "e_f", "e_g")}
+    if raw["m"].size == 0 or raw["m"].size % n:
+        raise ValueError(f"robust_m needs {n} rows (one per state element)")
+    k = raw["m"].size // n
+    if raw["e_f"].size != k * n or raw["e_g"].size != k * m:
+        raise ValueError(f"robust_e_f must be {k}x{n} and robust_e_g {k}x{m} (M is {n}x{k})")
+    return ModelUncertainty(
+        raw["m"].reshape(n, k), raw["e_f"].reshape(k, n), raw["e_g"].reshape(k, m)
+    )
+
+
+def robust_filter(values: Mapping[str, Any]) -> RobustKalmanConfig:
+    model = linear_model(values)
+    return RobustKalmanConfig(
+        model,
+        model_uncertainty(values, model),
+        values["robust_lambda_rule"],
+        values["robust_alpha"],
+        values["initial_velocity_std"],
+    )
+
+
 for _kind in FilterKind:
     FILTERS.register(
         Method(
@@ -90,5 +116,14 @@ FILTERS.register(
         build=lambda values: LinearModelFilterConfig(
             linear_model(values), values["initial_velocity_std"]
         ),
+    )
+)
+
+FILTERS.register(
+    Method(
+        name="robust_kalman",
+        description="seed 001's robust Kalman filter (Sayed 2001) on the model_* model with the "
+        "robust_* uncertainty, one step per frame",
+        build=robust_filter,
     )
 )

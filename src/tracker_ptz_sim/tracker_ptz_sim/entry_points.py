@@ -30,3 +30,7 @@ def evaluate() -> int:
 
 def benchmark() -> int:
     return guarded_main("tracker_ptz_sim.bringup.benchmark")
+
+
+def predictor_study() -> int:
+    return guarded_main("tracker_ptz_sim.bringup.predictor_study")

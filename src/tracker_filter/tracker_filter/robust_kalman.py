@@ -1,0 +1,465 @@
+"""Seed 001's robust Kalman filter (Sayed 2001; the thesis's Theorem 3.4), no rclpy.
+
+The model is uncertain in F and G:
+
+    x_{i+1} = (F + dF) x_i + (G + dG) w_i,   z_i = H x_i + v_i,   [dF dG] = M Delta [E_f E_g],
+    ||Delta|| <= 1.
+
+Each step picks a scalar lambda_hat > lambda_l = ||M^T H^T R^-1 H M|| (eq. 3.37), replaces
+Q, R, P, G, F by the modified quantities of eqs. 3.38-3.43 and runs a predictor-corrector update
+(eqs. 3.44-3.49). With lambda_hat = 0 every modified quantity is the nominal one and the step is
+the nominal filter in its filtered form (seed 001 section 2):
+
+    P_{i+1|i+1} = ((G Q G^T + F P F^T)^-1 + H^T R^-1 H)^-1
+    x_{i+1|i+1} = F x_{i|i} + P_{i+1|i+1} H^T R^-1 (z_{i+1} - H F x_{i|i})
+
+lambda_hat rules (`LambdaRule`):
+- ``nominal``: lambda_hat = 0, the nominal filter;
+- ``cheap``: lambda_hat = (1 + alpha) lambda_l (Sayed's suggestion; the same every step);
+- ``exact``: lambda_hat = argmin_{lambda > lambda_l} G(lambda) (eq. 3.20 prints "arg max": an
+  erratum). G depends on the next measurement, so the exact rule can only choose lambda_hat once
+  z_{i+1} is known. The *prediction* this filter reports before the measurement arrives (`mean`
+  after `predict`) therefore uses the lambda_hat of the previous step; the correction then uses
+  the lambda_hat that minimises G for the new measurement, exactly as Theorem 3.4.
+
+Errata of the thesis applied here (each marked at its equation): argmin in 3.20; no inverse on
+the last factor of F_hat in 3.43; G(lambda)'s first term weighted by Q, not Q_hat, in 3.21.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from enum import StrEnum
+from functools import cache
+
+import numpy as np
+
+from tracker_filter.banks import FilterBank, ObjectBank
+from tracker_filter.filters import StateFilter, check_measurement
+from tracker_filter.models import AXES, LinearModel
+
+
+class LambdaRule(StrEnum):
+    NOMINAL = "nominal"
+    CHEAP = "cheap"
+    EXACT = "exact"
+
+
+@dataclass(frozen=True, eq=False)
+class ModelUncertainty:
+    """[dF dG] = M Delta [E_f E_g] with ||Delta|| <= 1: M (n, k), E_f (k, n), E_g (k, m)."""
+
+    M: np.ndarray
+    E_f: np.ndarray
+    E_g: np.ndarray
+
+    def __post_init__(self) -> None:
+        m, e_f, e_g = (
+            np.atleast_2d(np.asarray(a, dtype=float)) for a in (self.M, self.E_f, self.E_g)
+        )
+        if m.shape[1] != e_f.shape[0] or e_f.shape[0] != e_g.shape[0]:
+            raise ValueError(
+                f"M must be n x k and E_f, E_g k x n and k x m; got {m.shape}, {e_f.shape}, "
+                f"{e_g.shape}"
+            )
+        if not all(np.all(np.isfinite(a)) for a in (m, e_f, e_g)):
+            raise ValueError("M, E_f and E_g must be finite")
+        object.__setattr__(self, "M", m)
+        object.__setattr__(self, "E_f", e_f)
+        object.__setattr__(self, "E_g", e_g)
+
+    def check(self, model: LinearModel) -> None:
+        """Raises ValueError when the shapes do not fit `model` (n states, m noise inputs)."""
+        n, m = model.noise_gain.shape
+        if self.M.shape[0] != n or self.E_f.shape[1] != n or self.E_g.shape[1] != m:
+            raise ValueError(
+                f"the model has {n} states and {m} noise inputs: M must be {n} x k, E_f k x {n}, "
+                f"E_g k x {m}; got {self.M.shape}, {self.E_f.shape}, {self.E_g.shape}"
+            )
+
+
+def seed001_uncertainty() -> ModelUncertainty:
+    """Seed 001's values: E_f = [0 0 1 1 1 1], E_g = [1 1 0 0 0 0], M = [.2 .2 .1 .1 .1 .1]^T."""
+    return ModelUncertainty(
+        M=np.array([[0.2], [0.2], [0.1], [0.1], [0.1], [0.1]]),
+        E_f=np.array([[0.0, 0.0, 1.0, 1.0, 1.0, 1.0]]),
+        E_g=np.array([[1.0, 1.0, 0.0, 0.0, 0.0, 0.0]]),
+    )
+
+
+def _measurement_matrix(n: int) -> np.ndarray:
+    return np.hstack([np.eye(AXES), np.zeros((AXES, n - AXES))])
+
+
+def lambda_lower_bound(model: LinearModel, uncertainty: ModelUncertainty) -> float:
+    """lambda_l = ||M^T H^T R^-1 H M|| (eq. 3.37, spectral norm); 0 when H M = 0."""
+    hm = uncertainty.M[:AXES]
+    return float(np.linalg.norm(hm.T @ np.linalg.solve(model.measurement_covariance, hm), 2))
+
+
+def initial_estimate(
+    z0: np.ndarray, prior_covariance: np.ndarray, measurement_covariance: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """Step 0 (eqs. 3.35-3.36) with prior mean 0: P = (Pi0^-1 + H^T R^-1 H)^-1, x = P H^T R^-1 z0."""
+    n = prior_covariance.shape[0]
+    h = _measurement_matrix(n)
+    r_inv = np.linalg.inv(measurement_covariance)
+    covariance = np.linalg.inv(np.linalg.inv(prior_covariance) + h.T @ r_inv @ h)
+    return covariance @ h.T @ r_inv @ z0, covariance
+
+
+@dataclass(frozen=True)
+class ModifiedModel:
+    """Step 2's quantities for one lambda_hat (eqs. 3.38-3.43)."""
+
+    lam: float
+    Q: np.ndarray  # Q_hat
+    R: np.ndarray  # R_hat
+    P: np.ndarray  # P_hat_{i|i}
+    G: np.ndarray  # G_hat
+    F: np.ndarray  # F_hat
+
+
+@cache
+def _identity(k: int) -> np.ndarray:
+    identity = np.eye(k)
+    identity.flags.writeable = False
+    return identity
+
+
+def _inverse(matrix: np.ndarray) -> np.ndarray:
+    """Inverse of a small k x k matrix; a division for seed 001's k = 1 (a tenth of the time)."""
+    return 1.0 / matrix if matrix.shape == (1, 1) else np.linalg.inv(matrix)
+
+
+def modified_model(
+    model: LinearModel, uncertainty: ModelUncertainty, covariance: np.ndarray, lam: float
+) -> ModifiedModel:
+    """Step 2 of Theorem 3.4 for P_{i|i} = covariance; lam = 0 gives the nominal quantities."""
+    F, G, Q, R = (
+        model.transition_matrix,
+        model.noise_gain,
+        model.process_covariance,
+        model.measurement_covariance,
+    )
+    if lam == 0.0:
+        return ModifiedModel(0.0, Q, R, covariance, G, F)
+    e_f, e_g, m = uncertainty.E_f, uncertainty.E_g, uncertainty.M
+    k = e_f.shape[0]
+    # (3.38) Q_hat^-1 = Q^-1 + lam E_g^T (I + lam E_f P E_f^T)^-1 E_g, inverted by Woodbury:
+    # Q_hat = Q - Q E_g^T ((I + lam E_f P E_f^T) / lam + E_g Q E_g^T)^-1 E_g Q  (k x k inverses)
+    pe = covariance @ e_f.T
+    outer = _identity(k) + lam * e_f @ pe
+    inner = _inverse(outer)
+    qe = Q @ e_g.T
+    q_hat = Q - qe @ _inverse(outer / lam + e_g @ qe) @ qe.T
+    # (3.39) R_hat = R - lam^-1 H M M^T H^T
+    hm = m[:AXES]
+    r_hat = R - hm @ hm.T / lam
+    # (3.41) P_hat = P - P E_f^T (lam^-1 I + E_f P E_f^T)^-1 E_f P  (= 3.40 without inverting P)
+    p_hat = covariance - pe @ _inverse(_identity(k) / lam + e_f @ pe) @ pe.T
+    # lam P_hat E_f^T, which 3.42 and 3.43 need, is lam P E_f^T (I + lam E_f P E_f^T)^-1 (push-
+    # through identity): without the difference of 3.41 it keeps its digits at large lambda_hat
+    lam_pe_hat = lam * pe @ inner
+    # (3.42) G_hat = G - lam F P_hat E_f^T E_g
+    g_hat = G - F @ lam_pe_hat @ e_g
+    # (3.43) F_hat = (F - lam G_hat Q_hat E_g^T E_f)(I - lam P_hat E_f^T E_f)
+    # erratum: the thesis prints an inverse on the last factor; with it the result is wrong.
+    first = F - lam * g_hat @ q_hat @ e_g.T @ e_f
+    f_hat = first - (first @ lam_pe_hat) @ e_f
+    return ModifiedModel(lam, q_hat, r_hat, p_hat, g_hat, f_hat)
+
+
+@dataclass(frozen=True)
+class _CostTerms:
+    """The lambda-independent parts of G(lambda) for one step (Theorem 3.3's identifications)."""
+
+    weight: np.ndarray  # Q -> diag(P^-1, Q^-1)
+    weight_inverse: np.ndarray  # diag(P, Q)
+    w: np.ndarray  # W -> R^-1
+    a: np.ndarray  # A -> H [F G]
+    b: np.ndarray  # b -> z - H F x_{i|i}
+    h_bar: np.ndarray  # H_bar -> H M
+    e_a: np.ndarray  # E_a -> [E_f E_g]
+    e_b: np.ndarray  # E_b -> -E_f x_{i|i}
+
+
+def _cost_terms(
+    model: LinearModel,
+    uncertainty: ModelUncertainty,
+    mean: np.ndarray,
+    covariance: np.ndarray,
+    z: np.ndarray,
+) -> _CostTerms:
+    F, G = model.transition_matrix, model.noise_gain
+    n, m = G.shape
+    h = _measurement_matrix(n)
+    weight, weight_inverse = np.zeros((n + m, n + m)), np.zeros((n + m, n + m))
+    weight[:n, :n], weight[n:, n:] = (
+        np.linalg.inv(covariance),
+        np.linalg.inv(model.process_covariance),
+    )
+    weight_inverse[:n, :n], weight_inverse[n:, n:] = covariance, model.process_covariance
+    return _CostTerms(
+        weight,
+        weight_inverse,
+        np.linalg.inv(model.measurement_covariance),
+        h @ np.hstack([F, G]),
+        z - h @ F @ mean,
+        uncertainty.M[:AXES],
+        np.hstack([uncertainty.E_f, uncertainty.E_g]),
+        -uncertainty.E_f @ mean,
+    )
+
+
+def _costs(lams: np.ndarray, terms: _CostTerms) -> np.ndarray:
+    """G(lambda) of eq. 3.21 for each lambda > lambda_l in `lams` (vectorised).
+
+        W(lambda) = W + W H_bar (lambda I - H_bar^T W H_bar)^+ H_bar^T W       (3.24)
+        Q(lambda) = Q + lambda E_a^T E_a                                        (3.23)
+        x(lambda) = (Q(lambda) + A^T W(lambda) A)^-1 (A^T W(lambda) b + lambda E_a^T E_b)  (3.22)
+        G(lambda) = ||x||^2_Q + lambda ||E_a x - E_b||^2 + ||A x - b||^2_W(lambda)  (3.21)
+
+    (3.21) erratum: the first term is weighted by Q, not Q_hat. The inverse in 3.22 is a rank-
+    (k + 2) update of Q, so Woodbury's identity leaves a (k + 2)-square system per lambda.
+    """
+    t = terms
+    k = t.h_bar.shape[1]
+    lams = np.asarray(lams, dtype=float).reshape(-1)
+    wh = t.w @ t.h_bar
+    # for lambda > lambda_l, lambda I - H_bar^T W H_bar is positive definite: ^+ is the inverse
+    w_lam = t.w + wh @ np.linalg.inv(lams[:, None, None] * np.eye(k) - t.h_bar.T @ wh) @ wh.T
+    u = np.vstack([t.e_a, t.a]).T  # Q(lambda) + A^T W(lambda) A = Q + U D U^T
+    d = np.zeros((len(lams), k + AXES, k + AXES))
+    d[:, :k, :k] = lams[:, None, None] * np.eye(k)
+    d[:, k:, k:] = w_lam
+    rhs = np.einsum("ij,ljk,k->li", t.a.T, w_lam, t.b) + lams[:, None] * (t.e_a.T @ t.e_b)
+    bu = t.weight_inverse @ u
+    core = np.linalg.inv(d) + u.T @ bu
+    b_rhs = rhs @ t.weight_inverse  # weight_inverse is symmetric
+    x = b_rhs - np.einsum("ij,ljk,lk->li", bu, np.linalg.inv(core), b_rhs @ u)
+    residual = x @ t.a.T - t.b
+    misfit = x @ t.e_a.T - t.e_b
+    return (
+        np.einsum("li,ij,lj->l", x, t.weight, x)
+        + lams * np.sum(misfit**2, axis=1)
+        + np.einsum("li,lij,lj->l", residual, w_lam, residual)
+    )
+
+
+def regularised_cost(
+    lam: float,
+    model: LinearModel,
+    uncertainty: ModelUncertainty,
+    mean: np.ndarray,
+    covariance: np.ndarray,
+    z: np.ndarray,
+) -> float:
+    """G(lambda) of eq. 3.21 for the step from (x_{i|i}, P_{i|i}) to the measurement z_{i+1}.
+
+    Theorem 3.3's identifications (the thesis omits them): unknown col(x_i - x_{i|i}, w_i);
+    Q -> diag(P^-1, Q^-1); W -> R^-1; A -> H [F G]; b -> z - H F x_{i|i}; H_bar -> H M;
+    E_a -> [E_f E_g]; E_b -> -E_f x_{i|i}.
+    """
+    terms = _cost_terms(model, uncertainty, mean, covariance, z)
+    return float(_costs(np.array([lam]), terms)[0])
+
+
+#: exact rule search: lambda = lambda_l (1 + 10^s) for s in this range.
+#: G can keep falling towards either end. Towards lambda_l, R_hat = R - H M M^T H^T / lambda turns
+#: singular (seed 001: its small eigenvalue is ~3 (lambda / lambda_l - 1)), so the search stops
+#: at 1e-3 above; beyond 1e4 lambda_l G changes by less than 1e-4 of itself.
+EXACT_SEARCH_DECADES = (-3.0, 4.0)
+EXACT_GRID_POINTS = 36  # the first grid: 0.2 decades apart
+EXACT_REFINEMENTS = 2  # then 2 grids of 9 points over the bracket: 0.0125 decades (3 %)
+
+
+def exact_lambda(
+    model: LinearModel,
+    uncertainty: ModelUncertainty,
+    mean: np.ndarray,
+    covariance: np.ndarray,
+    z: np.ndarray,
+    lower_bound: float,
+) -> float:
+    """lambda_hat = argmin_{lambda > lambda_l} G(lambda) (eq. 3.20, erratum: argmin, not argmax).
+
+    G is evaluated on lambda = lambda_l (1 + 10^s): a log grid over EXACT_SEARCH_DECADES finds the
+    basin, finer grids over the bracket round the best point refine it.
+    """
+    terms = _cost_terms(model, uncertainty, mean, covariance, z)
+    lo, hi = EXACT_SEARCH_DECADES
+    grid = np.linspace(lo, hi, EXACT_GRID_POINTS)
+    for _ in range(EXACT_REFINEMENTS + 1):
+        costs = _costs(lower_bound * (1.0 + 10.0**grid), terms)
+        best = int(np.argmin(costs))
+        step = grid[1] - grid[0]
+        s = float(grid[best])
+        grid = np.linspace(max(s - step, lo), min(s + step, hi), 9)
+    return lower_bound * (1.0 + 10.0**s)
+
+
+class RobustKalmanFilter:
+    """Sayed's robust filter as a `StateFilter`, one model step per `predict` (one frame).
+
+        predict   x_{i+1|i} = F_hat x_{i|i}                                   (3.44)
+        update    P_{i+1|i} = F P_hat F^T + G_hat Q_hat G_hat^T               (3.47)
+                  R_e = R_hat + H P_{i+1|i} H^T                               (3.49)
+                  P_{i+1|i+1} = P_{i+1|i} - P_{i+1|i} H^T R_e^-1 H P_{i+1|i}  (3.48)
+                  x_{i+1|i+1} = x_{i+1|i} + P_{i+1|i+1} H^T R_hat^-1 e        (3.45, 3.46)
+
+    A missed measurement keeps the prediction and P_{i+1|i}.
+    """
+
+    def __init__(
+        self,
+        model: LinearModel,
+        uncertainty: ModelUncertainty,
+        mean: np.ndarray,
+        covariance: np.ndarray,
+        t0: float,
+        rule: LambdaRule = LambdaRule.EXACT,
+        alpha: float = 0.5,
+    ) -> None:
+        if not math.isfinite(t0):
+            raise ValueError(f"start time must be finite, got {t0}")
+        uncertainty.check(model)
+        self.model, self.uncertainty = model, uncertainty
+        self.rule, self.alpha = LambdaRule(rule), alpha
+        self.lower_bound = lambda_lower_bound(model, uncertainty)
+        self._filtered = (np.array(mean, dtype=float), np.array(covariance, dtype=float))
+        self._time = float(t0)
+        self._pending = False  # a predict() waits for its update()
+        self.lam = self._fixed_lambda() if self.rule is not LambdaRule.EXACT else self._cheap()
+        self._modified = modified_model(model, uncertainty, self._filtered[1], self.lam)
+
+    def _cheap(self) -> float:
+        return (1.0 + self.alpha) * self.lower_bound
+
+    def _fixed_lambda(self) -> float:
+        if self.rule is LambdaRule.NOMINAL or self.lower_bound == 0.0:
+            return 0.0  # H M = 0: Step 1 takes lambda_hat = 0
+        return self._cheap()
+
+    @property
+    def state_layout(self) -> tuple[str, ...]:
+        return self.model.state_layout
+
+    @property
+    def time(self) -> float:
+        return self._time
+
+    @property
+    def mean(self) -> np.ndarray:
+        """x_{i+1|i} between predict and update, else x_{i|i}."""
+        if self._pending:
+            return self._modified.F @ self._filtered[0]
+        return self._filtered[0].copy()
+
+    @property
+    def covariance(self) -> np.ndarray:
+        if self._pending:
+            return self._predicted_covariance(self._modified)
+        return self._filtered[1].copy()
+
+    def _predicted_covariance(self, modified: ModifiedModel) -> np.ndarray:
+        F = self.model.transition_matrix
+        return F @ modified.P @ F.T + modified.G @ modified.Q @ modified.G.T  # (3.47)
+
+    def predict(self, t: float) -> None:
+        if not math.isfinite(t) or t < self._time:
+            raise ValueError(f"cannot predict from t = {self._time} s back to t = {t} s")
+        if t == self._time and not self._pending:
+            return
+        if self._pending:
+            self.update(None)  # the previous step ended without a measurement
+        # the exact rule keeps the previous step's lambda_hat until the measurement arrives
+        self._modified = modified_model(self.model, self.uncertainty, self._filtered[1], self.lam)
+        self._pending = True
+        self._time = float(t)
+
+    def update(self, z: np.ndarray | None) -> None:
+        z = check_measurement(z)
+        if not self._pending:
+            if z is not None:  # a second measurement at the same time: correct, no model step
+                self._correct(
+                    self._filtered[0], self._filtered[1], self.model.measurement_covariance, z
+                )
+            return
+        mean, covariance = self._filtered
+        if z is not None and self.rule is LambdaRule.EXACT and self.lower_bound > 0.0:
+            self.lam = exact_lambda(
+                self.model, self.uncertainty, mean, covariance, z, self.lower_bound
+            )
+            self._modified = modified_model(self.model, self.uncertainty, covariance, self.lam)
+        modified = self._modified
+        predicted = modified.F @ mean  # (3.44)
+        predicted_cov = self._predicted_covariance(modified)
+        self._pending = False
+        if z is None:
+            self._filtered = (predicted, predicted_cov)
+            return
+        self._correct(predicted, predicted_cov, modified.R, z)
+
+    def _correct(
+        self, predicted: np.ndarray, predicted_cov: np.ndarray, r_hat: np.ndarray, z: np.ndarray
+    ) -> None:
+        h_p = predicted_cov[:AXES]  # H P_{i+1|i}
+        r_e = r_hat + h_p[:, :AXES]  # (3.49)
+        filtered_cov = predicted_cov - h_p.T @ np.linalg.solve(r_e, h_p)  # (3.48)
+        filtered_cov = (filtered_cov + filtered_cov.T) / 2.0  # round-off would make it drift
+        innovation = z - predicted[:AXES]  # (3.46)
+        gain = filtered_cov[:, :AXES] @ np.linalg.inv(r_hat)
+        self._filtered = (predicted + gain @ innovation, filtered_cov)  # (3.45)
+
+    def measurement_prediction(self) -> tuple[np.ndarray, np.ndarray]:
+        """H x_{i+1|i} and R_e = R_hat + H P_{i+1|i} H^T (3.49)."""
+        covariance = self.covariance
+        return self.mean[:AXES], covariance[:AXES, :AXES] + self._modified.R
+
+    def predicted_position(self, lead: float) -> np.ndarray:
+        """Position after one more model step (the model has no other interval)."""
+        return (self._modified.F @ self.mean)[:AXES] if lead > 0 else self.mean[:AXES]
+
+
+@dataclass(frozen=True, eq=False)
+class RobustKalmanConfig:
+    """Robust Kalman filters for new tracks; a `FilterFactory`.
+
+    A new track starts with Step 0 (eqs. 3.35-3.36): prior mean 0 and Pi0 = initial_std^2 I.
+    """
+
+    model: LinearModel
+    uncertainty: ModelUncertainty = field(default_factory=seed001_uncertainty)
+    rule: LambdaRule = LambdaRule.EXACT
+    alpha: float = 0.5
+    initial_std: float = 100.0
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "rule", LambdaRule(self.rule))
+        self.uncertainty.check(self.model)
+        if not (math.isfinite(self.alpha) and self.alpha > 0.0):
+            raise ValueError(f"alpha must be a positive number, got {self.alpha}")
+        if not (math.isfinite(self.initial_std) and self.initial_std > 0.0):
+            raise ValueError(f"initial_std must be a positive number, got {self.initial_std}")
+        needs_inverse_q = self.rule is not LambdaRule.NOMINAL
+        if needs_inverse_q and np.linalg.eigvalsh(self.model.process_covariance).min() <= 0.0:
+            raise ValueError("the robust filter needs a positive definite Q (it uses Q^-1)")
+
+    @property
+    def state_layout(self) -> tuple[str, ...]:
+        return self.model.state_layout
+
+    def new_filter(self, z: np.ndarray, t: float) -> StateFilter:
+        z0 = check_measurement(z)
+        if z0 is None:
+            raise ValueError("a new track needs a measurement")
+        prior = np.eye(self.model.dim) * self.initial_std**2
+        mean, covariance = initial_estimate(z0, prior, self.model.measurement_covariance)
+        return RobustKalmanFilter(
+            self.model, self.uncertainty, mean, covariance, t, self.rule, self.alpha
+        )
+
+    def new_bank(self) -> FilterBank:
+        return ObjectBank(self.new_filter, self.state_layout)
