@@ -1,0 +1,74 @@
+"""Single-target accuracy as seed 003 measures it (no rclpy), for trackers started on a rectangle.
+
+- Q1 ("quality"): IoU of the estimated and the true box per frame, averaged over the frames the
+  target is in the ground truth (a frame without an estimate scores 0);
+- Q2 ("precision"): share of those frames whose estimated centre lies inside the square centred on
+  the true box with side 0.8 x the box's shorter side;
+- success: share of frames with IoU >= 0.5 (the threshold the multi-target scores use).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+
+from tracker_msgs_py.geometry import Rect
+
+CENTRE_SQUARE = 0.8  # Q2's square side, times the true box's shorter side
+SUCCESS_IOU = 0.5
+
+
+@dataclass(frozen=True)
+class SingleTargetScores:
+    frames: int  # frames with a true box
+    mean_iou: float  # Q1
+    centre_in_box: float  # Q2
+    success: float  # share of frames with IoU >= SUCCESS_IOU
+    missed: int  # frames with a true box and no estimate
+
+
+def centre_inside(estimate: Rect, truth: Rect, side_factor: float = CENTRE_SQUARE) -> bool:
+    """True when the estimate's centre lies in the square of side side_factor x min(w, h) centred
+    on the true box."""
+    half = side_factor * min(truth.width, truth.height) / 2.0
+    (ex, ey), (tx, ty) = estimate.center, truth.center
+    return abs(ex - tx) <= half and abs(ey - ty) <= half
+
+
+def score_single_target(
+    truth: Mapping[int, Rect], estimates: Mapping[int, Rect | None]
+) -> SingleTargetScores:
+    """Scores over the frames of `truth`; `estimates` may lack frames or hold None (a miss)."""
+    ious, inside, missed = [], 0, 0
+    for frame, box in truth.items():
+        estimate = estimates.get(frame)
+        if estimate is None:
+            ious.append(0.0)
+            missed += 1
+            continue
+        ious.append(box.iou(estimate))
+        inside += centre_inside(estimate, box)
+    n = len(ious)
+    if n == 0:
+        return SingleTargetScores(0, 0.0, 0.0, 0.0, 0)
+    return SingleTargetScores(
+        n, sum(ious) / n, inside / n, sum(i >= SUCCESS_IOU for i in ious) / n, missed
+    )
+
+
+def pooled(scores: list[SingleTargetScores]) -> SingleTargetScores:
+    """Frame-weighted totals of several runs."""
+    frames = sum(s.frames for s in scores)
+    if frames == 0:
+        return SingleTargetScores(0, 0.0, 0.0, 0.0, 0)
+
+    def weighted(name: str) -> float:
+        return sum(getattr(s, name) * s.frames for s in scores) / frames
+
+    return SingleTargetScores(
+        frames,
+        weighted("mean_iou"),
+        weighted("centre_in_box"),
+        weighted("success"),
+        sum(s.missed for s in scores),
+    )
