@@ -37,6 +37,15 @@ class RegionDetector:
             blobs = [Blob(cx, cy, self.region, area, int(area), 1.0)]
         return Detection(frame.stamp_ns, view, blobs, bool(blobs), True)
 
+    @property
+    def tracking(self) -> bool:
+        return self.region is not None
+
+    def guide(self, centre: tuple[float, float]) -> None:
+        """Moves the reported region to `centre` (so tests can see the node's guidance)."""
+        if self.region is not None:
+            self.region = Rect.from_center(*centre, self.region.width, self.region.height)
+
     def reset(self) -> None:
         self.last_stamp = None
 

@@ -18,12 +18,12 @@ METHODS = [*DETECTORS, region_detector.METHOD]
 
 
 def frames(count: int = 8, start: int = 1) -> list[CameraFrame]:
-    """A textured scene with a bright square moving right; the camera is static."""
+    """A textured scene with a bright yellow square moving right; the camera is static."""
     background = np.random.default_rng(0).integers(40, 120, (120, 160, 3), dtype=np.uint8)
     out = []
     for k in range(start, start + count):
         image = background.copy()
-        image[50:70, 10 + 8 * k : 30 + 8 * k] = 250
+        image[50:70, 10 + 8 * k : 30 + 8 * k] = (60, 250, 250)  # bright and yellow: motion, colour
         out.append(CameraFrame(k * NS, image, View.identity(160, 120)))
     return out
 

@@ -2,9 +2,11 @@
 
 - `CameraFrame`: a camera image with its stamp and, when known, where it lies in the scene
   (`registration.View`); the colour image is kept, the grey one made on first use.
-- `Detector`: what every detector offers -- SSIM motion detection today (`detectors.SsimDetector`),
-  MOG2 blobs and CamShift next. Methods seeded from a rectangle (CamShift) also implement
-  `SeededDetector.select_region`, which the detector node serves as `select_region`.
+- `Detector`: what every detector offers -- SSIM motion detection (`detectors.SsimDetector`,
+  `detectors.SsimBackground`), CamShift colour tracking (`camshift.CamShiftTracker`). Methods
+  seeded from a rectangle (CamShift) also implement `SeededDetector.select_region`, which the
+  detector node serves as `select_region`, and `guide`, where the node places the next search
+  at the tracker's prediction.
 - `Detection` / `Blob`: the result, in scene coordinates (tracker_msgs/BlobArray).
 
 Contract (tests/detect/test_detector_contract.py, for every registered detector): one Detection
@@ -39,6 +41,8 @@ class Blob:
     area: float  # scene px^2 (pixel count x scene px per image px squared)
     pixel_count: int  # image pixels
     score: float  # the method's score (SSIM: mean SSIM over the blob, lower = stronger motion)
+    angle: float = 0.0  # rad, oriented box's rotation from the scene x axis towards y
+    oriented_size: tuple[float, float] | None = None  # scene px, oriented box's sides (CamShift)
 
 
 @dataclass
@@ -112,4 +116,13 @@ class SeededDetector(Detector, Protocol):
 
     def select_region(self, region: Rect, frame: CameraFrame) -> str | None:
         """Start on `region` (scene px) of `frame`; None, or why it cannot."""
+        ...
+
+    @property
+    def tracking(self) -> bool:
+        """True while it has a target and has not lost it."""
+        ...
+
+    def guide(self, centre: tuple[float, float]) -> None:
+        """Search next around `centre` (scene px), e.g. a filter's prediction."""
         ...

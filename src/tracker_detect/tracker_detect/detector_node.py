@@ -23,6 +23,7 @@ from sensor_msgs.msg import CameraInfo, Image, JointState
 from std_msgs.msg import Header
 
 from tracker_detect.detector import (
+    Blob,
     CameraFrame,
     Detection,
     Detector,
@@ -38,7 +39,7 @@ from tracker_detect.image_pose_pairing import (
 )
 from tracker_detect.registration import CameraIntrinsics
 from tracker_msgs.msg import Blob as BlobMsg
-from tracker_msgs.msg import BlobArray, PtzState
+from tracker_msgs.msg import BlobArray, PtzState, Target, Track
 from tracker_msgs.srv import SelectRegion
 from tracker_msgs_py.codec import (
     NS_PER_S,
@@ -52,6 +53,7 @@ from tracker_msgs_py.codec import (
     rect_to_msg,
     stamp_to_ns,
 )
+from tracker_msgs_py.geometry import Rect
 from tracker_msgs_py.node_main import SuiteNode, run_node
 from tracker_msgs_py.params import ParamSpec, declare_parameters
 from tracker_msgs_py.stamps import Order, StampOrder
@@ -93,7 +95,34 @@ NODE_PARAMETERS = [
     ParamSpec(
         "reliable_images", False, "reliable QoS for images (lockstep replays)", read_only=True
     ),
+    ParamSpec(
+        "initial_region",
+        [0.0, 0.0, 0.0, 0.0],
+        "seeded detectors (camshift): x, y, w, h [scene px] to start on in the first image "
+        "(zero size: none)",
+        validator=lambda v: None if len(v) == 4 else "initial_region needs x, y, width, height",
+    ),
+    ParamSpec(
+        "handover",
+        True,
+        "seeded detectors: whenever not tracking, start on the box of the locked target on "
+        "`handover_target` that was measured in that image (e.g. the motion tracker's)",
+    ),
+    ParamSpec(
+        "guide_from_target",
+        True,
+        "seeded detectors: search each image where `target`'s track is predicted to be",
+    ),
+    ParamSpec(
+        "guide_max_age",
+        0.5,
+        "seeded detectors: use a `target` at most this old for the guidance [s]",
+        0.0,
+        10.0,
+    ),
 ]
+
+RECENT_FRAMES = 16  # images kept for a hand-over naming an image by its stamp
 
 
 @dataclass
@@ -153,6 +182,12 @@ class DetectorNode(SuiteNode):
                 CameraInfo, "camera/camera_info", self._on_camera_info, image_qos(reliable)
             )
         self.create_service(SelectRegion, "select_region", self._on_select_region)
+        self.recent_frames: dict[int, CameraFrame] = {}
+        self.guide_target: Target | None = None
+        self.pending_region = self._initial_region()
+        if isinstance(self.detector, SeededDetector):
+            self.create_subscription(Target, "target", self._on_target, 10)
+            self.create_subscription(Target, "handover_target", self._on_handover_target, 10)
         self.get_logger().info(f"detector ready: method {self.method.name}, pose {source}")
 
     # --- parameters ---------------------------------------------------------------------------
@@ -236,6 +271,8 @@ class DetectorNode(SuiteNode):
             "history and waiting images cleared"
         )
         self.detector.reset()
+        self.recent_frames.clear()
+        self.guide_target = None
         self._handle(self.pairing.new_epoch(stamp_ns))  # still answered once, as every image is
 
     def _on_ptz_state(self, msg: PtzState) -> None:
@@ -305,12 +342,17 @@ class DetectorNode(SuiteNode):
 
     def _detect(self, image: PairedImage) -> None:
         frame = CameraFrame(image.stamp_ns, image.pixels, image.view)
+        if isinstance(self.detector, SeededDetector):
+            self._prepare_seeded(self.detector, frame)
         try:
             detection = self.detector.process(frame)
         except StaleFrameError:
             self.counters.stale_stamp += 1
             return
         self.last_frame = frame
+        self.recent_frames[frame.stamp_ns] = frame
+        while len(self.recent_frames) > RECENT_FRAMES:
+            del self.recent_frames[min(self.recent_frames)]
         self.counters.frames += 1
         if detection.history_reset:
             self.counters.size_changes += 1
@@ -321,6 +363,52 @@ class DetectorNode(SuiteNode):
             self.counters.registration_fallbacks += 1
         self.detections_pub.publish(self._blob_array(detection, image.token))
         self._publish_debug(detection, image.token)
+
+    # --- seeded detectors: start, hand-over, guidance -----------------------------------------
+
+    def _initial_region(self) -> Rect | None:
+        x, y, w, h = (float(v) for v in self.params["initial_region"])
+        return Rect(x, y, w, h) if w > 0 and h > 0 else None
+
+    def _prepare_seeded(self, detector: SeededDetector, frame: CameraFrame) -> None:
+        """Start on `initial_region` in the first image; guide the search by the target."""
+        if self.pending_region is not None:
+            reason = detector.select_region(self.pending_region, frame)
+            self.get_logger().info(
+                f"initial_region {self.pending_region}: {reason or 'tracking started'}"
+            )
+            self.pending_region = None
+        target = self.guide_target
+        if target is None or not self.params["guide_from_target"] or not detector.tracking:
+            return
+        age = (frame.stamp_ns - stamp_to_ns(target.header.stamp)) / NS_PER_S
+        if 0.0 <= age <= self.params["guide_max_age"]:
+            track = target.track
+            detector.guide((track.x + track.vx * age, track.y + track.vy * age))
+
+    def _on_target(self, msg: Target) -> None:
+        self.guide_target = msg if msg.locked and msg.track.status != Track.STATUS_LOST else None
+
+    def _on_handover_target(self, msg: Target) -> None:
+        detector = self.detector
+        if not self.params["handover"] or not isinstance(detector, SeededDetector):
+            return
+        if detector.tracking or not msg.locked or msg.track.status != Track.STATUS_CONFIRMED:
+            return  # only a measured (not coasting) box is worth learning a colour model from
+        frame = self.recent_frames.get(stamp_to_ns(msg.header.stamp))
+        if frame is None:
+            return  # that image is gone (or never came); the next target will do
+        try:
+            region = msg_to_rect(msg.track.bbox)
+        except ValueError as error:
+            self.problems.report("invalid hand-over box", f"ignored a hand-over target: {error}")
+            return
+        reason = detector.select_region(region, frame)
+        if reason is None:
+            self.guide_target = None  # the old target's guidance belongs to another object
+            self.get_logger().info(f"handed over target {msg.track.id} at {region}")
+        else:
+            self.problems.report("hand-over refused", f"hand-over of {region} refused: {reason}")
 
     def _on_select_region(
         self, request: SelectRegion.Request, response: SelectRegion.Response
@@ -347,16 +435,7 @@ class DetectorNode(SuiteNode):
         msg = BlobArray()
         msg.header.stamp = image_header.stamp
         msg.header.frame_id = self.params["scene_frame_id"]
-        msg.blobs = [
-            BlobMsg(
-                centroid_x=b.centroid_x,
-                centroid_y=b.centroid_y,
-                bbox=rect_to_msg(b.bbox),
-                area=round(b.area),
-                score=b.score,
-            )
-            for b in detection.blobs
-        ]
+        msg.blobs = [_blob_msg(b) for b in detection.blobs]
         msg.target_present = detection.target_present
         msg.compared_area = float(detection.compared_area)
         msg.ego_shift_x, msg.ego_shift_y = (float(v) for v in detection.ego_shift)
@@ -379,6 +458,20 @@ class DetectorNode(SuiteNode):
         if detection.similarity is not None and self.ssim_pub.get_subscription_count() > 0:
             grey = np.clip(detection.similarity * 255.0, 0.0, 255.0).astype(np.uint8)
             self.ssim_pub.publish(array_to_image(grey, "mono8", image_header.stamp, frame_id))
+
+
+def _blob_msg(blob: Blob) -> BlobMsg:
+    msg = BlobMsg(
+        centroid_x=blob.centroid_x,
+        centroid_y=blob.centroid_y,
+        bbox=rect_to_msg(blob.bbox),
+        area=round(blob.area),
+        score=blob.score,
+        angle=blob.angle,
+    )
+    if blob.oriented_size is not None:
+        msg.oriented_width, msg.oriented_height = blob.oriented_size
+    return msg
 
 
 def main(args: list[str] | None = None) -> int:

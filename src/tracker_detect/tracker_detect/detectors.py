@@ -13,6 +13,7 @@ from dataclasses import replace
 from typing import Any
 
 from tracker_detect.background import BackgroundConfig, BackgroundDetector
+from tracker_detect.camshift import CamShiftConfig, CamShiftTracker
 from tracker_detect.detector import CameraFrame, Detection, Detector
 from tracker_detect.motion import (
     COMPENSATION_MODES,
@@ -308,5 +309,75 @@ DETECTORS.register(
         "flicker map; object silhouettes, undilated boxes (issue 11)",
         build=lambda values: SsimBackground(config_from_params(BackgroundConfig, values)),
         parameters=BACKGROUND_PARAMETERS,
+    )
+)
+
+
+_C = CamShiftConfig()
+
+CAMSHIFT_PARAMETERS: tuple[ParamSpec, ...] = (
+    ParamSpec(
+        "hue_bins", _C.hue_bins, "bins of the hue histogram over [0, 180) (seed: 32)", 2, 180
+    ),
+    ParamSpec("v_min", _C.v_min, "pixels darker than this are ignored (seed: 10)", 0, 256),
+    ParamSpec("v_max", _C.v_max, "pixels brighter than this are ignored (seed: 256)", 0, 256),
+    ParamSpec("s_min", _C.s_min, "pixels less saturated than this are ignored (seed: 30)", 0, 255),
+    ParamSpec("max_iterations", _C.max_iterations, "mean-shift steps per frame at most", 1, 100),
+    ParamSpec(
+        "epsilon", _C.epsilon, "mean shift stops when the window moves less [px]", 0.01, 100.0
+    ),
+    ParamSpec(
+        "search_margin",
+        _C.search_margin,
+        "search region: the window grown by this x its size on each side",
+        0.0,
+        10.0,
+    ),
+    ParamSpec(
+        "min_density_ratio",
+        _C.min_density_ratio,
+        "a found box whose mean back-projection is below this x the selection's is a miss",
+        0.0,
+        1.0,
+    ),
+    ParamSpec(
+        "lost_after",
+        _C.lost_after,
+        "consecutive misses after which the whole image is searched (re-acquisition)",
+        1,
+        100000,
+    ),
+    ParamSpec(
+        "max_size_ratio",
+        _C.max_size_ratio,
+        "a box larger than this x the selection's side is a miss (spread over the background)",
+        1.01,
+        100.0,
+    ),
+    ParamSpec(
+        "min_model_pixels",
+        _C.min_model_pixels,
+        "coloured pixels (passing the S/V limits) a selection needs",
+        1,
+        1_000_000,
+    ),
+)
+
+
+class CamShift(CamShiftTracker):
+    """`camshift.CamShiftTracker` with reconfiguration from parameter values."""
+
+    def reconfigure(self, values: Mapping[str, Any]) -> None:  # type: ignore[override]
+        super().reconfigure(config_from_params(CamShiftConfig, values))
+
+
+DETECTORS.register(
+    Method(
+        name="camshift",
+        description="CamShift colour tracking of one target started from a rectangle "
+        "(select_region) or handed over from a tracked target; prediction-guided search, "
+        "loss and re-acquisition (seed 001)",
+        build=lambda values: CamShift(config_from_params(CamShiftConfig, values)),
+        parameters=CAMSHIFT_PARAMETERS,
     )
 )
