@@ -35,6 +35,7 @@ setup(
             "evaluate = tracker_ptz_sim.entry_points:evaluate",
             "benchmark = tracker_ptz_sim.entry_points:benchmark",
             "predictor_study = tracker_ptz_sim.entry_points:predictor_study",
+            "single_target_benchmark = tracker_ptz_sim.entry_points:single_target_benchmark",
         ],
     },
 )

@@ -135,8 +135,9 @@ def test_the_oriented_box_follows_a_tilted_target():
     assert blob.oriented_size is not None
     long_side = max(blob.oriented_size)
     assert long_side == pytest.approx(80, rel=0.15)
-    box = OrientedBox(blob.centroid_x, blob.centroid_y, *blob.oriented_size, blob.angle)
-    assert box.bounds.iou(blob.bbox) == pytest.approx(1.0)
+    assert blob.bbox.iou(Rect(200, 140, 80, 80)) >= 0.9  # the box reported is the one selected
+    box = OrientedBox(240.0, 180.0, *blob.oriented_size, blob.angle)
+    assert box.bounds.iou(Rect.from_center(240, 180, 2 * 40 * 0.5 + 2 * 12 * 0.866, 80)) > 0.6
     # the long axis points 30 degrees past the vertical (120 degrees from x, or its opposite)
     long_axis = (
         blob.angle if blob.oriented_size[0] >= blob.oriented_size[1] else blob.angle + math.pi / 2
@@ -188,3 +189,35 @@ def test_reconfigure_rebuilds_the_model_from_the_selection():
     assert tracker.process(frame(1, scene_with_target(1))).blobs == []
     with pytest.raises(ValueError, match="v_min"):
         CamShiftTracker(CamShiftConfig(v_min=200, v_max=100))
+
+
+def test_background_weights_are_comaniciu_min_ratio():
+    """Bin u weighs min(o*/o_u, 1), o* the smallest non-zero count around the selection; a colour
+    absent around it keeps weight 1."""
+    from tracker_detect.camshift import background_weights
+
+    around = np.array([[0.0], [10.0], [40.0], [5.0]], np.float32)
+    assert background_weights(around)[:, 0] == pytest.approx([1.0, 0.5, 0.125, 1.0])
+    assert background_weights(np.zeros((3, 1), np.float32))[:, 0] == pytest.approx([1, 1, 1])
+
+
+def test_a_target_sharing_a_colour_with_its_surroundings_is_followed_by_its_own_colour():
+    """A red coat over grey trousers on a grey street: the plain hue histogram also holds the
+    street's faint hues, the background-weighted one lights the coat; the box reported is still
+    the whole selected box (coat and trousers), carried by the coat's colours."""
+
+    def picture(k: int) -> np.ndarray:
+        scene = background()
+        cx, cy = target_position(k)
+        x0, y0 = round(cx) - AXES[0], round(cy) - AXES[1]
+        scene[y0 : y0 + AXES[1], x0 : x0 + 2 * AXES[0]] = TARGET_BGR  # the coat, upper half
+        scene[y0 + AXES[1] : y0 + 2 * AXES[1], x0 : x0 + 2 * AXES[0]] = (110, 112, 115)  # trousers
+        return scene
+
+    tracker = CamShiftTracker()
+    assert tracker.select_region(true_box(*target_position(0)), frame(0, picture(0))) is None
+    ious = []
+    for k in range(1, 60):
+        blobs = tracker.process(frame(k, picture(k))).blobs
+        ious.append(blobs[0].bbox.iou(true_box(*target_position(k))) if blobs else 0.0)
+    assert min(ious) >= 0.7

@@ -17,7 +17,15 @@ STARTUP_S = 2.5  # long enough for rclpy + OpenCV imports and node construction 
 SHUTDOWN_S = 2.0
 
 # Command-line tools: run to completion, not nodes.
-TOOLS = {"make_scene", "fetch_sample", "evaluate", "run_demo", "benchmark", "predictor_study"}
+TOOLS = {
+    "make_scene",
+    "fetch_sample",
+    "evaluate",
+    "run_demo",
+    "benchmark",
+    "predictor_study",
+    "single_target_benchmark",
+}
 
 
 def _video(tmp_path):

@@ -40,6 +40,7 @@ def node_parameters() -> dict[tuple[str, str], list]:
         ("tracker_detect/README.md", "### `ssim_background`"): list(
             DETECTORS.get("ssim_background").parameters
         ),
+        ("tracker_detect/README.md", "### `camshift`"): list(DETECTORS.get("camshift").parameters),
         ("tracker_filter/README.md", "### Parameters"): [
             ParamSpec("method", "gated_hungarian", ""),
             ParamSpec("preset", "", ""),

@@ -7,6 +7,15 @@ window (at most `max_iterations` mean-shift steps or a shift below `epsilon` px)
 rotated box (centre, size, angle) and its score.
 
 Beyond the thesis:
+- the histogram is background-weighted by default (Comaniciu, Ramesh & Meer 2003): a colour
+  that is common in the selection's surroundings (grass around a green shirt, the pavement
+  around a grey coat) is down-weighted, so the back-projection lights the target and not the
+  street; `background_weighting` false is the thesis's plain histogram. A hue x saturation
+  histogram is optional (`saturation_bins`);
+- the reported box is the selected box carried by the found colours: the selection's offset
+  and size relative to its colours' centroid and 4-sigma extent are kept and applied to the
+  colours found in each frame, so a person whose shirt alone carries the colour is still
+  reported with the whole box the user drew (CamShift's own rotated box rides along);
 - the window lives in scene coordinates, so a panning camera does not drag it along; only a
   search region around it is converted to HSV (the whole image while re-acquiring);
 - `guide(centre)` places the next search window at a filter's prediction (the thesis's future
@@ -40,6 +49,9 @@ class CamShiftConfig:
     """Parameters; the defaults are the thesis's (OpenCV camshiftdemo) where it gives them."""
 
     hue_bins: int = 32
+    saturation_bins: int = 0  # 0: a hue histogram (the thesis); else a hue x saturation one
+    background_weighting: bool = True  # down-weight colours of the selection's surroundings
+    background_margin: float = 1.0  # surroundings: the selection grown by this x its size per side
     v_min: int = 10
     v_max: int = 256
     s_min: int = 30
@@ -55,6 +67,9 @@ class CamShiftConfig:
         """What is wrong with these values (empty when usable)."""
         checks = {
             "hue_bins must be in [2, 180]": 2 <= self.hue_bins <= HUE_RANGE,
+            "saturation_bins must be 0 or in [2, 256]": self.saturation_bins == 0
+            or 2 <= self.saturation_bins <= 256,
+            "background_margin must be > 0": self.background_margin > 0,
             "v_min must not exceed v_max": 0 <= self.v_min <= self.v_max,
             "s_min must be in [0, 255]": 0 <= self.s_min <= 255,
             "max_iterations must be >= 1": self.max_iterations >= 1,
@@ -69,12 +84,34 @@ class CamShiftConfig:
 
 
 @dataclass(frozen=True)
-class ColourModel:
-    """The target's hue histogram (normalised to max 255) and its density in the selection."""
+class BoxCalibration:
+    """How the selected box relates to its colour distribution, in units of the distribution's
+    4-sigma extent: a target whose colours fill only part of it (a blue pair of jeans under a
+    shirt of the grass's colour) is still reported with the box the user drew."""
 
-    histogram: np.ndarray  # (hue_bins, 1) float32
+    offset: tuple[float, float]  # (box centre - colour centroid) / 4 sigma, per axis
+    scale: tuple[float, float]  # box side / 4 sigma, per axis
+
+    def box(self, spread: tuple[float, float, float, float]) -> tuple[float, float, float, float]:
+        """Box centre x, y and size w, h for a colour centroid and 4-sigma extent (cx, cy, ex, ey)."""
+        cx, cy, ex, ey = spread
+        return (
+            cx + self.offset[0] * ex,
+            cy + self.offset[1] * ey,
+            self.scale[0] * ex,
+            self.scale[1] * ey,
+        )
+
+
+@dataclass(frozen=True)
+class ColourModel:
+    """The target's colour histogram (normalised to max 255), its density in the selection and
+    how the selected box sits on the colours."""
+
+    histogram: np.ndarray  # (hue_bins[, saturation_bins]) float32
     density: float  # mean back-projection / 255 over the selected region
     size: tuple[float, float]  # selected width, height [scene px]
+    calibration: BoxCalibration
 
 
 @dataclass(frozen=True)
@@ -96,6 +133,30 @@ class OrientedBox:
         return Rect.from_center(self.cx, self.cy, w, h)
 
 
+@dataclass(frozen=True)
+class Found:
+    """One frame's result: CamShift's rotated box, the box reported for the target (the
+    selection's box on the found colours), the next search window and the mean back-projection."""
+
+    oriented: OrientedBox
+    box: Rect
+    window: Rect
+    density: float
+
+    def blob(self) -> Blob:
+        cx, cy = self.box.center
+        return Blob(
+            cx,
+            cy,
+            self.box,
+            self.box.area,
+            max(round(self.box.area), 1),
+            min(self.density, 1.0),
+            angle=self.oriented.angle,
+            oriented_size=(self.oriented.width, self.oriented.height),
+        )
+
+
 def sv_mask(hsv: np.ndarray, config: CamShiftConfig) -> np.ndarray:
     """255 where S >= s_min and v_min <= V <= v_max (the thesis's sliders)."""
     low = (0, config.s_min, min(config.v_min, 255))
@@ -103,22 +164,47 @@ def sv_mask(hsv: np.ndarray, config: CamShiftConfig) -> np.ndarray:
     return cv2.inRange(hsv, np.array(low, np.uint8), np.array(high, np.uint8))
 
 
+def _channels(config: CamShiftConfig) -> tuple[list[int], list[int], list[int]]:
+    """calcHist's channels, bins and ranges: hue, or hue and saturation."""
+    if config.saturation_bins:
+        return [0, 1], [config.hue_bins, config.saturation_bins], [0, HUE_RANGE, 0, 256]
+    return [0], [config.hue_bins], [0, HUE_RANGE]
+
+
 def back_projection(hsv: np.ndarray, histogram: np.ndarray, config: CamShiftConfig) -> np.ndarray:
-    """(H, W) uint8: the hue histogram back-projected and ANDed with the S/V mask."""
-    hue = np.ascontiguousarray(hsv[:, :, 0])
-    prob = cv2.calcBackProject([hue], [0], histogram, [0, HUE_RANGE], 1)
+    """(H, W) uint8: the histogram back-projected and ANDed with the S/V mask."""
+    channels, _, ranges = _channels(config)
+    prob = cv2.calcBackProject([np.ascontiguousarray(hsv)], channels, histogram, ranges, 1)
     return cv2.bitwise_and(prob, sv_mask(hsv, config))
 
 
-def hue_histogram(hsv: np.ndarray, config: CamShiftConfig) -> tuple[np.ndarray, int]:
-    """The masked hue histogram of `hsv`, normalised to max 255, and how many pixels built it."""
-    mask = sv_mask(hsv, config)
-    count = int(np.count_nonzero(mask))
-    hist = cv2.calcHist(
-        [np.ascontiguousarray(hsv[:, :, 0])], [0], mask, [config.hue_bins], [0, HUE_RANGE]
-    )
-    cv2.normalize(hist, hist, 0, 255, cv2.NORM_MINMAX)
-    return hist, count
+def colour_histogram(hsv: np.ndarray, mask: np.ndarray, config: CamShiftConfig) -> np.ndarray:
+    """Pixel counts of the masked pixels per hue (x saturation) bin, float32."""
+    channels, bins, ranges = _channels(config)
+    return cv2.calcHist([np.ascontiguousarray(hsv)], channels, mask, bins, ranges)
+
+
+def background_weights(surroundings: np.ndarray) -> np.ndarray:
+    """Comaniciu's background-weighted histogram: bin u weighs min(o* / o_u, 1), o* the smallest
+    non-zero count of the surroundings' histogram o; colours absent around the target weigh 1."""
+    present = surroundings > 0
+    if not present.any():
+        return np.ones_like(surroundings)
+    rarest = surroundings[present].min()
+    return np.where(present, rarest / np.maximum(surroundings, rarest), 1.0).astype(np.float32)
+
+
+def colour_spread(prob: np.ndarray) -> tuple[float, float, float, float] | None:
+    """Centroid and 4-sigma extent (cx, cy, ex, ey) of a back-projection, px; None if empty
+    or flat along an axis."""
+    m = cv2.moments(prob)
+    if m["m00"] <= 0:
+        return None
+    cx, cy = m["m10"] / m["m00"], m["m01"] / m["m00"]
+    ex, ey = (4.0 * math.sqrt(max(m[k] / m["m00"], 0.0)) for k in ("mu20", "mu02"))
+    if ex < 1.0 or ey < 1.0:
+        return None
+    return cx, cy, ex, ey
 
 
 def _clip(box: tuple[int, int, int, int], width: int, height: int) -> tuple[int, int, int, int]:
@@ -143,6 +229,19 @@ def _round(box: tuple[float, float, float, float]) -> tuple[int, int, int, int]:
     return round(x), round(y), max(round(w), 1), max(round(h), 1)
 
 
+@dataclass(frozen=True, eq=False)
+class Selection:
+    """The selected region's HSV pixels with their surroundings."""
+
+    context: np.ndarray  # (H, W, 3) HSV of the region grown by background_margin
+    box: tuple[int, int, int, int]  # the region inside `context`, x, y, w, h
+
+    @property
+    def inner(self) -> np.ndarray:
+        x, y, w, h = self.box
+        return self.context[y : y + h, x : x + w]
+
+
 class CamShiftTracker:
     """A `detector.SeededDetector`: one colour target, started from a rectangle."""
 
@@ -153,7 +252,7 @@ class CamShiftTracker:
         check_config(self.config)
         self.model: ColourModel | None = None
         self.selection: Rect | None = None  # scene px, where tracking (re)starts on reset()
-        self._selection_hsv: np.ndarray | None = None  # to rebuild the model on reconfigure
+        self._selection: Selection | None = None  # to rebuild the model on reconfigure
         self.window: Rect | None = None  # scene px, where the next search starts
         self.misses = 0
         self._guide: tuple[float, float] | None = None
@@ -167,32 +266,55 @@ class CamShiftTracker:
         return self.model is not None and self.misses < self.config.lost_after
 
     def select_region(self, region: Rect, frame: CameraFrame) -> str | None:
-        """Learn the hue histogram of `region` (scene px) in `frame`; None, or why it cannot."""
+        """Learn the colours of `region` (scene px) in `frame`; None, or why it cannot."""
         if not (region.width > 0 and region.height > 0):
             return f"the region must have a positive size, got {region}"
         view = frame.view or View.identity(*frame.size)
-        x, y, w, h = _clip(_round(_to_image(view, region)), *frame.size)
-        if w < 2 or h < 2:
+        inner = _clip(_round(_to_image(view, region)), *frame.size)
+        if inner[2] < 2 or inner[3] < 2:
             return f"the region {region} lies outside the camera view {view.rect}"
-        hsv = cv2.cvtColor(np.ascontiguousarray(frame.bgr[y : y + h, x : x + w]), cv2.COLOR_BGR2HSV)
-        model = self._model(hsv, view.rect_to_scene(x, y, w, h))
+        m = self.config.background_margin
+        x, y, w, h = inner
+        outer = _clip(_round((x - m * w, y - m * h, (1 + 2 * m) * w, (1 + 2 * m) * h)), *frame.size)
+        ox, oy, ow, oh = outer
+        context = np.ascontiguousarray(frame.bgr[oy : oy + oh, ox : ox + ow])
+        selection = Selection(cv2.cvtColor(context, cv2.COLOR_BGR2HSV), (x - ox, y - oy, w, h))
+        model = self._model(selection, (region.width, region.height))
         if isinstance(model, str):
             return model
-        self.model, self._selection_hsv = model, hsv
+        self.model, self._selection = model, selection
         self.selection = self.window = view.rect_to_scene(x, y, w, h)
         self.misses, self._guide = 0, None
         return None
 
-    def _model(self, hsv: np.ndarray, region: Rect) -> ColourModel | str:
-        histogram, count = hue_histogram(hsv, self.config)
-        if count < self.config.min_model_pixels:
+    def _model(self, selection: Selection, size: tuple[float, float]) -> ColourModel | str:
+        config = self.config
+        inner = selection.inner
+        mask = sv_mask(inner, config)
+        count = int(np.count_nonzero(mask))
+        if count < config.min_model_pixels:
             return (
-                f"only {count} pixels of the region have saturation >= {self.config.s_min} and "
-                f"value in [{self.config.v_min}, {self.config.v_max}] (need "
-                f"{self.config.min_model_pixels}): CamShift needs a coloured target"
+                f"only {count} pixels of the region have saturation >= {config.s_min} and "
+                f"value in [{config.v_min}, {config.v_max}] (need {config.min_model_pixels}): "
+                "CamShift needs a coloured target"
             )
-        density = float(back_projection(hsv, histogram, self.config).mean()) / 255.0
-        return ColourModel(histogram, density, (region.width, region.height))
+        histogram = colour_histogram(inner, mask, config)
+        if config.background_weighting:
+            around = sv_mask(selection.context, config)
+            x, y, w, h = selection.box
+            around[y : y + h, x : x + w] = 0
+            histogram *= background_weights(colour_histogram(selection.context, around, config))
+        if histogram.max() <= 0:
+            return "the region's colours are all in its surroundings too"
+        cv2.normalize(histogram, histogram, 0, 255, cv2.NORM_MINMAX)
+        prob = back_projection(inner, histogram, config)
+        spread = colour_spread(prob)
+        if spread is None:
+            return "the region's own colours cover too few of its pixels"
+        cx, cy, ex, ey = spread
+        w, h = inner.shape[1], inner.shape[0]
+        calibration = BoxCalibration(((w / 2 - cx) / ex, (h / 2 - cy) / ey), (w / ex, h / ey))
+        return ColourModel(histogram, float(prob.mean()) / 255.0, size, calibration)
 
     def guide(self, centre: tuple[float, float]) -> None:
         """Start the next search with the window centred at `centre` (scene px), e.g. a filter's
@@ -210,8 +332,9 @@ class CamShiftTracker:
         longer has enough coloured pixels)."""
         check_config(config)
         self.config = config
-        if self._selection_hsv is not None and self.selection is not None:
-            model = self._model(self._selection_hsv, self.selection)
+        if self._selection is not None and self.selection is not None:
+            size = (self.selection.width, self.selection.height)
+            model = self._model(self._selection, size)
             self.model = None if isinstance(model, str) else model
 
     # --- per frame ----------------------------------------------------------------------------
@@ -237,9 +360,8 @@ class CamShiftTracker:
             self.misses += 1
             self.window = window
             return Detection(frame.stamp_ns, view, [], False, True, searched)
-        box, next_window, density = found
-        self.misses, self.window = 0, next_window
-        return Detection(frame.stamp_ns, view, [self._blob(box, density)], True, True, searched)
+        self.misses, self.window = 0, found.window
+        return Detection(frame.stamp_ns, view, [found.blob()], True, True, searched)
 
     def _search_region(
         self, frame: CameraFrame, view: View, window: Rect
@@ -255,7 +377,7 @@ class CamShiftTracker:
 
     def _track(
         self, frame: CameraFrame, view: View, window: Rect, model: ColourModel
-    ) -> tuple[tuple[OrientedBox, Rect, float] | None, float]:
+    ) -> tuple[Found | None, float]:
         """CamShift from `window` inside its search region."""
         rx, ry, rw, rh = self._search_region(frame, view, window)
         searched = rw * rh * view.scale_x * view.scale_y
@@ -270,7 +392,7 @@ class CamShiftTracker:
 
     def _reacquire(
         self, frame: CameraFrame, view: View, model: ColourModel
-    ) -> tuple[tuple[OrientedBox, Rect, float] | None, float]:
+    ) -> tuple[Found | None, float]:
         """Restart CamShift at the selection-sized region of highest back-projection density."""
         width, height = frame.size
         prob = self._back_projection(frame, (0, 0, width, height), model)
@@ -298,7 +420,7 @@ class CamShiftTracker:
         offset: tuple[int, int],
         view: View,
         model: ColourModel,
-    ) -> tuple[OrientedBox, Rect, float] | None:
+    ) -> Found | None:
         """cv2.CamShift on `prob` (image px from `offset`); None when the result is a miss."""
         criteria = (
             cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_COUNT,
@@ -310,15 +432,20 @@ class CamShiftTracker:
         nx, ny, nw, nh = next_window
         if bw < 2 or bh < 2 or nw < 1 or nh < 1:
             return None  # empty back-projection: OpenCV's (0, 0) window
-        density = float(prob[ny : ny + nh, nx : nx + nw].mean()) / 255.0
-        if density < self.config.min_density_ratio * model.density:
+        inside = prob[ny : ny + nh, nx : nx + nw]
+        density = float(inside.mean()) / 255.0
+        spread = colour_spread(inside)
+        if spread is None or density < self.config.min_density_ratio * model.density:
             return None
-        box = self._oriented_to_scene(view, cx + offset[0], cy + offset[1], bw, bh, angle_deg)
-        side = math.sqrt(model.size[0] * model.size[1])
-        if math.sqrt(box.width * box.height) > self.config.max_size_ratio * side:
+        bx, by, bw_, bh_ = model.calibration.box(spread)
+        left, top = nx + offset[0] + bx - bw_ / 2, ny + offset[1] + by - bh_ / 2
+        reported = view.rect_to_scene(left, top, bw_, bh_)
+        growth = math.sqrt(reported.area / (model.size[0] * model.size[1]))
+        if growth > self.config.max_size_ratio:
             return None  # spread over a background of the target's colour
+        oriented = self._oriented_to_scene(view, cx + offset[0], cy + offset[1], bw, bh, angle_deg)
         window = view.rect_to_scene(nx + offset[0], ny + offset[1], nw, nh)
-        return box, window, density
+        return Found(oriented, reported, window, density)
 
     @staticmethod
     def _oriented_to_scene(
@@ -332,18 +459,3 @@ class CamShiftTracker:
         scene_angle = math.atan2(s * view.scale_y, c * view.scale_x)
         x, y = view.to_scene(cx, cy)
         return OrientedBox(x, y, along, across, scene_angle)
-
-    @staticmethod
-    def _blob(box: OrientedBox, density: float) -> Blob:
-        bounds = box.bounds
-        area = box.width * box.height
-        return Blob(
-            box.cx,
-            box.cy,
-            bounds,
-            area,
-            max(round(area), 1),
-            min(density, 1.0),
-            angle=box.angle,
-            oriented_size=(box.width, box.height),
-        )

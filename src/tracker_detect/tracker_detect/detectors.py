@@ -319,6 +319,26 @@ CAMSHIFT_PARAMETERS: tuple[ParamSpec, ...] = (
     ParamSpec(
         "hue_bins", _C.hue_bins, "bins of the hue histogram over [0, 180) (seed: 32)", 2, 180
     ),
+    ParamSpec(
+        "saturation_bins",
+        _C.saturation_bins,
+        "0: a hue histogram (seed); else also this many saturation bins (a hue x saturation one)",
+        0,
+        256,
+    ),
+    ParamSpec(
+        "background_weighting",
+        _C.background_weighting,
+        "down-weight the colours of the selection's surroundings (Comaniciu's background-"
+        "weighted histogram; false: the seed's plain histogram)",
+    ),
+    ParamSpec(
+        "background_margin",
+        _C.background_margin,
+        "surroundings: the selection grown by this x its size on each side",
+        0.05,
+        10.0,
+    ),
     ParamSpec("v_min", _C.v_min, "pixels darker than this are ignored (seed: 10)", 0, 256),
     ParamSpec("v_max", _C.v_max, "pixels brighter than this are ignored (seed: 256)", 0, 256),
     ParamSpec("s_min", _C.s_min, "pixels less saturated than this are ignored (seed: 30)", 0, 255),

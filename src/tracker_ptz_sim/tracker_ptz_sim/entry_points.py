@@ -34,3 +34,7 @@ def benchmark() -> int:
 
 def predictor_study() -> int:
     return guarded_main("tracker_ptz_sim.bringup.predictor_study")
+
+
+def single_target_benchmark() -> int:
+    return guarded_main("tracker_ptz_sim.bringup.single_target_benchmark")

@@ -1,4 +1,6 @@
-"""Single-target accuracy as seed 003 measures it (no rclpy), for trackers started on a rectangle.
+"""Single-target accuracy as seed 003 measures it (no rclpy), for trackers started on a rectangle,
+and the loop that runs seed 001's CamShift over recorded frames, alone or with a filter's
+prediction placing each search window (`follow`).
 
 - Q1 ("quality"): IoU of the estimated and the true box per frame, averaged over the frames the
   target is in the ground truth (a frame without an estimate scores 0);
@@ -9,9 +11,15 @@
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
+import numpy as np
+
+from tracker_detect.camshift import CamShiftConfig, CamShiftTracker
+from tracker_detect.detector import CameraFrame
+from tracker_filter.filters import FilterFactory
+from tracker_msgs_py.codec import NS_PER_S
 from tracker_msgs_py.geometry import Rect
 
 CENTRE_SQUARE = 0.8  # Q2's square side, times the true box's shorter side
@@ -72,3 +80,35 @@ def pooled(scores: list[SingleTargetScores]) -> SingleTargetScores:
         weighted("success"),
         sum(s.missed for s in scores),
     )
+
+
+def follow(
+    frames: np.ndarray | Sequence[np.ndarray],  # (N, H, W, 3) or N images
+    stamps_ns: Sequence[int],
+    start: int,
+    region: Rect,
+    last: int,
+    predictor: FilterFactory | None = None,
+    config: CamShiftConfig | None = None,
+) -> dict[int, Rect | None]:
+    """CamShift started on `region` of frame `start`, run over frames start+1..last of a static
+    camera (image = scene); with a `predictor`, each search window is centred on the filter's
+    one-step prediction and each CamShift centre updates it (a miss leaves the prediction).
+    Returns the box per frame, None where CamShift missed."""
+    tracker = CamShiftTracker(config)
+    reason = tracker.select_region(region, CameraFrame(stamps_ns[start], frames[start]))
+    if reason is not None:
+        raise ValueError(f"cannot start on {region}: {reason}")
+    state = None
+    if predictor is not None:
+        state = predictor.new_filter(np.array(region.center), stamps_ns[start] / NS_PER_S)
+    boxes: dict[int, Rect | None] = {}
+    for k in range(start + 1, last + 1):
+        if state is not None:
+            state.predict(stamps_ns[k] / NS_PER_S)
+            tracker.guide((float(state.mean[0]), float(state.mean[1])))
+        blobs = tracker.process(CameraFrame(stamps_ns[k], frames[k])).blobs
+        boxes[k] = blobs[0].bbox if blobs else None
+        if state is not None and blobs:
+            state.update(np.array([blobs[0].centroid_x, blobs[0].centroid_y]))
+    return boxes
