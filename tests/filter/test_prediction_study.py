@@ -10,7 +10,7 @@ from tracker_ptz_sim.evaluation import prediction_study as study
 
 @pytest.mark.parametrize("name", list(study.PROTOCOLS))
 def test_each_protocol_is_a_smooth_hand_path_in_the_image(name):
-    path = study.PROTOCOLS[name](np.random.default_rng(1))
+    path = study.PROTOCOLS[name].trajectory(np.random.default_rng(1))
     assert path.shape == (study.FRAMES, 2)
     assert np.all((path > 0) & (path < [640, 480]))
     steps = np.linalg.norm(np.diff(path, axis=0), axis=1)
@@ -34,11 +34,20 @@ def test_without_noise_a_straight_walk_is_predicted_within_a_pixel_after_the_sta
 
 
 def test_runs_are_reproducible_and_robust_beats_nominal_on_the_thesis_protocol():
-    first = study.run_protocol("circles", study.concentric_circles, runs=8, seed=5)
-    again = study.run_protocol("circles", study.concentric_circles, runs=8, seed=5)
+    protocol = study.Protocol(study.concentric_circles)
+    first = study.run_protocol("circles", protocol, runs=8, seed=5)
+    again = study.run_protocol("circles", protocol, runs=8, seed=5)
     for name in first.scored_noisy:
         np.testing.assert_array_equal(first.scored_noisy[name], again.scored_noisy[name])
     nominal = first.scored_noisy["nominal"].mean()
     assert 0.9 * study.THESIS_PX["nominal"] <= nominal <= 1.1 * study.THESIS_PX["nominal"]
     comparison = first.comparison("robust exact", "noisy")
     assert comparison.mean < 0 and comparison.robust_better >= 6
+
+
+def test_camshift_follows_the_rendered_ball_within_a_few_pixels():
+    rng = np.random.default_rng(4)
+    truth = study.concentric_circles(rng)
+    measured = study.camshift_centres(truth, rng)
+    error = np.linalg.norm(measured - truth, axis=1)
+    assert np.median(error) < 2.0 and error.max() < 0.5 * study.BALL_RADIUS

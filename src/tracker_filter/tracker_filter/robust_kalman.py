@@ -31,7 +31,6 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 from enum import StrEnum
-from functools import cache
 
 import numpy as np
 
@@ -121,131 +120,157 @@ class ModifiedModel:
     F: np.ndarray  # F_hat
 
 
-@cache
-def _identity(k: int) -> np.ndarray:
-    identity = np.eye(k)
-    identity.flags.writeable = False
-    return identity
-
-
 def _inverse(matrix: np.ndarray) -> np.ndarray:
     """Inverse of a small k x k matrix; a division for seed 001's k = 1 (a tenth of the time)."""
     return 1.0 / matrix if matrix.shape == (1, 1) else np.linalg.inv(matrix)
 
 
-def modified_model(
-    model: LinearModel, uncertainty: ModelUncertainty, covariance: np.ndarray, lam: float
-) -> ModifiedModel:
-    """Step 2 of Theorem 3.4 for P_{i|i} = covariance; lam = 0 gives the nominal quantities."""
-    F, G, Q, R = (
-        model.transition_matrix,
-        model.noise_gain,
-        model.process_covariance,
-        model.measurement_covariance,
-    )
-    if lam == 0.0:
-        return ModifiedModel(0.0, Q, R, covariance, G, F)
-    e_f, e_g, m = uncertainty.E_f, uncertainty.E_g, uncertainty.M
-    k = e_f.shape[0]
-    # (3.38) Q_hat^-1 = Q^-1 + lam E_g^T (I + lam E_f P E_f^T)^-1 E_g, inverted by Woodbury:
-    # Q_hat = Q - Q E_g^T ((I + lam E_f P E_f^T) / lam + E_g Q E_g^T)^-1 E_g Q  (k x k inverses)
-    pe = covariance @ e_f.T
-    outer = _identity(k) + lam * e_f @ pe
-    inner = _inverse(outer)
-    qe = Q @ e_g.T
-    q_hat = Q - qe @ _inverse(outer / lam + e_g @ qe) @ qe.T
-    # (3.39) R_hat = R - lam^-1 H M M^T H^T
-    hm = m[:AXES]
-    r_hat = R - hm @ hm.T / lam
-    # (3.41) P_hat = P - P E_f^T (lam^-1 I + E_f P E_f^T)^-1 E_f P  (= 3.40 without inverting P)
-    p_hat = covariance - pe @ _inverse(_identity(k) / lam + e_f @ pe) @ pe.T
-    # lam P_hat E_f^T, which 3.42 and 3.43 need, is lam P E_f^T (I + lam E_f P E_f^T)^-1 (push-
-    # through identity): without the difference of 3.41 it keeps its digits at large lambda_hat
-    lam_pe_hat = lam * pe @ inner
-    # (3.42) G_hat = G - lam F P_hat E_f^T E_g
-    g_hat = G - F @ lam_pe_hat @ e_g
-    # (3.43) F_hat = (F - lam G_hat Q_hat E_g^T E_f)(I - lam P_hat E_f^T E_f)
-    # erratum: the thesis prints an inverse on the last factor; with it the result is wrong.
-    first = F - lam * g_hat @ q_hat @ e_g.T @ e_f
-    f_hat = first - (first @ lam_pe_hat) @ e_f
-    return ModifiedModel(lam, q_hat, r_hat, p_hat, g_hat, f_hat)
+#: exact rule search: lambda = lambda_l (1 + 10^s) for s in this range.
+#: G can keep falling towards either end. Towards lambda_l, R_hat = R - H M M^T H^T / lambda turns
+#: singular (seed 001: its small eigenvalue is ~3 (lambda / lambda_l - 1)), so the search stops
+#: at 1e-3 above; beyond 1e4 lambda_l G changes by less than 1e-4 of itself.
+EXACT_SEARCH_DECADES = (-3.0, 4.0)
+EXACT_GRID_POINTS = 141  # 0.05 decades apart; G costs a few flops per point
+_SEARCH_GRID = np.linspace(*EXACT_SEARCH_DECADES, EXACT_GRID_POINTS)
+
+
+class RobustModel:
+    """The uncertain model with every product of its matrices that no step changes, so that a
+    step computes only what depends on P_{i|i}, lambda_hat and z_{i+1}."""
+
+    def __init__(self, model: LinearModel, uncertainty: ModelUncertainty) -> None:
+        uncertainty.check(model)
+        self.model, self.uncertainty = model, uncertainty
+        F, G = model.transition_matrix, model.noise_gain
+        Q, R = model.process_covariance, model.measurement_covariance
+        e_f, e_g = uncertainty.E_f, uncertainty.E_g
+        k = e_f.shape[0]
+        self.k = k
+        self.lower_bound = lambda_lower_bound(model, uncertainty)
+        self._identity = np.eye(k)
+        self._qe = Q @ e_g.T  # Q E_g^T
+        self._gqg = e_g @ self._qe  # E_g Q E_g^T
+        h_bar = uncertainty.M[:AXES]  # H M
+        self._hmmh = h_bar @ h_bar.T
+        # G(lambda) (see `cost_terms`): C = [E_a; A] split into its state and noise columns
+        self._cost_rows = np.vstack([e_f, F[:AXES]])  # [E_f; H F]
+        noise_rows = np.vstack([e_g, G[:AXES]])  # [E_g; H G]
+        constant = noise_rows @ Q @ noise_rows.T
+        constant[k:, k:] += R
+        self._cost_constant = constant
+        coupling = np.zeros_like(constant)
+        coupling[:k, :k] = np.eye(k)
+        coupling[k:, k:] = -self._hmmh
+        self._cost_coupling = coupling
+        self._search_lambdas = self.lower_bound * (1.0 + 10.0**_SEARCH_GRID)
+
+    def modified(self, covariance: np.ndarray, lam: float) -> ModifiedModel:
+        """Step 2 of Theorem 3.4 for P_{i|i} = covariance; lam = 0 gives the nominal quantities."""
+        model = self.model
+        F, G = model.transition_matrix, model.noise_gain
+        Q, R = model.process_covariance, model.measurement_covariance
+        if lam == 0.0:
+            return ModifiedModel(0.0, Q, R, covariance, G, F)
+        e_f, e_g = self.uncertainty.E_f, self.uncertainty.E_g
+        pe = covariance @ e_f.T
+        outer = self._identity + lam * (e_f @ pe)  # I + lam E_f P E_f^T
+        # (3.38) Q_hat^-1 = Q^-1 + lam E_g^T (I + lam E_f P E_f^T)^-1 E_g, inverted by Woodbury:
+        # Q_hat = Q - Q E_g^T ((I + lam E_f P E_f^T) / lam + E_g Q E_g^T)^-1 E_g Q  (k x k inverses)
+        q_hat = Q - self._qe @ _inverse(outer / lam + self._gqg) @ self._qe.T
+        # (3.39) R_hat = R - lam^-1 H M M^T H^T
+        r_hat = R - self._hmmh / lam
+        # lam P_hat E_f^T = lam P E_f^T (I + lam E_f P E_f^T)^-1 (push-through identity): 3.41-3.43
+        # need it, and without the difference of 3.41 it keeps its digits at large lambda_hat
+        lam_pe_hat = lam * pe @ _inverse(outer)
+        # (3.41) P_hat = P - P E_f^T (lam^-1 I + E_f P E_f^T)^-1 E_f P  (= 3.40 without inverting P)
+        p_hat = covariance - lam_pe_hat @ pe.T
+        # (3.42) G_hat = G - lam F P_hat E_f^T E_g
+        g_hat = G - (F @ lam_pe_hat) @ e_g
+        # (3.43) F_hat = (F - lam G_hat Q_hat E_g^T E_f)(I - lam P_hat E_f^T E_f)
+        # erratum: the thesis prints an inverse on the last factor; with it the result is wrong.
+        first = F - (lam * g_hat @ (q_hat @ e_g.T)) @ e_f
+        f_hat = first - (first @ lam_pe_hat) @ e_f
+        return ModifiedModel(lam, q_hat, r_hat, p_hat, g_hat, f_hat)
+
+    def cost_terms(self, mean: np.ndarray, covariance: np.ndarray, z: np.ndarray) -> _CostTerms:
+        """G(lambda) of eq. 3.21 in closed form for the step from (x_{i|i}, P_{i|i}) to z_{i+1}.
+
+        Theorem 3.3's identifications (the thesis omits them): unknown x = col(x_i - x_{i|i},
+        w_i); Q -> diag(P^-1, Q^-1); W -> R^-1; A -> H [F G]; b -> z - H F x_{i|i};
+        H_bar -> H M; E_a -> [E_f E_g]; E_b -> -E_f x_{i|i}; then (3.21)-(3.24):
+
+            W(lambda) = W + W H_bar (lambda I - H_bar^T W H_bar)^+ H_bar^T W     (3.24)
+            x(lambda) = (Q + lambda E_a^T E_a + A^T W(lambda) A)^-1
+                        (A^T W(lambda) b + lambda E_a^T E_b)                      (3.22, 3.23)
+            G(lambda) = ||x||^2_Q + lambda ||E_a x - E_b||^2 + ||A x - b||^2_W(lambda)  (3.21)
+
+        (3.21) erratum: the first term is weighted by Q, not Q_hat.
+
+        x(lambda) minimises that very sum, whose minimum is d^T (D^-1 + C Q^-1 C^T)^-1 d with
+        C = [E_a; A], d = col(E_b, b), D = diag(lambda I, W(lambda)). For lambda > lambda_l,
+        W(lambda)^-1 = R - H_bar H_bar^T / lambda (Woodbury), so D^-1 + C Q^-1 C^T = K + J / lambda
+        with K = C diag(P, Q) C^T + diag(0, R) and J = diag(I, -H_bar H_bar^T), J fixed. With
+        K = L L^T and L^-1 J L^-T = V diag(nu) V^T, g = V^T L^-1 d:
+
+            G(lambda) = sum_i g_i^2 lambda / (lambda + nu_i)
+        """
+        rows = self._cost_rows
+        K = rows @ covariance @ rows.T + self._cost_constant
+        L_inv = np.linalg.inv(np.linalg.cholesky(K))
+        nu, V = np.linalg.eigh(L_inv @ self._cost_coupling @ L_inv.T)
+        d = -(rows @ mean)
+        d[self.k :] += z
+        return _CostTerms((V.T @ (L_inv @ d)) ** 2, nu)
+
+    def exact_lambda(self, mean: np.ndarray, covariance: np.ndarray, z: np.ndarray) -> float:
+        """lambda_hat = argmin_{lambda > lambda_l} G(lambda) (eq. 3.20, erratum: argmin, not
+        argmax).
+
+        G (closed form, `cost_terms`) is evaluated on lambda = lambda_l (1 + 10^s), s on a grid
+        over EXACT_SEARCH_DECADES; the parabola through the best point and its neighbours places
+        the minimum between grid points (kept only where G is lower still).
+        """
+        terms = self.cost_terms(mean, covariance, z)
+        costs = terms.costs(self._search_lambdas)
+        best = int(np.argmin(costs))
+        if 0 < best < EXACT_GRID_POINTS - 1:
+            vertex = _vertex(_SEARCH_GRID[best - 1 : best + 2], costs[best - 1 : best + 2])
+            if vertex is not None:
+                lam = self.lower_bound * (1.0 + 10.0**vertex)
+                if terms.cost(lam) < costs[best]:
+                    return lam
+        return float(self._search_lambdas[best])
 
 
 @dataclass(frozen=True)
 class _CostTerms:
-    """The lambda-independent parts of G(lambda) for one step (Theorem 3.3's identifications)."""
+    """G(lambda) = sum_i g2_i lambda / (lambda + nu_i) for one step (see `RobustModel.cost_terms`)."""
 
-    weight: np.ndarray  # Q -> diag(P^-1, Q^-1)
-    weight_inverse: np.ndarray  # diag(P, Q)
-    w: np.ndarray  # W -> R^-1
-    a: np.ndarray  # A -> H [F G]
-    b: np.ndarray  # b -> z - H F x_{i|i}
-    h_bar: np.ndarray  # H_bar -> H M
-    e_a: np.ndarray  # E_a -> [E_f E_g]
-    e_b: np.ndarray  # E_b -> -E_f x_{i|i}
+    g2: np.ndarray  # (k + 2,)
+    nu: np.ndarray  # (k + 2,)
 
+    def costs(self, lams: np.ndarray) -> np.ndarray:
+        """G at each lambda > lambda_l of `lams`."""
+        lams = lams[:, None]
+        return (self.g2 * lams / (lams + self.nu)).sum(axis=1)
 
-def _cost_terms(
-    model: LinearModel,
-    uncertainty: ModelUncertainty,
-    mean: np.ndarray,
-    covariance: np.ndarray,
-    z: np.ndarray,
-) -> _CostTerms:
-    F, G = model.transition_matrix, model.noise_gain
-    n, m = G.shape
-    h = _measurement_matrix(n)
-    weight, weight_inverse = np.zeros((n + m, n + m)), np.zeros((n + m, n + m))
-    weight[:n, :n], weight[n:, n:] = (
-        np.linalg.inv(covariance),
-        np.linalg.inv(model.process_covariance),
-    )
-    weight_inverse[:n, :n], weight_inverse[n:, n:] = covariance, model.process_covariance
-    return _CostTerms(
-        weight,
-        weight_inverse,
-        np.linalg.inv(model.measurement_covariance),
-        h @ np.hstack([F, G]),
-        z - h @ F @ mean,
-        uncertainty.M[:AXES],
-        np.hstack([uncertainty.E_f, uncertainty.E_g]),
-        -uncertainty.E_f @ mean,
-    )
+    def cost(self, lam: float) -> float:
+        return float((self.g2 * lam / (lam + self.nu)).sum())
 
 
-def _costs(lams: np.ndarray, terms: _CostTerms) -> np.ndarray:
-    """G(lambda) of eq. 3.21 for each lambda > lambda_l in `lams` (vectorised).
+def _vertex(s: np.ndarray, g: np.ndarray) -> float | None:
+    """The vertex of the parabola through three equally spaced points, if it is a minimum."""
+    curvature = g[0] - 2.0 * g[1] + g[2]
+    if not curvature > 0.0:
+        return None
+    return float(s[1] + 0.5 * (s[1] - s[0]) * (g[0] - g[2]) / curvature)
 
-        W(lambda) = W + W H_bar (lambda I - H_bar^T W H_bar)^+ H_bar^T W       (3.24)
-        Q(lambda) = Q + lambda E_a^T E_a                                        (3.23)
-        x(lambda) = (Q(lambda) + A^T W(lambda) A)^-1 (A^T W(lambda) b + lambda E_a^T E_b)  (3.22)
-        G(lambda) = ||x||^2_Q + lambda ||E_a x - E_b||^2 + ||A x - b||^2_W(lambda)  (3.21)
 
-    (3.21) erratum: the first term is weighted by Q, not Q_hat. The inverse in 3.22 is a rank-
-    (k + 2) update of Q, so Woodbury's identity leaves a (k + 2)-square system per lambda.
-    """
-    t = terms
-    k = t.h_bar.shape[1]
-    lams = np.asarray(lams, dtype=float).reshape(-1)
-    wh = t.w @ t.h_bar
-    # for lambda > lambda_l, lambda I - H_bar^T W H_bar is positive definite: ^+ is the inverse
-    w_lam = t.w + wh @ np.linalg.inv(lams[:, None, None] * np.eye(k) - t.h_bar.T @ wh) @ wh.T
-    u = np.vstack([t.e_a, t.a]).T  # Q(lambda) + A^T W(lambda) A = Q + U D U^T
-    d = np.zeros((len(lams), k + AXES, k + AXES))
-    d[:, :k, :k] = lams[:, None, None] * np.eye(k)
-    d[:, k:, k:] = w_lam
-    rhs = np.einsum("ij,ljk,k->li", t.a.T, w_lam, t.b) + lams[:, None] * (t.e_a.T @ t.e_b)
-    bu = t.weight_inverse @ u
-    core = np.linalg.inv(d) + u.T @ bu
-    b_rhs = rhs @ t.weight_inverse  # weight_inverse is symmetric
-    x = b_rhs - np.einsum("ij,ljk,lk->li", bu, np.linalg.inv(core), b_rhs @ u)
-    residual = x @ t.a.T - t.b
-    misfit = x @ t.e_a.T - t.e_b
-    return (
-        np.einsum("li,ij,lj->l", x, t.weight, x)
-        + lams * np.sum(misfit**2, axis=1)
-        + np.einsum("li,lij,lj->l", residual, w_lam, residual)
-    )
+def modified_model(
+    model: LinearModel, uncertainty: ModelUncertainty, covariance: np.ndarray, lam: float
+) -> ModifiedModel:
+    """Step 2 of Theorem 3.4 for P_{i|i} = covariance (see `RobustModel.modified`)."""
+    return RobustModel(model, uncertainty).modified(covariance, lam)
 
 
 def regularised_cost(
@@ -256,23 +281,9 @@ def regularised_cost(
     covariance: np.ndarray,
     z: np.ndarray,
 ) -> float:
-    """G(lambda) of eq. 3.21 for the step from (x_{i|i}, P_{i|i}) to the measurement z_{i+1}.
-
-    Theorem 3.3's identifications (the thesis omits them): unknown col(x_i - x_{i|i}, w_i);
-    Q -> diag(P^-1, Q^-1); W -> R^-1; A -> H [F G]; b -> z - H F x_{i|i}; H_bar -> H M;
-    E_a -> [E_f E_g]; E_b -> -E_f x_{i|i}.
-    """
-    terms = _cost_terms(model, uncertainty, mean, covariance, z)
-    return float(_costs(np.array([lam]), terms)[0])
-
-
-#: exact rule search: lambda = lambda_l (1 + 10^s) for s in this range.
-#: G can keep falling towards either end. Towards lambda_l, R_hat = R - H M M^T H^T / lambda turns
-#: singular (seed 001: its small eigenvalue is ~3 (lambda / lambda_l - 1)), so the search stops
-#: at 1e-3 above; beyond 1e4 lambda_l G changes by less than 1e-4 of itself.
-EXACT_SEARCH_DECADES = (-3.0, 4.0)
-EXACT_GRID_POINTS = 36  # the first grid: 0.2 decades apart
-EXACT_REFINEMENTS = 2  # then 2 grids of 9 points over the bracket: 0.0125 decades (3 %)
+    """G(lambda) of eq. 3.21 for the step from (x_{i|i}, P_{i|i}) to the measurement z_{i+1}
+    (lambda > lambda_l; see `RobustModel.cost_terms`)."""
+    return RobustModel(model, uncertainty).cost_terms(mean, covariance, z).cost(lam)
 
 
 def exact_lambda(
@@ -281,23 +292,14 @@ def exact_lambda(
     mean: np.ndarray,
     covariance: np.ndarray,
     z: np.ndarray,
-    lower_bound: float,
+    lower_bound: float | None = None,
 ) -> float:
-    """lambda_hat = argmin_{lambda > lambda_l} G(lambda) (eq. 3.20, erratum: argmin, not argmax).
-
-    G is evaluated on lambda = lambda_l (1 + 10^s): a log grid over EXACT_SEARCH_DECADES finds the
-    basin, finer grids over the bracket round the best point refine it.
-    """
-    terms = _cost_terms(model, uncertainty, mean, covariance, z)
-    lo, hi = EXACT_SEARCH_DECADES
-    grid = np.linspace(lo, hi, EXACT_GRID_POINTS)
-    for _ in range(EXACT_REFINEMENTS + 1):
-        costs = _costs(lower_bound * (1.0 + 10.0**grid), terms)
-        best = int(np.argmin(costs))
-        step = grid[1] - grid[0]
-        s = float(grid[best])
-        grid = np.linspace(max(s - step, lo), min(s + step, hi), 9)
-    return lower_bound * (1.0 + 10.0**s)
+    """lambda_hat of the exact rule (see `RobustModel.exact_lambda`); `lower_bound` is
+    lambda_l, computed when not given."""
+    robust = RobustModel(model, uncertainty)
+    if lower_bound is not None and not math.isclose(lower_bound, robust.lower_bound):
+        raise ValueError(f"lambda_l is {robust.lower_bound}, not {lower_bound}")
+    return robust.exact_lambda(mean, covariance, z)
 
 
 class RobustKalmanFilter:
@@ -314,8 +316,7 @@ class RobustKalmanFilter:
 
     def __init__(
         self,
-        model: LinearModel,
-        uncertainty: ModelUncertainty,
+        robust: RobustModel,
         mean: np.ndarray,
         covariance: np.ndarray,
         t0: float,
@@ -324,15 +325,14 @@ class RobustKalmanFilter:
     ) -> None:
         if not math.isfinite(t0):
             raise ValueError(f"start time must be finite, got {t0}")
-        uncertainty.check(model)
-        self.model, self.uncertainty = model, uncertainty
+        self.robust, self.model = robust, robust.model
         self.rule, self.alpha = LambdaRule(rule), alpha
-        self.lower_bound = lambda_lower_bound(model, uncertainty)
+        self.lower_bound = robust.lower_bound
         self._filtered = (np.array(mean, dtype=float), np.array(covariance, dtype=float))
         self._time = float(t0)
         self._pending = False  # a predict() waits for its update()
         self.lam = self._fixed_lambda() if self.rule is not LambdaRule.EXACT else self._cheap()
-        self._modified = modified_model(model, uncertainty, self._filtered[1], self.lam)
+        self._modified = robust.modified(self._filtered[1], self.lam)
 
     def _cheap(self) -> float:
         return (1.0 + self.alpha) * self.lower_bound
@@ -375,7 +375,7 @@ class RobustKalmanFilter:
         if self._pending:
             self.update(None)  # the previous step ended without a measurement
         # the exact rule keeps the previous step's lambda_hat until the measurement arrives
-        self._modified = modified_model(self.model, self.uncertainty, self._filtered[1], self.lam)
+        self._modified = self.robust.modified(self._filtered[1], self.lam)
         self._pending = True
         self._time = float(t)
 
@@ -389,10 +389,8 @@ class RobustKalmanFilter:
             return
         mean, covariance = self._filtered
         if z is not None and self.rule is LambdaRule.EXACT and self.lower_bound > 0.0:
-            self.lam = exact_lambda(
-                self.model, self.uncertainty, mean, covariance, z, self.lower_bound
-            )
-            self._modified = modified_model(self.model, self.uncertainty, covariance, self.lam)
+            self.lam = self.robust.exact_lambda(mean, covariance, z)
+            self._modified = self.robust.modified(covariance, self.lam)
         modified = self._modified
         predicted = modified.F @ mean  # (3.44)
         predicted_cov = self._predicted_covariance(modified)
@@ -446,6 +444,7 @@ class RobustKalmanConfig:
         needs_inverse_q = self.rule is not LambdaRule.NOMINAL
         if needs_inverse_q and np.linalg.eigvalsh(self.model.process_covariance).min() <= 0.0:
             raise ValueError("the robust filter needs a positive definite Q (it uses Q^-1)")
+        object.__setattr__(self, "_robust", RobustModel(self.model, self.uncertainty))
 
     @property
     def state_layout(self) -> tuple[str, ...]:
@@ -457,9 +456,8 @@ class RobustKalmanConfig:
             raise ValueError("a new track needs a measurement")
         prior = np.eye(self.model.dim) * self.initial_std**2
         mean, covariance = initial_estimate(z0, prior, self.model.measurement_covariance)
-        return RobustKalmanFilter(
-            self.model, self.uncertainty, mean, covariance, t, self.rule, self.alpha
-        )
+        robust: RobustModel = self._robust  # type: ignore[attr-defined]
+        return RobustKalmanFilter(robust, mean, covariance, t, self.rule, self.alpha)
 
     def new_bank(self) -> FilterBank:
         return ObjectBank(self.new_filter, self.state_layout)

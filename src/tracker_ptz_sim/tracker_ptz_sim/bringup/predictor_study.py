@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import re
 import sys
 from dataclasses import asdict
 from pathlib import Path
@@ -37,7 +38,7 @@ def _arguments(argv: list[str] | None) -> argparse.Namespace:
 
 
 def _thesis(predictor: str, protocol: str) -> str:
-    if protocol != "concentric circles (thesis)":
+    if not protocol.startswith("concentric circles"):
         return ""
     value = study.THESIS_PX["nominal" if predictor == "nominal" else "robust"]
     return f"{value:.2f}"
@@ -71,17 +72,23 @@ def _table(results: list[study.ProtocolResult]) -> list[str]:
     return lines
 
 
-def _plot(result: study.ProtocolResult, path: Path) -> None:
-    figure, axis = plt.subplots(figsize=(9, 4))
+def _plot(result: study.ProtocolResult, path: Path, seed: int) -> None:
+    """The thesis's live error plot: E_i per predictor over the first run, and the mean of all."""
+    figure, (single, mean) = plt.subplots(2, 1, figsize=(9, 6.5), sharex=True)
     seconds = [(i + 1) / study.FPS for i in range(study.FRAMES - 1)]
-    for name, curve in result.curves_noisy.items():
-        axis.plot(seconds, curve, lw=1, label=f"{name} ({result.scored_noisy[name].mean():.1f} px)")
-    axis.axvspan(seconds[-study.SCORED_FRAMES], seconds[-1], color="0.9", label="scored frames")
-    axis.set_xlabel("time [s]")
-    axis.set_ylabel("E_i: one-step prediction error [px]")
     runs = len(next(iter(result.scored_noisy.values())))
-    axis.set_title(f"{result.protocol}: one-step prediction error, mean of {runs} runs")
-    axis.legend(loc="upper right", fontsize=8)
+    for name, curve in result.first_run_noisy.items():
+        single.plot(
+            seconds, curve, lw=1, label=f"{name} ({curve[-study.SCORED_FRAMES :].mean():.1f} px)"
+        )
+    for name, curve in result.curves_noisy.items():
+        mean.plot(seconds, curve, lw=1, label=f"{name} ({result.scored_noisy[name].mean():.1f} px)")
+    for axis, title in ((single, f"run 1 of {runs} (seed {seed})"), (mean, f"mean of {runs} runs")):
+        axis.axvspan(seconds[-study.SCORED_FRAMES], seconds[-1], color="0.9", label="scored frames")
+        axis.set_ylabel("E_i [px]")
+        axis.set_title(f"{result.protocol}: one-step prediction error, {title}", fontsize=10)
+        axis.legend(loc="upper right", fontsize=8)
+    mean.set_xlabel("time [s]")
     figure.tight_layout()
     figure.savefig(path, dpi=100)
     plt.close(figure)
@@ -118,7 +125,8 @@ def main(argv: list[str] | None = None) -> int:
             name, study.PROTOCOLS[name], args.runs, args.seed, None, progress
         )
         print(file=sys.stderr)
-        _plot(result, args.out / f"errors-{k}-{name.split(' (')[0].replace(' ', '_')}.png")
+        slug = re.sub(r"[^a-z0-9]+", "_", name.split(" (")[0].lower()).strip("_")
+        _plot(result, args.out / f"errors-{k}-{slug}.png", args.seed)
         results.append(result)
     table = _table(results)
     print("\n".join(table))

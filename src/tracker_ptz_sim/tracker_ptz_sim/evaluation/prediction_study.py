@@ -4,10 +4,12 @@ The thesis moved a small ball by hand in two concentric circles in front of a fi
 20 fps, added an independent integer in [-40, 40] px to CamShift's x and y every frame (simulated
 camera vibration), and averaged the one-step prediction error E_i = ||s_i - s_hat_{i|i-1}|| over
 the last 80 frames and 100 runs: 44.39 px nominal, 40.92 px robust. The video is not available,
-so the hand's path is written down here (`concentric_circles`), CamShift's measurement is taken
-as the true centre (the vibration dominates its error), and the error is reported against the
-noisy position (the thesis's s_i) and against the true one. Manoeuvring paths (stops, speed
-changes, a figure eight) test where model uncertainty should matter more.
+so the hand's path is written down here (`concentric_circles`) and the error is reported
+against the noisy position (the thesis's s_i) and against the true one. CamShift's measurement is
+either taken as the true centre (the vibration dominates its error) or measured: a purple ball is
+rendered on a textured desk at the true centre and `tracker_detect.camshift` follows it from a
+box drawn on it in the first frame (`camshift_centres`). Manoeuvring paths (stops, speed changes,
+a figure eight) test where model uncertainty should matter more.
 """
 
 from __future__ import annotations
@@ -16,18 +18,23 @@ import math
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 
+import cv2
 import numpy as np
 from scipy import stats
 
+from tracker_detect.camshift import CamShiftTracker
+from tracker_detect.detector import CameraFrame
 from tracker_filter.filters import FilterFactory
 from tracker_filter.models import seed001_nominal_model
 from tracker_filter.robust_kalman import LambdaRule, RobustKalmanConfig, seed001_uncertainty
+from tracker_msgs_py.geometry import Rect
 
 FPS = 20.0
 FRAMES = 200  # 10 s per run
 SCORED_FRAMES = 80  # the thesis averages the last 80 frames
 VIBRATION_PX = 40  # integer noise in [-40, 40] px per axis per frame
-CENTRE = np.array([320.0, 240.0])  # a 640 x 480 image
+IMAGE_SIZE = (640, 480)  # width, height
+CENTRE = np.array([320.0, 240.0])  # of the image
 PRIOR_STD = math.sqrt(1e3)  # Pi0 = 1e3 I (the thesis gives no value)
 THESIS_PX = {"nominal": 44.39, "robust": 40.92}
 
@@ -85,11 +92,75 @@ def figure_eight(rng: np.random.Generator) -> np.ndarray:
     return CENTRE + path + _hand_jitter(rng)
 
 
-PROTOCOLS: dict[str, Trajectory] = {
-    "concentric circles (thesis)": concentric_circles,
-    "stop and go": stop_and_go,
-    "speed changes": speed_changes,
-    "figure eight": figure_eight,
+BALL_RADIUS = 16  # px: a small ball at arm's length from a webcam
+BALL_BGR = (150, 40, 125)  # purple
+
+
+def desk(rng: np.random.Generator) -> np.ndarray:
+    """A textured, low-saturation desk and wall behind the ball, (480, 640, 3) BGR."""
+    width, height = IMAGE_SIZE
+    grey = rng.integers(60, 190, (height // 16, width // 16, 1))
+    tint = rng.integers(-10, 11, (height // 16, width // 16, 3))
+    small = np.clip(grey + tint, 0, 255).astype(np.uint8)
+    return cv2.resize(small, IMAGE_SIZE, interpolation=cv2.INTER_LINEAR)
+
+
+def render_ball(background: np.ndarray, centre: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+    """The ball at `centre` (sub-pixel, anti-aliased), shaded, with sensor noise."""
+    frame = background.copy()
+    shift = 4  # cv2 drawing's fractional bits
+    at = (round(centre[0] * (1 << shift)), round(centre[1] * (1 << shift)))
+    cv2.circle(frame, at, BALL_RADIUS << shift, BALL_BGR, -1, cv2.LINE_AA, shift)
+    highlight = (round((centre[0] - 5) * (1 << shift)), round((centre[1] - 5) * (1 << shift)))
+    cv2.circle(frame, highlight, 5 << shift, (190, 110, 175), -1, cv2.LINE_AA, shift)
+    noise = rng.integers(-5, 6, frame.shape, dtype=np.int16)  # sigma 3.2
+    return np.clip(frame + noise, 0, 255).astype(np.uint8)
+
+
+def camshift_centres(truth: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+    """CamShift's centre of the rendered ball per frame (N, 2): started on the ball's box in the
+    first frame as a user would draw it; a miss repeats the last centre (the thesis's loop keeps
+    its window)."""
+    background = desk(rng)
+    tracker = CamShiftTracker()
+    side = 2.0 * BALL_RADIUS
+    first = CameraFrame(0, render_ball(background, truth[0], rng))
+    x0, y0 = (float(v) for v in truth[0])
+    reason = tracker.select_region(Rect.from_center(x0, y0, side, side), first)
+    if reason is not None:
+        raise RuntimeError(f"CamShift cannot start on the ball: {reason}")
+    centres = np.empty_like(truth)
+    centres[0] = truth[0]
+    stamp_ns = round(1e9 / FPS)
+    for i in range(1, len(truth)):
+        image = render_ball(background, truth[i], rng)
+        blobs = tracker.process(CameraFrame(i * stamp_ns, image)).blobs
+        centres[i] = (blobs[0].centroid_x, blobs[0].centroid_y) if blobs else centres[i - 1]
+    return centres
+
+
+def true_centres(truth: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+    """CamShift taken as exact: its error is small beside the vibration."""
+    return truth
+
+
+Measure = Callable[[np.ndarray, np.random.Generator], np.ndarray]  # truth, rng -> measured
+
+
+@dataclass(frozen=True)
+class Protocol:
+    trajectory: Trajectory
+    measure: Measure = true_centres
+
+
+PROTOCOLS: dict[str, Protocol] = {
+    "concentric circles (thesis)": Protocol(concentric_circles),
+    "concentric circles, CamShift on a rendered ball": Protocol(
+        concentric_circles, camshift_centres
+    ),
+    "stop and go": Protocol(stop_and_go),
+    "speed changes": Protocol(speed_changes),
+    "figure eight": Protocol(figure_eight),
 }
 
 
@@ -136,11 +207,11 @@ class RunErrors:
 
 
 def run_once(
-    trajectory: Trajectory, factories: Mapping[str, FilterFactory], seed: int
+    protocol: Protocol, factories: Mapping[str, FilterFactory], seed: int
 ) -> dict[str, RunErrors]:
     rng = np.random.default_rng(seed)
-    truth = trajectory(rng)
-    measured = vibrate(truth, rng)
+    truth = protocol.trajectory(rng)
+    measured = vibrate(protocol.measure(truth, rng), rng)
     out = {}
     for name, factory in factories.items():
         predicted = one_step_predictions(factory, measured)
@@ -170,12 +241,14 @@ class PairedComparison:
 
 @dataclass
 class ProtocolResult:
-    """Per predictor: the per-run scored means (noisy, true) and the per-frame mean error curves."""
+    """Per predictor: the per-run scored means (noisy, true), the per-frame mean error curves and
+    the first run's own curve (the thesis's live plot)."""
 
     protocol: str
     scored_noisy: dict[str, np.ndarray]
     scored_true: dict[str, np.ndarray]
     curves_noisy: dict[str, np.ndarray]
+    first_run_noisy: dict[str, np.ndarray]
 
     def comparison(self, robust: str, against: str = "true") -> PairedComparison:
         scored = self.scored_true if against == "true" else self.scored_noisy
@@ -184,7 +257,7 @@ class ProtocolResult:
 
 def run_protocol(
     name: str,
-    trajectory: Trajectory,
+    protocol: Protocol,
     runs: int = 100,
     seed: int = 0,
     factories: Mapping[str, FilterFactory] | None = None,
@@ -195,12 +268,14 @@ def run_protocol(
     noisy: dict[str, list[float]] = {n: [] for n in factories}
     true: dict[str, list[float]] = {n: [] for n in factories}
     curves: dict[str, np.ndarray] = {n: np.zeros(FRAMES - 1) for n in factories}
+    first: dict[str, np.ndarray] = {}
     for k in range(runs):
-        for predictor, errors in run_once(trajectory, factories, seed + k).items():
+        for predictor, errors in run_once(protocol, factories, seed + k).items():
             scored_noisy, scored_true = errors.scored()
             noisy[predictor].append(scored_noisy)
             true[predictor].append(scored_true)
             curves[predictor] += errors.noisy / runs
+            first.setdefault(predictor, errors.noisy)
         if progress is not None:
             progress(k + 1)
     return ProtocolResult(
@@ -208,4 +283,5 @@ def run_protocol(
         {n: np.array(v) for n, v in noisy.items()},
         {n: np.array(v) for n, v in true.items()},
         curves,
+        first,
     )
