@@ -231,3 +231,45 @@ def test_registered_and_built_from_the_trackers_parameters():
     assert factory.rule is LambdaRule.CHEAP
     with pytest.raises(ValueError, match="robust_m"):
         TrackerConfig.preset("multi", filter="robust_kalman", robust_m=[0.1, 0.2])
+
+
+@pytest.mark.parametrize("rule", [LambdaRule.NOMINAL, LambdaRule.EXACT])
+def test_stamps_step_equals_the_per_frame_model_at_20_fps(rule):
+    zs = circle_measurements(40)
+    per_frame = start(rule, zs[0])
+    config = RobustKalmanConfig(
+        MODEL, UNCERTAINTY, rule, initial_std=np.sqrt(1e3), from_stamps=True
+    )
+    stamped = config.new_filter(zs[0], 0.0)
+    for i, z in enumerate(zs[1:], start=1):
+        for f in (per_frame, stamped):
+            f.predict(i / 20.0)
+            f.update(z)
+        np.testing.assert_allclose(stamped.mean, per_frame.mean, rtol=1e-12, atol=1e-9)
+
+
+def test_stamps_step_keeps_velocities_in_px_per_second_at_any_frame_rate():
+    """A target walking 60 px/s filmed at 10 fps: with the stamps' interval the velocity is
+    60 px/s; one step of the T = 1/20 s matrices per frame reads it as 120 px/s. (The nominal
+    rule: the robust filter's velocity shrinks by design, E_f weighing vx + vy + ax + ay.)"""
+    fps, speed = 10.0, 60.0
+    zs = np.stack([100 + speed * np.arange(80) / fps, np.full(80, 200.0)], axis=1)
+    estimates = {}
+    for from_stamps in (False, True):
+        config = RobustKalmanConfig(MODEL, UNCERTAINTY, LambdaRule.NOMINAL, from_stamps=from_stamps)
+        f = config.new_filter(zs[0], 0.0)
+        for i, z in enumerate(zs[1:], start=1):
+            f.predict(i / fps)
+            f.update(z)
+        estimates[from_stamps] = f.mean[2]
+    assert estimates[True] == pytest.approx(speed, rel=0.05)
+    assert estimates[False] == pytest.approx(speed * 20.0 / fps, rel=0.05)
+
+
+def test_stamps_step_needs_a_kinematic_state():
+    from tracker_filter.models import LinearModel
+
+    odd = LinearModel(np.eye(3), np.eye(3), np.eye(3), np.eye(2), ("x", "y", "w"))
+    three = ModelUncertainty(np.zeros((3, 1)), np.zeros((1, 3)), np.zeros((1, 3)))
+    with pytest.raises(ValueError, match="kinematic"):
+        RobustKalmanConfig(odd, three, LambdaRule.CHEAP, from_stamps=True)

@@ -68,6 +68,7 @@ _MULTI: dict[str, Any] = {
     "model_noise_gain": _SEED001.noise_gain.ravel().tolist(),
     "model_process_covariance": _SEED001.process_covariance.ravel().tolist(),
     "model_measurement_covariance": _SEED001.measurement_covariance.ravel().tolist(),
+    "model_step": "frame",
     # robust_kalman: seed 001's uncertainty [dF dG] = M Delta [E_f E_g]
     "robust_lambda_rule": LambdaRule.EXACT.value,
     "robust_alpha": 0.5,
@@ -135,6 +136,13 @@ TRACKING_PARAMETERS: tuple[ParamSpec, ...] = (
     _spec(
         "model_measurement_covariance",
         "kalman_linear_model, robust_kalman: R (2x2), px^2, row by row",
+    ),
+    _spec(
+        "model_step",
+        "robust_kalman: one step of model_transition per frame (frame, the thesis), or F the "
+        "kinematic transition over each frame's interval from the stamps (stamps; x y vx vy "
+        "[ax ay] states), which keeps velocities in px/s at any frame rate",
+        choices=("frame", "stamps"),
     ),
     _spec(
         "robust_lambda_rule",

@@ -91,6 +91,7 @@ def robust_filter(values: Mapping[str, Any]) -> RobustKalmanConfig:
         values["robust_lambda_rule"],
         values["robust_alpha"],
         values["initial_velocity_std"],
+        values["model_step"] == "stamps",
     )
 
 
@@ -123,7 +124,8 @@ FILTERS.register(
     Method(
         name="robust_kalman",
         description="seed 001's robust Kalman filter (Sayed 2001) on the model_* model with the "
-        "robust_* uncertainty, one step per frame",
+        "robust_* uncertainty, one step per frame (model_step frame) or over the stamps' "
+        "interval (stamps)",
         build=robust_filter,
     )
 )

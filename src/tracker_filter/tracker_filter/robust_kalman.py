@@ -29,14 +29,14 @@ the last factor of F_hat in 3.43; G(lambda)'s first term weighted by Q, not Q_ha
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from enum import StrEnum
 
 import numpy as np
 
 from tracker_filter.banks import FilterBank, ObjectBank
 from tracker_filter.filters import StateFilter, check_measurement
-from tracker_filter.models import AXES, LinearModel
+from tracker_filter.models import AXES, LinearModel, model_for_layout
 
 
 class LambdaRule(StrEnum):
@@ -316,7 +316,7 @@ class RobustKalmanFilter:
 
     def __init__(
         self,
-        robust: RobustModel,
+        models: RobustModels,
         mean: np.ndarray,
         covariance: np.ndarray,
         t0: float,
@@ -325,14 +325,16 @@ class RobustKalmanFilter:
     ) -> None:
         if not math.isfinite(t0):
             raise ValueError(f"start time must be finite, got {t0}")
-        self.robust, self.model = robust, robust.model
+        self.models = models
+        self.robust = models.given
+        self.model = self.robust.model
         self.rule, self.alpha = LambdaRule(rule), alpha
-        self.lower_bound = robust.lower_bound
+        self.lower_bound = self.robust.lower_bound
         self._filtered = (np.array(mean, dtype=float), np.array(covariance, dtype=float))
         self._time = float(t0)
         self._pending = False  # a predict() waits for its update()
         self.lam = self._fixed_lambda() if self.rule is not LambdaRule.EXACT else self._cheap()
-        self._modified = robust.modified(self._filtered[1], self.lam)
+        self._modified = self.robust.modified(self._filtered[1], self.lam)
 
     def _cheap(self) -> float:
         return (1.0 + self.alpha) * self.lower_bound
@@ -364,7 +366,7 @@ class RobustKalmanFilter:
         return self._filtered[1].copy()
 
     def _predicted_covariance(self, modified: ModifiedModel) -> np.ndarray:
-        F = self.model.transition_matrix
+        F = self.model.transition_matrix  # the nominal F of this step's model
         return F @ modified.P @ F.T + modified.G @ modified.Q @ modified.G.T  # (3.47)
 
     def predict(self, t: float) -> None:
@@ -374,6 +376,8 @@ class RobustKalmanFilter:
             return
         if self._pending:
             self.update(None)  # the previous step ended without a measurement
+        self.robust = self.models.at(t - self._time)
+        self.model = self.robust.model
         # the exact rule keeps the previous step's lambda_hat until the measurement arrives
         self._modified = self.robust.modified(self._filtered[1], self.lam)
         self._pending = True
@@ -421,11 +425,43 @@ class RobustKalmanFilter:
         return (self._modified.F @ self.mean)[:AXES] if lead > 0 else self.mean[:AXES]
 
 
+class RobustModels:
+    """The step's RobustModel: the given one every step, or (`from_stamps`) the given model with
+    F the kinematic transition over the step's interval (G, Q, R and the uncertainty per step as
+    given; a few intervals are kept, a replay has one or two)."""
+
+    KEPT = 8
+
+    def __init__(
+        self, model: LinearModel, uncertainty: ModelUncertainty, from_stamps: bool = False
+    ) -> None:
+        self.given = RobustModel(model, uncertainty)
+        self.kinematic = model_for_layout(model.state_layout) if from_stamps else None
+        self._by_interval: dict[float, RobustModel] = {}
+
+    def at(self, interval: float) -> RobustModel:
+        if self.kinematic is None:
+            return self.given
+        key = round(interval, 9)
+        found = self._by_interval.get(key)
+        if found is None:
+            given = self.given.model
+            model = replace(given, transition_matrix=self.kinematic.transition(key))
+            found = RobustModel(model, self.given.uncertainty)
+            if len(self._by_interval) >= self.KEPT:
+                self._by_interval.pop(next(iter(self._by_interval)))
+            self._by_interval[key] = found
+        return found
+
+
 @dataclass(frozen=True, eq=False)
 class RobustKalmanConfig:
     """Robust Kalman filters for new tracks; a `FilterFactory`.
 
     A new track starts with Step 0 (eqs. 3.35-3.36): prior mean 0 and Pi0 = initial_std^2 I.
+    `from_stamps`: the model's F is the kinematic transition over each step's interval (the state
+    must be x y vx vy or x y vx vy ax ay), so velocities are px/s at any frame rate; otherwise one
+    step of the given matrices per frame, as the thesis (T = 1/20 s).
     """
 
     model: LinearModel
@@ -433,6 +469,7 @@ class RobustKalmanConfig:
     rule: LambdaRule = LambdaRule.EXACT
     alpha: float = 0.5
     initial_std: float = 100.0
+    from_stamps: bool = False
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "rule", LambdaRule(self.rule))
@@ -444,7 +481,9 @@ class RobustKalmanConfig:
         needs_inverse_q = self.rule is not LambdaRule.NOMINAL
         if needs_inverse_q and np.linalg.eigvalsh(self.model.process_covariance).min() <= 0.0:
             raise ValueError("the robust filter needs a positive definite Q (it uses Q^-1)")
-        object.__setattr__(self, "_robust", RobustModel(self.model, self.uncertainty))
+        object.__setattr__(
+            self, "_models", RobustModels(self.model, self.uncertainty, self.from_stamps)
+        )
 
     @property
     def state_layout(self) -> tuple[str, ...]:
@@ -456,8 +495,8 @@ class RobustKalmanConfig:
             raise ValueError("a new track needs a measurement")
         prior = np.eye(self.model.dim) * self.initial_std**2
         mean, covariance = initial_estimate(z0, prior, self.model.measurement_covariance)
-        robust: RobustModel = self._robust  # type: ignore[attr-defined]
-        return RobustKalmanFilter(robust, mean, covariance, t, self.rule, self.alpha)
+        models: RobustModels = self._models  # type: ignore[attr-defined]
+        return RobustKalmanFilter(models, mean, covariance, t, self.rule, self.alpha)
 
     def new_bank(self) -> FilterBank:
         return ObjectBank(self.new_filter, self.state_layout)
