@@ -120,3 +120,42 @@ def test_the_target_guides_the_search_past_a_jump():
     moving = target_msg(0, Rect.from_center(start.center[0], JUMP[1], 28, 60), vx=velocity)
     [blob] = first_frame_after_a_jump(moving)
     assert msg_to_rect(blob.bbox).iou(true_box(*JUMP)) >= 0.5
+
+
+def test_lockstep_targets_hold_each_image_for_its_handover_and_the_previous_guidance():
+    """With lockstep_targets an image is answered only once the hand-over target of its stamp and
+    the own tracker's target of the image before have come, so what CamShift does with an image
+    never depends on which message the transport delivered first; the hand-over starts tracking on
+    the very image it was measured in."""
+    h = harness(lockstep_targets=True, target_timeout=5.0)
+    try:
+        image = array_to_image(scene_with_target(0), "bgr8", ns_to_stamp(0), "camera")
+        h.publish("camera/image_raw", image)
+        h.spin_for(0.3)
+        assert h.received["detections"] == [], "answered before its hand-over target came"
+        box0 = true_box(*target_position(0))
+        h.publish("handover_target", target_msg(0, box0))
+        h.spin_until(lambda: len(h.received["detections"]) == 1)
+        [blob] = h.received["detections"][0].blobs  # tracked in the image it was handed over in
+        assert msg_to_rect(blob.bbox).iou(box0) >= 0.5
+        image = array_to_image(scene_with_target(1), "bgr8", ns_to_stamp(NS), "camera")
+        h.publish("camera/image_raw", image)
+        h.publish("handover_target", target_msg(1, true_box(*target_position(1))))
+        h.spin_for(0.3)
+        assert len(h.received["detections"]) == 1, "answered before its tracker's last target"
+        h.publish("target", target_msg(0, box0))
+        h.spin_until(lambda: len(h.received["detections"]) == 2)
+        [blob] = h.received["detections"][1].blobs
+        assert msg_to_rect(blob.bbox).iou(true_box(*target_position(1))) >= 0.5
+    finally:
+        h.close()
+
+
+def test_lockstep_targets_wait_at_most_the_timeout_when_no_tracker_answers():
+    h = harness(lockstep_targets=True, target_timeout=0.3)
+    try:
+        for k in range(3):
+            send(h, k)  # answered after the timeout, each
+        assert h.node.problems.counts.get("targets late", 0) >= 3
+    finally:
+        h.close()

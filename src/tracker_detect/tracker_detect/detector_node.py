@@ -15,6 +15,7 @@ for detectors started from a rectangle.
 from __future__ import annotations
 
 import math
+import time
 from dataclasses import dataclass
 from typing import Any
 
@@ -38,6 +39,7 @@ from tracker_detect.image_pose_pairing import (
     SceneSettings,
 )
 from tracker_detect.registration import CameraIntrinsics
+from tracker_detect.target_gate import HeldImage, TargetGate
 from tracker_msgs.msg import Blob as BlobMsg
 from tracker_msgs.msg import BlobArray, PtzState, Target, Track
 from tracker_msgs.srv import SelectRegion
@@ -120,6 +122,21 @@ NODE_PARAMETERS = [
         0.0,
         10.0,
     ),
+    ParamSpec(
+        "lockstep_targets",
+        False,
+        "seeded detectors in a lockstep replay: each image waits for the hand-over target of its "
+        "stamp (with `handover`) and for `target`'s answer to the image before (with "
+        "`guide_from_target`), so a replay gives the same result every time",
+        read_only=True,
+    ),
+    ParamSpec(
+        "target_timeout",
+        1.0,
+        "lockstep_targets: an image waits at most this long for the targets [s]",
+        0.01,
+        60.0,
+    ),
 ]
 
 RECENT_FRAMES = 16  # images kept for a hand-over naming an image by its stamp
@@ -185,9 +202,17 @@ class DetectorNode(SuiteNode):
         self.recent_frames: dict[int, CameraFrame] = {}
         self.guide_target: Target | None = None
         self.pending_region = self._initial_region()
+        self.gate: TargetGate | None = None
         if isinstance(self.detector, SeededDetector):
             self.create_subscription(Target, "target", self._on_target, 10)
             self.create_subscription(Target, "handover_target", self._on_handover_target, 10)
+            if self.params["lockstep_targets"]:
+                self.gate = TargetGate(
+                    self.params["handover"],
+                    self.params["guide_from_target"],
+                    self.params["target_timeout"],
+                )
+                self.create_timer(0.05, self._expire_held_images)
         self.get_logger().info(f"detector ready: method {self.method.name}, pose {source}")
 
     # --- parameters ---------------------------------------------------------------------------
@@ -237,6 +262,10 @@ class DetectorNode(SuiteNode):
         self.pairing.configure(
             self.params["pose_buffer_size"], self._max_gap_ns(), self._scene_settings()
         )
+        if self.gate is not None:
+            self.gate.wait_handover = self.params["handover"]
+            self.gate.wait_guide = self.params["guide_from_target"]
+            self.gate.timeout = self.params["target_timeout"]
 
     # --- inputs -------------------------------------------------------------------------------
 
@@ -270,6 +299,9 @@ class DetectorNode(SuiteNode):
             f"camera images: {self.image_order.describe_jump()}; a new replay epoch: detection "
             "history and waiting images cleared"
         )
+        if self.gate is not None:  # the old epoch's images are answered on the old state
+            for held in self.gate.clear():
+                self._detect_now(held.item, held.handover)
         self.detector.reset()
         self.recent_frames.clear()
         self.guide_target = None
@@ -341,8 +373,32 @@ class DetectorNode(SuiteNode):
             self._publish_empty(image.token)
 
     def _detect(self, image: PairedImage) -> None:
+        if self.gate is None:
+            self._detect_now(image, None)
+            return
+        for held in self.gate.add_image(image.stamp_ns, image, time.monotonic()):
+            self._release(held)
+
+    def _release(self, held: HeldImage) -> None:
+        if held.timed_out:
+            self.problems.report(
+                "targets late",
+                f"processed the image stamped {held.stamp_ns} ns without waiting longer for the "
+                f"targets (lockstep_targets; {self.params['target_timeout']} s): is the tracker "
+                "running?",
+            )
+        self._detect_now(held.item, held.handover)
+
+    def _expire_held_images(self) -> None:
+        if self.gate is not None:
+            for held in self.gate.expire(time.monotonic()):
+                self._release(held)
+
+    def _detect_now(self, image: PairedImage, handover: Target | None) -> None:
         frame = CameraFrame(image.stamp_ns, image.pixels, image.view)
         if isinstance(self.detector, SeededDetector):
+            if handover is not None:
+                self._hand_over(self.detector, handover, frame)
             self._prepare_seeded(self.detector, frame)
         try:
             detection = self.detector.process(frame)
@@ -388,16 +444,28 @@ class DetectorNode(SuiteNode):
 
     def _on_target(self, msg: Target) -> None:
         self.guide_target = msg if msg.locked and msg.track.status != Track.STATUS_LOST else None
+        if self.gate is not None:
+            for held in self.gate.add_guide(stamp_to_ns(msg.header.stamp), time.monotonic()):
+                self._release(held)
 
     def _on_handover_target(self, msg: Target) -> None:
         detector = self.detector
         if not self.params["handover"] or not isinstance(detector, SeededDetector):
             return
-        if detector.tracking or not msg.locked or msg.track.status != Track.STATUS_CONFIRMED:
-            return  # only a measured (not coasting) box is worth learning a colour model from
-        frame = self.recent_frames.get(stamp_to_ns(msg.header.stamp))
+        stamp = stamp_to_ns(msg.header.stamp)
+        if self.gate is not None:  # applied to the image of its stamp when that is processed
+            for held in self.gate.add_handover(stamp, msg, time.monotonic()):
+                self._release(held)
+            return
+        frame = self.recent_frames.get(stamp)
         if frame is None:
             return  # that image is gone (or never came); the next target will do
+        self._hand_over(detector, msg, frame)
+
+    def _hand_over(self, detector: SeededDetector, msg: Target, frame: CameraFrame) -> None:
+        """Start on `msg`'s box in `frame` when not tracking and the target was measured."""
+        if detector.tracking or not msg.locked or msg.track.status != Track.STATUS_CONFIRMED:
+            return  # only a measured (not coasting) box is worth learning a colour model from
         try:
             region = msg_to_rect(msg.track.bbox)
         except ValueError as error:
