@@ -25,6 +25,9 @@ class RegionDetector:
         self.region = region
         return None
 
+    def hand_over(self, region: Rect, frame: CameraFrame) -> str | None:
+        return self.select_region(region, frame) if self.region is None else "tracking"
+
     def process(self, frame: CameraFrame) -> Detection:
         if self.last_stamp is not None and frame.stamp_ns <= self.last_stamp:
             raise StaleFrameError(f"stamp {frame.stamp_ns} ns is not newer than the last")

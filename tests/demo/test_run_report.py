@@ -138,20 +138,49 @@ def test_graph_description_is_consistent():
     graph = load_graph()
     names = [n.name for n in graph.nodes]
     assert names == ["video_source", "ptz_camera", "ssim_detector", "tracker", "ptz_controller"]
-    assert graph.params_file.exists()
+    assert [p.name for p in graph.params_files] == ["surveillance.yaml"]
     for name in names:
-        assert node_parameters(graph.params_file, name).get("use_sim_time") is True
+        assert node_parameters(graph.params_files, name).get("use_sim_time") is True
     args = ros_args(
-        graph.node("tracker"), graph.params_file, {"lead_time": 0.2, "flag": False, "topic": ""}
+        graph.node("tracker"), graph.params_files, {"lead_time": 0.2, "flag": False, "topic": ""}
     )
-    assert args[:3] == ["--ros-args", "-r", "__node:=tracker"]
+    assert args[:5] == [
+        "--ros-args",
+        "-r",
+        "__node:=tracker",
+        "--params-file",
+        str(graph.params_files[0]),
+    ]
     assert "tracker:lead_time:=0.2" in args and "tracker:flag:=false" in args
     assert 'tracker:topic:=""' in args
     assert format_value([1.0, 2.0]) == "[1.0,2.0]"
 
 
-def test_launch_file_builds_the_same_graph(monkeypatch):
-    """The launch file (for real installs) starts exactly the graph's nodes with its parameters."""
+def test_colour_graph_hands_motion_over_to_camshift_on_its_own_topics():
+    from tracker_ptz_sim.bringup.graph import load_graph, node_parameters
+
+    graph = load_graph("colour")
+    assert [p.name for p in graph.params_files] == ["surveillance.yaml", "colour.yaml"]
+    detector = node_parameters(graph.params_files, "colour_detector")
+    assert detector["method"] == "camshift" and detector["lockstep_targets"] is True
+    assert node_parameters(graph.params_files, "ssim_detector")["method"] == "ssim_background"
+    assert node_parameters(graph.params_files, "colour_tracker")["filter"] == "robust_kalman"
+    motion = graph.node("tracker").remappings
+    assert motion == {
+        "detections": "motion/detections",
+        "tracks": "motion/tracks",
+        "target": "motion/target",
+    }
+    assert graph.node("ssim_detector").remappings == {"detections": "motion/detections"}
+    assert graph.node("colour_detector").remappings == {"handover_target": "motion/target"}
+    recorded = {t.name for t in graph.topics}
+    assert {"/motion/target", "/motion/tracks", "/target", "/tracks"} <= recorded
+    assert set(graph.ready) <= recorded
+
+
+def _launch_actions(monkeypatch, **arguments) -> tuple[list, list]:
+    """The launch file's entities and the Node actions it creates for `arguments`, with `launch`
+    and `launch_ros` (not on PyPI) replaced by recorders of what they are given."""
     import importlib.util
     import sys
     import types
@@ -161,10 +190,21 @@ def test_launch_file_builds_the_same_graph(monkeypatch):
     launch = types.ModuleType("launch")
     launch.LaunchDescription = lambda entities: entities
     actions = types.ModuleType("launch.actions")
-    actions.DeclareLaunchArgument = lambda name, **kw: ("arg", name)
+    actions.DeclareLaunchArgument = lambda name, **kw: ("arg", name, kw.get("default_value"))
     actions.SetEnvironmentVariable = lambda name, value: ("env", name, value)
+    actions.OpaqueFunction = lambda function: ("opaque", function)
+
+    class LaunchConfiguration(str):
+        def __new__(cls, name):
+            configuration = super().__new__(cls, f"$({name})")
+            configuration.name = name
+            return configuration
+
+        def perform(self, context):
+            return context[self.name]
+
     substitutions = types.ModuleType("launch.substitutions")
-    substitutions.LaunchConfiguration = lambda name: f"$({name})"
+    substitutions.LaunchConfiguration = LaunchConfiguration
     launch_ros_actions = types.ModuleType("launch_ros.actions")
     launch_ros_actions.Node = lambda **kw: created.append(kw) or kw
     for name, module in {
@@ -180,7 +220,16 @@ def test_launch_file_builds_the_same_graph(monkeypatch):
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
     entities = module.generate_launch_description()
-    assert ("arg", "video") in entities
+    defaults = {e[1]: e[2] for e in entities if e[0] == "arg"}
+    [(_, function)] = [e for e in entities if e[0] == "opaque"]
+    function({**defaults, **arguments})
+    return entities, created
+
+
+def test_launch_file_builds_the_same_graph(monkeypatch):
+    """The launch file (for real installs) starts exactly the graph's nodes with its parameters."""
+    entities, created = _launch_actions(monkeypatch)
+    assert ("arg", "video", None) in entities
     assert [n["name"] for n in created] == [
         "video_source",
         "ptz_camera",
@@ -190,6 +239,18 @@ def test_launch_file_builds_the_same_graph(monkeypatch):
     ]
     source = created[0]
     assert source["parameters"][1] == {"path": "$(video)"}
-    assert ("arg", "respawn") in entities and "respawn" not in source  # a replay ends: no respawn
+    assert ("arg", "respawn", "false") in entities and "respawn" not in source
     assert all(n["respawn"] == "$(respawn)" and n["respawn_max_retries"] == 5 for n in created[1:])
     assert source["parameters"][0].endswith("surveillance.yaml")
+
+
+def test_launch_file_runs_the_colour_graph_on_request(monkeypatch):
+    _, created = _launch_actions(monkeypatch, graph="colour")
+    names = [n["name"] for n in created]
+    assert "colour_detector" in names and "colour_tracker" in names
+    detector = created[names.index("colour_detector")]
+    assert [p.rsplit("/", 1)[-1] for p in detector["parameters"][:2]] == [
+        "surveillance.yaml",
+        "colour.yaml",
+    ]
+    assert ("handover_target", "motion/target") in detector["remappings"]

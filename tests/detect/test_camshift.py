@@ -221,3 +221,41 @@ def test_a_target_sharing_a_colour_with_its_surroundings_is_followed_by_its_own_
         blobs = tracker.process(frame(k, picture(k))).blobs
         ious.append(blobs[0].bbox.iou(true_box(*target_position(k))) if blobs else 0.0)
     assert min(ious) >= 0.7
+
+
+def test_a_handed_over_box_replaces_the_target_only_when_its_colours_match_better():
+    """While tracking, CamShift drifted onto a red box standing where the person stood (the
+    person, red coat and blue trousers, walked on). The person's box, offered again by the motion
+    tracker, matches the model better than the drifted-to red box: taken. A grey passer-by's box
+    matches worse: refused. A box over the tracked one is the same target: refused."""
+    coat, trousers = TARGET_BGR, (160, 60, 30)
+
+    def person(scene: np.ndarray, box: Rect) -> None:
+        x, y, w, h = (round(v) for v in (box.x, box.y, box.width, box.height))
+        scene[y : y + h // 2, x : x + w] = coat
+        scene[y + h // 2 : y + h, x : x + w] = trousers
+
+    start = true_box(240, 180)
+    first = background()
+    person(first, start)
+    tracker = CamShiftTracker()
+    assert tracker.select_region(start, frame(0, first)) is None
+    later = background()
+    red_box = Rect(start.x, start.y, start.width, start.height / 2)  # the coat's colour only
+    later[
+        round(red_box.y) : round(red_box.y + red_box.height),
+        round(red_box.x) : round(red_box.x + red_box.width),
+    ] = coat
+    walked_on = true_box(380, 180)
+    person(later, walked_on)
+    grey = true_box(100, 180)
+    later[
+        round(grey.y) : round(grey.y + grey.height), round(grey.x) : round(grey.x + grey.width)
+    ] = (120, 122, 125)
+    image = frame(1, later)
+    tracker.last_box = red_box  # where CamShift drifted
+    assert tracker.hand_over(start, image) == "it is the tracked target"
+    assert "match the model" in tracker.hand_over(grey, image)
+    assert tracker.similarity(walked_on, image) > tracker.similarity(red_box, image)
+    assert tracker.hand_over(walked_on, image) is None
+    assert tracker.selection == walked_on

@@ -53,12 +53,14 @@ def send(h: NodeHarness, k: int, **scene) -> BlobArray:
     return h.received["detections"][-1]
 
 
-def target_msg(k: int, box: Rect, status: int = Track.STATUS_CONFIRMED, vx: float = 0.0) -> Target:
+def target_msg(
+    k: int, box: Rect, status: int = Track.STATUS_CONFIRMED, vx: float = 0.0, hits: int = 10
+) -> Target:
     msg = Target(locked=True)
     msg.header.stamp = ns_to_stamp(k * NS)
     msg.header.frame_id = "scene"
     cx, cy = box.center
-    msg.track = Track(id=7, status=status, x=cx, y=cy, vx=vx, bbox=rect_to_msg(box))
+    msg.track = Track(id=7, status=status, x=cx, y=cy, vx=vx, bbox=rect_to_msg(box), hits=hits)
     return msg
 
 
@@ -80,15 +82,20 @@ def test_started_by_the_initial_region_parameter_with_oriented_boxes():
         h.close()
 
 
-def test_handed_over_from_a_measured_target_but_not_from_a_coasting_one():
+def test_handed_over_from_a_measured_target_but_not_from_a_coasting_or_young_one():
     h = harness()
     try:
         assert send(h, 0).blobs == []
         box0 = true_box(*target_position(0))
         publish_and_settle(h, "handover_target", target_msg(0, box0, Track.STATUS_COASTING))
         assert send(h, 1).blobs == [], "started from a coasting prediction"
-        publish_and_settle(h, "handover_target", target_msg(1, true_box(*target_position(1))))
-        for k in range(2, 8):
+        box1 = true_box(*target_position(1))
+        publish_and_settle(h, "handover_target", target_msg(1, box1, hits=2))
+        assert send(h, 2).blobs == [], "started from a track measured in 2 frames (of 5 needed)"
+        box2 = true_box(*target_position(2))
+        publish_and_settle(h, "handover_target", target_msg(2, box2))
+        assert send(h, 3).blobs, "not started from a measured target"
+        for k in range(4, 8):
             [blob] = send(h, k).blobs
             assert msg_to_rect(blob.bbox).iou(true_box(*target_position(k))) >= 0.5
     finally:

@@ -8,12 +8,10 @@ import subprocess
 
 import numpy as np
 import pytest
+from demo_runs import SWEEP_RATE, VIEW_FRACTION, run_demo
 from ros_process import executable
 
 pytestmark = [pytest.mark.ros, pytest.mark.slow]
-
-VIEW_FRACTION = 0.35  # a 168 px view on a 640x480 scene
-SWEEP_RATE = 0.6  # rad/s: 170 px/s, the search crosses the scene in about 3 s
 
 
 def _scene(root, **config):
@@ -21,29 +19,6 @@ def _scene(root, **config):
 
     scene = generate_scene(SceneConfig(**config))
     return scene, write_scene(scene, root)
-
-
-def run_demo(video, out, *settings, mode="servo", render=False, small_view=True):
-    """run_demo on `video`; `small_view`: the tests' 168 px view and fast sweep (else the
-    surveillance graph's own)."""
-    command = [
-        str(executable("tracker_ptz_sim", "run_demo")),
-        "--video",
-        str(video),
-        "--out",
-        str(out),
-    ]
-    command += ["--mode", mode]
-    if small_view:
-        command += ["--set", f"ptz_camera.view_height_fraction={VIEW_FRACTION}"]
-        command += ["--set", f"ptz_controller.sweep_rate={SWEEP_RATE}"]
-    for setting in settings:
-        command += ["--set", setting]
-    if not render:
-        command.append("--no-video")
-    result = subprocess.run(command, capture_output=True, text=True, timeout=300)
-    assert result.returncode == 0, result.stdout + result.stderr
-    return result.stdout
 
 
 @pytest.fixture(scope="module")
@@ -103,7 +78,7 @@ def test_in_process_pipeline_matches_the_graph(one_walker, servo_run):
         "ptz_camera": {"view_height_fraction": VIEW_FRACTION},
         "ptz_controller": {"sweep_rate": SWEEP_RATE, "mode": "servo"},
     }
-    settings = pipeline.PipelineSettings.from_params_file(load_graph().params_file, overrides)
+    settings = pipeline.PipelineSettings.from_params_files(load_graph().params_files, overrides)
     steps = pipeline.run(scene.frames, scene.stamps_ns(), settings)
     fast = scoring.trace_from_steps(steps, scene.fps)
     assert fast.windows == graph.windows
@@ -132,7 +107,7 @@ def test_the_camera_zooms_out_for_a_person_taller_than_its_view(tmp_path):
     zoomed = [f for f, window in graph.windows.items() if window.height > nominal]
     assert len(zoomed) >= 5 and all(f in graph.targets for f in zoomed[:3])
     assert graph.windows[max(graph.windows)].height == nominal
-    settings = pipeline.PipelineSettings.from_params_file(load_graph().params_file)
+    settings = pipeline.PipelineSettings.from_params_files(load_graph().params_files)
     fast = scoring.trace_from_steps(
         pipeline.run(scene.frames, scene.stamps_ns(), settings), scene.fps
     )

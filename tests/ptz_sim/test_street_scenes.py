@@ -172,6 +172,21 @@ def test_groups_walk_together(busy):
             assert abs(boxes_a[n].x - boxes_b[n].x) < 3 * max(boxes_a[n].height, 30)
 
 
+def test_a_stopper_stands_still_for_the_stop_duration_in_view():
+    scene = generate_street(small(walkers=0, stoppers=1, num_frames=80, stop_duration=2.0, **CLEAN))
+    [person] = scene.people
+    assert person.kind == "stopper"
+    steps = np.hypot(*np.diff(person.foot, axis=0).T)
+    still = np.flatnonzero(steps == 0.0)
+    assert len(still) == 2.0 * 10 - 1 and np.all(np.diff(still) == 1)  # one 2 s stand, 10 fps
+    moving = steps[np.isfinite(steps) & (steps > 0)]
+    assert moving.min() > 0.2  # walking before and after
+    boxes = boxes_of(scene, person.object_id)
+    standing = [boxes[n] for n in range(still[0], still[-1] + 2) if n in boxes]
+    assert len(standing) == len(still) + 1  # seen while standing
+    assert len({(b.x, b.y, b.width, b.height) for b in standing}) == 1  # the very same box
+
+
 def test_crossing_pairs_hide_one_another(busy):
     pair = [p for p in busy.people if p.kind == "crossing"]
     assert len(pair) == 2

@@ -62,6 +62,9 @@ class CamShiftConfig:
     lost_after: int = 5  # consecutive misses after which the whole image is searched
     max_size_ratio: float = 4.0  # a window growing beyond this x the selected side is a miss
     min_model_pixels: int = 20  # pixels of the selection passing the S/V mask
+    # a box offered while tracking something apart is taken when its colours match the model's at
+    # least this well (Bhattacharyya) and better than the tracked box's do (0: never)
+    rehandover_similarity: float = 0.6
 
     def problems(self) -> list[str]:
         """What is wrong with these values (empty when usable)."""
@@ -79,6 +82,7 @@ class CamShiftConfig:
             "lost_after must be >= 1": self.lost_after >= 1,
             "max_size_ratio must be > 1": self.max_size_ratio > 1,
             "min_model_pixels must be >= 1": self.min_model_pixels >= 1,
+            "rehandover_similarity must be in [0, 1]": 0 <= self.rehandover_similarity <= 1,
         }
         return [message for message, ok in checks.items() if not ok]
 
@@ -112,6 +116,9 @@ class ColourModel:
     density: float  # mean back-projection / 255 over the selected region
     size: tuple[float, float]  # selected width, height [scene px]
     calibration: BoxCalibration
+    reference: (
+        np.ndarray
+    )  # the selection's plain colour histogram, summing to 1 (re-identification)
 
 
 @dataclass(frozen=True)
@@ -194,6 +201,18 @@ def background_weights(surroundings: np.ndarray) -> np.ndarray:
     return np.where(present, rarest / np.maximum(surroundings, rarest), 1.0).astype(np.float32)
 
 
+def colour_distribution(hsv: np.ndarray, config: CamShiftConfig) -> np.ndarray | None:
+    """The plain colour histogram of the S/V-masked pixels, summing to 1; None with none."""
+    counts = colour_histogram(hsv, sv_mask(hsv, config), config)
+    total = float(counts.sum())
+    return counts / total if total > 0 else None
+
+
+def bhattacharyya(p: np.ndarray, q: np.ndarray) -> float:
+    """sum sqrt(p q) of two distributions: 1 for equal ones, 0 for disjoint ones."""
+    return float(np.sqrt(p * q).sum())
+
+
 def colour_spread(prob: np.ndarray) -> tuple[float, float, float, float] | None:
     """Centroid and 4-sigma extent (cx, cy, ex, ey) of a back-projection, px; None if empty
     or flat along an axis."""
@@ -254,6 +273,7 @@ class CamShiftTracker:
         self.selection: Rect | None = None  # scene px, where tracking (re)starts on reset()
         self._selection: Selection | None = None  # to rebuild the model on reconfigure
         self.window: Rect | None = None  # scene px, where the next search starts
+        self.last_box: Rect | None = None  # scene px, the box last reported
         self.misses = 0
         self._guide: tuple[float, float] | None = None
         self._last_stamp: int | None = None
@@ -283,7 +303,7 @@ class CamShiftTracker:
         if isinstance(model, str):
             return model
         self.model, self._selection = model, selection
-        self.selection = self.window = view.rect_to_scene(x, y, w, h)
+        self.selection = self.window = self.last_box = view.rect_to_scene(x, y, w, h)
         self.misses, self._guide = 0, None
         return None
 
@@ -314,7 +334,42 @@ class CamShiftTracker:
         cx, cy, ex, ey = spread
         w, h = inner.shape[1], inner.shape[0]
         calibration = BoxCalibration(((w / 2 - cx) / ex, (h / 2 - cy) / ey), (w / ex, h / ey))
-        return ColourModel(histogram, float(prob.mean()) / 255.0, size, calibration)
+        reference = colour_histogram(inner, mask, config) / count
+        return ColourModel(histogram, float(prob.mean()) / 255.0, size, calibration, reference)
+
+    def hand_over(self, region: Rect, frame: CameraFrame) -> str | None:
+        """Offered `region` (scene px) of `frame` by another tracker (the motion tracker's measured
+        target): taken when not tracking; while tracking, only when it lies apart from the tracked
+        box and its colours match the model at least `rehandover_similarity` and better than the
+        tracked box's colours in this frame do (CamShift drifted onto a like-coloured thing, e.g.
+        a bin the person stood beside). None when taken, else why not."""
+        if not self.tracking or self.model is None or self.last_box is None:
+            return self.select_region(region, frame)
+        threshold = self.config.rehandover_similarity
+        if threshold <= 0:
+            return "tracking (rehandover_similarity 0: never re-handed)"
+        if region.iou(self.last_box) > 0.0:
+            return "it is the tracked target"
+        offered = self.similarity(region, frame)
+        if offered < threshold:
+            return f"its colours match the model {offered:.2f} < {threshold}"
+        tracked = self.similarity(self.last_box, frame)
+        if offered <= tracked:
+            return f"the tracked box matches the model better ({tracked:.2f} >= {offered:.2f})"
+        return self.select_region(region, frame)
+
+    def similarity(self, region: Rect, frame: CameraFrame) -> float:
+        """Bhattacharyya coefficient of `region`'s colours in `frame` with the model's (0 when
+        the region has no coloured pixel in view)."""
+        if self.model is None:
+            return 0.0
+        view = frame.view or View.identity(*frame.size)
+        x, y, w, h = _clip(_round(_to_image(view, region)), *frame.size)
+        if w < 1 or h < 1:
+            return 0.0
+        patch = np.ascontiguousarray(frame.bgr[y : y + h, x : x + w])
+        found = colour_distribution(cv2.cvtColor(patch, cv2.COLOR_BGR2HSV), self.config)
+        return 0.0 if found is None else bhattacharyya(found, self.model.reference)
 
     def guide(self, centre: tuple[float, float]) -> None:
         """Start the next search with the window centred at `centre` (scene px), e.g. a filter's
@@ -325,6 +380,7 @@ class CamShiftTracker:
     def reset(self) -> None:
         """A new replay epoch: back to the selected rectangle, keeping the colour model."""
         self.window, self.misses = self.selection, 0
+        self.last_box = self.selection
         self._guide = self._last_stamp = None
 
     def reconfigure(self, config: CamShiftConfig) -> None:
@@ -360,7 +416,7 @@ class CamShiftTracker:
             self.misses += 1
             self.window = window
             return Detection(frame.stamp_ns, view, [], False, True, searched)
-        self.misses, self.window = 0, found.window
+        self.misses, self.window, self.last_box = 0, found.window, found.box
         return Detection(frame.stamp_ns, view, [found.blob()], True, True, searched)
 
     def _search_region(

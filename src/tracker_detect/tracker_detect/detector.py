@@ -118,6 +118,12 @@ class SeededDetector(Detector, Protocol):
         """Start on `region` (scene px) of `frame`; None, or why it cannot."""
         ...
 
+    def hand_over(self, region: Rect, frame: CameraFrame) -> str | None:
+        """Offered `region` of `frame` by another tracker (e.g. the motion tracker's measured
+        target): take it when not tracking, or when the detector judges its own target wrong;
+        None when taken, else why not."""
+        ...
+
     @property
     def tracking(self) -> bool:
         """True while it has a target and has not lost it."""

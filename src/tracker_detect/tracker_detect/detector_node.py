@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -107,8 +107,23 @@ NODE_PARAMETERS = [
     ParamSpec(
         "handover",
         True,
-        "seeded detectors: whenever not tracking, start on the box of the locked target on "
-        "`handover_target` that was measured in that image (e.g. the motion tracker's)",
+        "seeded detectors: offer the box of the locked target on `handover_target` that was "
+        "measured in that image (e.g. the motion tracker's): taken when not tracking, or when "
+        "the detector judges its own target wrong (camshift: rehandover_similarity)",
+    ),
+    ParamSpec(
+        "handover_passthrough",
+        False,
+        "seeded detectors: while the detector finds nothing, report the measured hand-over box "
+        "of the image (score 0), so the camera follows the other tracker's target until this "
+        "detector takes over",
+    ),
+    ParamSpec(
+        "handover_min_hits",
+        5,
+        "seeded detectors: hand over only a target measured in at least this many frames",
+        1,
+        100000,
     ),
     ParamSpec(
         "guide_from_target",
@@ -203,6 +218,7 @@ class DetectorNode(SuiteNode):
         self.guide_target: Target | None = None
         self.pending_region = self._initial_region()
         self.gate: TargetGate | None = None
+        self.latest_handover: Target | None = None
         if isinstance(self.detector, SeededDetector):
             self.create_subscription(Target, "target", self._on_target, 10)
             self.create_subscription(Target, "handover_target", self._on_handover_target, 10)
@@ -304,7 +320,7 @@ class DetectorNode(SuiteNode):
                 self._detect_now(held.item, held.handover)
         self.detector.reset()
         self.recent_frames.clear()
-        self.guide_target = None
+        self.guide_target = self.latest_handover = None
         self._handle(self.pairing.new_epoch(stamp_ns))  # still answered once, as every image is
 
     def _on_ptz_state(self, msg: PtzState) -> None:
@@ -417,10 +433,34 @@ class DetectorNode(SuiteNode):
             )
         if detection.registration_fallback:
             self.counters.registration_fallbacks += 1
+        if isinstance(self.detector, SeededDetector) and not detection.blobs:
+            detection = self._passed_through(detection, handover)
         self.detections_pub.publish(self._blob_array(detection, image.token))
         self._publish_debug(detection, image.token)
 
     # --- seeded detectors: start, hand-over, guidance -----------------------------------------
+
+    def _passed_through(self, detection: Detection, handover: Target | None) -> Detection:
+        """With `handover_passthrough`, a seeded detector that found nothing reports the measured
+        hand-over box of the image (score 0), so what follows the detections follows the other
+        tracker's target until this detector takes over."""
+        if not self.params["handover_passthrough"]:
+            return detection
+        if handover is None and self.gate is None:  # live: the newest, if it is of this image
+            latest = self.latest_handover
+            if latest is not None and stamp_to_ns(latest.header.stamp) == detection.stamp_ns:
+                handover = latest
+        if handover is None or not handover.locked:
+            return detection
+        if handover.track.status != Track.STATUS_CONFIRMED:
+            return detection
+        try:
+            box = msg_to_rect(handover.track.bbox)
+        except ValueError:
+            return detection  # reported when it was offered
+        cx, cy = box.center
+        blob = Blob(cx, cy, box, box.area, max(round(box.area), 1), 0.0)
+        return replace(detection, blobs=[blob], target_present=True)
 
     def _initial_region(self) -> Rect | None:
         x, y, w, h = (float(v) for v in self.params["initial_region"])
@@ -453,6 +493,7 @@ class DetectorNode(SuiteNode):
         if not self.params["handover"] or not isinstance(detector, SeededDetector):
             return
         stamp = stamp_to_ns(msg.header.stamp)
+        self.latest_handover = msg
         if self.gate is not None:  # applied to the image of its stamp when that is processed
             for held in self.gate.add_handover(stamp, msg, time.monotonic()):
                 self._release(held)
@@ -463,19 +504,25 @@ class DetectorNode(SuiteNode):
         self._hand_over(detector, msg, frame)
 
     def _hand_over(self, detector: SeededDetector, msg: Target, frame: CameraFrame) -> None:
-        """Start on `msg`'s box in `frame` when not tracking and the target was measured."""
-        if detector.tracking or not msg.locked or msg.track.status != Track.STATUS_CONFIRMED:
+        """Offer `msg`'s box in `frame` to the detector, when the target was measured in it and
+        has been for `handover_min_hits` frames (a young track's box is often a fragment)."""
+        track = msg.track
+        if not msg.locked or track.status != Track.STATUS_CONFIRMED:
             return  # only a measured (not coasting) box is worth learning a colour model from
+        if track.hits < self.params["handover_min_hits"]:
+            return
         try:
-            region = msg_to_rect(msg.track.bbox)
+            region = msg_to_rect(track.bbox)
         except ValueError as error:
             self.problems.report("invalid hand-over box", f"ignored a hand-over target: {error}")
             return
-        reason = detector.select_region(region, frame)
+        was_tracking = detector.tracking
+        reason = detector.hand_over(region, frame)
         if reason is None:
             self.guide_target = None  # the old target's guidance belongs to another object
-            self.get_logger().info(f"handed over target {msg.track.id} at {region}")
-        else:
+            again = "re-" if was_tracking else ""
+            self.get_logger().info(f"{again}handed over target {track.id} at {region}")
+        elif not was_tracking:
             self.problems.report("hand-over refused", f"hand-over of {region} refused: {reason}")
 
     def _on_select_region(

@@ -381,6 +381,15 @@ CAMSHIFT_PARAMETERS: tuple[ParamSpec, ...] = (
         1,
         1_000_000,
     ),
+    ParamSpec(
+        "rehandover_similarity",
+        _C.rehandover_similarity,
+        "while tracking, a handed-over box apart from the tracked one is taken when its colours "
+        "match the model at least this well (Bhattacharyya) and better than the tracked box's "
+        "(0: never)",
+        0.0,
+        1.0,
+    ),
 )
 
 

@@ -1,8 +1,9 @@
 """ros2 launch tracker_ptz_sim surveillance.launch.py video:=/path/to/video.mp4
-    [controller_mode:=servo] [respawn:=true]
+    [graph:=surveillance|colour] [controller_mode:=servo] [respawn:=true]
 
-The whole surveillance graph, built from the same config/graph.yaml + config/surveillance.yaml the
-demo runner (make demo) uses, so both run exactly the same nodes with the same parameters.
+The whole graph, built from the same config/*graph.yaml and parameter files the demo runner
+(make demo) uses, so both run exactly the same nodes with the same parameters. graph:=colour runs
+the colour-following graph (motion hands its target over to CamShift; seed 001).
 With respawn:=true a processing node that exits is started again (after 1 s, at most 5 times).
 video_source is not respawned: it exits 0 at the end of the stream, which launch cannot tell from
 a crash (`run_demo --respawn` restarts it where it left off; a source restarted from its first
@@ -12,17 +13,22 @@ frame is taken as a new replay epoch by every node).
 import os
 
 from launch import LaunchDescription
-from launch.actions import DeclareLaunchArgument, SetEnvironmentVariable
+from launch.actions import DeclareLaunchArgument, OpaqueFunction, SetEnvironmentVariable
 from launch.substitutions import LaunchConfiguration
 from launch_ros.actions import Node
 
-from tracker_ptz_sim.bringup.graph import load_graph
+from tracker_ptz_sim.bringup.graph import GRAPHS, load_graph
 
 
 def generate_launch_description():
-    graph = load_graph()
     arguments = [
         DeclareLaunchArgument("video", description="video file, image folder or rosbag2 to replay"),
+        DeclareLaunchArgument(
+            "graph",
+            default_value="surveillance",
+            choices=list(GRAPHS),
+            description="which graph: surveillance (motion) or colour (motion hands over to CamShift)",
+        ),
         DeclareLaunchArgument(
             "controller_mode",
             default_value="servo",
@@ -34,6 +40,12 @@ def generate_launch_description():
             description="restart a processing node that exits (not video_source)",
         ),
     ]
+    return LaunchDescription(arguments + [OpaqueFunction(function=graph_actions)])
+
+
+def graph_actions(context):
+    """The chosen graph's nodes (and the shared-memory profile), once `graph` is known."""
+    graph = load_graph(LaunchConfiguration("graph").perform(context))
     respawn = {
         "respawn": LaunchConfiguration("respawn"),
         "respawn_delay": 1.0,
@@ -48,7 +60,7 @@ def generate_launch_description():
             package=node.package,
             executable=node.executable,
             name=node.name,
-            parameters=[str(graph.params_file), overrides.get(node.name, {})],
+            parameters=[*map(str, graph.params_files), overrides.get(node.name, {})],
             remappings=list(node.remappings.items()),
             output="screen",
             **(respawn if node.name != "video_source" else {}),
@@ -56,8 +68,8 @@ def generate_launch_description():
         for node in graph.nodes
     ]
     # Large images need a shared-memory segment bigger than Fast DDS's default (see the profile).
-    profile = graph.params_file.parent / "fastdds_shm.xml"
+    profile = graph.config_dir / "fastdds_shm.xml"
     environment = []
     if "FASTRTPS_DEFAULT_PROFILES_FILE" not in os.environ and profile.exists():
         environment.append(SetEnvironmentVariable("FASTRTPS_DEFAULT_PROFILES_FILE", str(profile)))
-    return LaunchDescription(arguments + environment + nodes)
+    return environment + nodes

@@ -1,11 +1,12 @@
 """run_demo: the whole surveillance graph as separate processes, recorded and summarised.
 
-    run_demo [--video PATH] [--out out] [--mode servo|direct] [--set node.param=value ...]
-             [--respawn] [--no-video]
+    run_demo [--video PATH] [--out out] [--graph surveillance|colour] [--mode servo|direct]
+             [--set node.param=value ...] [--respawn] [--no-video]
 
-Starts every node of config/graph.yaml from the install space (exactly as `ros2 run` would) with
-config/surveillance.yaml, replays the video in lockstep, records every topic into an MCAP bag with
-`rosbags`, shows progress, and writes to the output directory:
+Starts every node of the graph (config/graph.yaml, or with --graph colour config/colour_graph.yaml)
+from the install space (exactly as `ros2 run` would) with its parameter files, replays the video
+in lockstep, records every topic into an MCAP bag with `rosbags`, shows progress, and writes to
+the output directory:
     bag/            rosbag2 (MCAP) of every topic
     annotated.mp4   scene with camera window, blobs, tracks, target; camera view beside it
     contact_sheet.png  the followed target every 2 s, cropped from the scene
@@ -43,7 +44,7 @@ from rclpy.signals import SignalHandlerOptions
 
 from tracker_msgs.msg import ReplayStatus
 from tracker_msgs_py import stop_signals
-from tracker_ptz_sim.bringup.graph import Graph, load_graph
+from tracker_ptz_sim.bringup.graph import GRAPHS, Graph, load_graph
 from tracker_ptz_sim.bringup.processes import GraphProcesses, describe_exit
 from tracker_ptz_sim.evaluation import run_report
 from tracker_ptz_sim.evaluation.contact_sheet import write_contact_sheet
@@ -290,7 +291,7 @@ def run_graph(
         for node in graph.nodes:
             if node.name != "video_source":
                 nodes.start(node.name, overrides.get(node.name))
-        if _wait_for_graph(recorder, supervisor):
+        if _wait_for_graph(graph, recorder, supervisor):
             # The counts above are this process's view; give the nodes a moment to finish
             # matching each other too, so frame 0 is not published into a half-discovered graph.
             stop_signals.wait(1.0)
@@ -383,19 +384,11 @@ def _replay_summary(status: ReplayStatus | None) -> dict[str, Any]:
     }
 
 
-# Subscribers each topic needs before the first frame, counting the recorder (so no frame is lost
-# while the graph is still discovering itself).
-EXPECTED_SUBSCRIBERS = {
-    "/camera/image_raw": 2,  # ssim_detector, recorder
-    "/ptz/state": 4,  # ssim_detector, tracker, ptz_controller, recorder
-    "/detections": 2,  # tracker, recorder
-    "/target": 2,  # ptz_controller, recorder
-    "/ptz/command": 2,  # ptz_camera, recorder (video_source's comes with it)
-}
-
-
-def _wait_for_graph(recorder: Recorder, supervisor: Supervisor, timeout: float = 30.0) -> bool:
-    """Until every downstream node is up and its topics are discovered, so frame 0 is seen.
+def _wait_for_graph(
+    graph: Graph, recorder: Recorder, supervisor: Supervisor, timeout: float = 30.0
+) -> bool:
+    """Until every downstream node is up and its topics are discovered (`graph.ready`: the
+    subscribers each topic needs, the recorder included), so frame 0 is seen.
     False (the result says why) when a node dies for good, time runs out or a stop arrives."""
     result = supervisor.result
     deadline = time.monotonic() + timeout
@@ -405,7 +398,7 @@ def _wait_for_graph(recorder: Recorder, supervisor: Supervisor, timeout: float =
             return False
         missing = {
             topic: wanted
-            for topic, wanted in EXPECTED_SUBSCRIBERS.items()
+            for topic, wanted in graph.ready.items()
             if recorder.count_publishers(topic) == 0 or recorder.count_subscribers(topic) < wanted
         }
         if not missing:
@@ -471,6 +464,13 @@ def main(argv: list[str] | None = None) -> int:
         "--out", type=Path, default=Path("out"), help="output directory (default: out)"
     )
     parser.add_argument("--mode", choices=("servo", "direct"), help="ptz_controller mode")
+    parser.add_argument(
+        "--graph",
+        choices=list(GRAPHS),
+        default="surveillance",
+        help="surveillance (motion, the default) or colour (motion hands its target over to "
+        "CamShift, which the camera then follows; seed 001)",
+    )
     parser.add_argument("--set", action="append", default=[], metavar="NODE.PARAM=VALUE")
     parser.add_argument("--no-video", action="store_true", help="skip the annotated video")
     parser.add_argument(
@@ -491,7 +491,7 @@ def main(argv: list[str] | None = None) -> int:
     if args.mode:
         overrides.setdefault("ptz_controller", {})["mode"] = args.mode
     args.out.mkdir(parents=True, exist_ok=True)
-    graph = load_graph()
+    graph = load_graph(args.graph)
     run = run_graph(
         graph,
         video,

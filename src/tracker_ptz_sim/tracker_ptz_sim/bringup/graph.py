@@ -1,12 +1,16 @@
-"""The surveillance graph description (config/graph.yaml + config/surveillance.yaml), no rclpy.
+"""The graph descriptions (config/*graph.yaml and the parameter files they name), no rclpy.
 
 One place defines which nodes run, their names, remappings and parameters; the demo runner turns
 it into processes started from the install space, the launch file into launch_ros Node actions.
+Graphs (`GRAPHS`): `surveillance` (config/graph.yaml: motion detection, multi-target tracking,
+the camera follows a walker) and `colour` (config/colour_graph.yaml: the same motion pipeline on
+motion/* topics hands its target over to CamShift, whose own tracker the camera follows).
 """
 
 from __future__ import annotations
 
 import os
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -32,9 +36,15 @@ class TopicSpec:
 
 @dataclass(frozen=True)
 class Graph:
+    name: str
     nodes: list[NodeSpec]
     topics: list[TopicSpec]
-    params_file: Path
+    params_files: tuple[Path, ...]  # in order: a later file's values win
+    ready: dict[str, int]  # topic -> subscribers (the recorder included) before the first frame
+
+    @property
+    def config_dir(self) -> Path:
+        return self.params_files[0].parent
 
     def node(self, name: str) -> NodeSpec:
         for node in self.nodes:
@@ -48,31 +58,42 @@ def config_dir() -> Path:
     return package_data("tracker_ptz_sim", "config")
 
 
-def load_graph(directory: Path | None = None) -> Graph:
+#: Graph name -> its description file in config/.
+GRAPHS = {"surveillance": "graph.yaml", "colour": "colour_graph.yaml"}
+
+
+def load_graph(name: str = "surveillance", directory: Path | None = None) -> Graph:
+    if name not in GRAPHS:
+        raise ValueError(f"no graph '{name}' (graphs: {', '.join(GRAPHS)})")
     directory = directory or config_dir()
-    data = yaml.safe_load((directory / "graph.yaml").read_text())
+    data = yaml.safe_load((directory / GRAPHS[name]).read_text())
     nodes = [
         NodeSpec(n["package"], n["executable"], n["name"], dict(n.get("remappings") or {}))
         for n in data["nodes"]
     ]
     topics = [TopicSpec(t["name"], t["type"]) for t in data["topics"]]
-    return Graph(nodes, topics, directory / "surveillance.yaml")
+    files = tuple(directory / f for f in data["parameters"])
+    return Graph(name, nodes, topics, files, {k: int(v) for k, v in data["ready"].items()})
 
 
-def node_parameters(params_file: Path, node_name: str) -> dict[str, Any]:
-    """The parameters a ROS params file gives `node_name` (its `/**` section, then its own)."""
-    data = yaml.safe_load(params_file.read_text()) or {}
+def node_parameters(params_files: Path | Sequence[Path], node_name: str) -> dict[str, Any]:
+    """The parameters ROS params files give `node_name` (each file's `/**` section, then its
+    own; a later file's values win)."""
     merged: dict[str, Any] = {}
-    for key in ("/**", node_name, "/" + node_name):
-        merged.update((data.get(key) or {}).get("ros__parameters", {}))
+    for path in [params_files] if isinstance(params_files, Path) else params_files:
+        data = yaml.safe_load(path.read_text()) or {}
+        for key in ("/**", node_name, "/" + node_name):
+            merged.update((data.get(key) or {}).get("ros__parameters", {}))
     return merged
 
 
 def ros_args(
-    node: NodeSpec, params_file: Path, overrides: dict[str, Any] | None = None
+    node: NodeSpec, params_files: Sequence[Path], overrides: dict[str, Any] | None = None
 ) -> list[str]:
-    """The `--ros-args ...` of one node process: name, params file, overrides, remappings."""
-    args = ["--ros-args", "-r", f"__node:={node.name}", "--params-file", str(params_file)]
+    """The `--ros-args ...` of one node process: name, params files, overrides, remappings."""
+    args = ["--ros-args", "-r", f"__node:={node.name}"]
+    for path in params_files:
+        args += ["--params-file", str(path)]
     for key, value in (overrides or {}).items():
         # Node-qualified: a plain -p is a /** override, which the params file's node section beats.
         args += ["-p", f"{node.name}:{key}:={format_value(value)}"]

@@ -14,7 +14,7 @@ graph's run on the same input up to DDS timing, which lockstep removes.
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Iterator, Mapping
+from collections.abc import Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -66,14 +66,14 @@ class PipelineSettings:
     controller: ControllerConfig
 
     @classmethod
-    def from_params_file(
-        cls, params_file: Path, overrides: Overrides | None = None
+    def from_params_files(
+        cls, params_files: Sequence[Path], overrides: Overrides | None = None
     ) -> PipelineSettings:
-        """The settings a params file (and `node -> param -> value` overrides) gives the graph."""
+        """The settings params files (and `node -> param -> value` overrides) give the graph."""
         overrides = overrides or {}
 
         def params(node: str) -> dict[str, Any]:
-            return {**node_parameters(params_file, node), **overrides.get(node, {})}
+            return {**node_parameters(params_files, node), **overrides.get(node, {})}
 
         camera, detector, tracker, control = (
             params(n) for n in (CAMERA, DETECTOR, TRACKER, CONTROLLER)

@@ -15,7 +15,7 @@ from tracker_msgs_py import stop_signals
 from tracker_ptz_sim.bringup.graph import Graph, executable_path, ros_args
 
 LOG_TAIL_LINES = 8
-UDP_PROFILE = "fastdds_udp.xml"  # beside the graph's parameters file
+UDP_PROFILE = "fastdds_udp.xml"  # in the graph's config directory
 STACK_DUMP_WAIT_S = 0.5  # for a node that does not stop to write its threads' stacks to its log
 
 
@@ -26,7 +26,7 @@ class GraphProcesses:
     def without_shared_memory(graph: Graph) -> dict[str, str]:
         """The environment that keeps Fast DDS off shared memory (config/fastdds_udp.xml)."""
         return {
-            "FASTRTPS_DEFAULT_PROFILES_FILE": str(graph.params_file.parent / UDP_PROFILE),
+            "FASTRTPS_DEFAULT_PROFILES_FILE": str(graph.config_dir / UDP_PROFILE),
             "FASTDDS_BUILTIN_TRANSPORTS": "UDPv4",
         }
 
@@ -50,7 +50,7 @@ class GraphProcesses:
     def start(self, name: str, overrides: dict[str, Any] | None = None) -> subprocess.Popen:
         node = self.graph.node(name)
         command = [str(executable_path(self.install_dir, node))]
-        command += ros_args(node, self.graph.params_file, overrides)
+        command += ros_args(node, self.graph.params_files, overrides)
         with self.log_path(name).open("a") as log:
             self.processes[name] = subprocess.Popen(
                 command,

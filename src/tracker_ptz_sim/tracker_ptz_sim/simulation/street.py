@@ -5,6 +5,7 @@ looks like a fixed surveillance camera over a plaza: a real background (any imag
 per-pixel median of a clip from :func:`median_background`, or a procedural paved plaza with a
 building, benches and posts), people drawn as articulated figures with a walking gait and
 perspective sizes, groups walking side by side, pairs whose paths cross (one hides the other),
+people who stop and stand still for a while midway (change detection loses them),
 things that move in place (fluttering barrier tape, shimmering foliage, a flickering screen or
 lamp), a slow lighting drift, lens blur, sensor noise, JPEG compression and optional camera jitter.
 
@@ -75,6 +76,8 @@ class StreetConfig:
     walkers: int = 4  # people walking alone, kept apart from everybody else
     groups: int = 0  # groups of 2-3 people walking side by side at the same speed
     crossings: int = 0  # pairs whose paths cross at the same time, so one hides the other
+    stoppers: int = 0  # people walking alone who stand still for stop_duration midway in view
+    stop_duration: float = 5.0  # s
     horizon_y: float = 0.25  # fraction of the height: nobody's foot is above this row
     person_height_far: float = 70.0  # px, a 1.7 m person with the foot at horizon_y
     person_height_near: float = 220.0  # px, the same person with the foot at the bottom edge
@@ -100,7 +103,17 @@ class StreetConfig:
         c = self
         problems = clip_problems(c, min_side=64)
         problems += negative_counts(
-            c, ("walkers", "groups", "crossings", "flutter", "foliage", "flicker", "camera_jitter")
+            c,
+            (
+                "walkers",
+                "groups",
+                "crossings",
+                "stoppers",
+                "flutter",
+                "foliage",
+                "flicker",
+                "camera_jitter",
+            ),
         )
         problems += _perspective_problems(c)
         lo, hi = c.speed_range
@@ -108,7 +121,7 @@ class StreetConfig:
             problems.append(
                 f"speed_range must satisfy 0.1 <= min <= max <= 10, got {c.speed_range}"
             )
-        for name in ("illumination_period", "optical_blur", "noise_sigma"):
+        for name in ("illumination_period", "optical_blur", "noise_sigma", "stop_duration"):
             value = getattr(c, name)
             if not (math.isfinite(value) and value >= 0):
                 problems.append(f"{name} must be a finite number >= 0, got {value}")
@@ -151,6 +164,8 @@ STREET_PRESETS: dict[str, StreetConfig] = {
     "groups": StreetConfig(walkers=1, groups=2, crossings=1, seed=14),
     # like "walkers", seen by a camera shaking by up to 3 px.
     "shaky": StreetConfig(walkers=5, camera_jitter=3, seed=8),
+    # 2 people walking alone and 2 who stop for 5 s midway in view (change detection loses them).
+    "stops": StreetConfig(walkers=2, stoppers=2, seed=21),
 }
 
 
@@ -159,7 +174,7 @@ class StreetPerson:
     """One person's path through the scene (world px = image px before camera jitter)."""
 
     object_id: int
-    kind: str  # "walker", "group" or "crossing"
+    kind: str  # "walker", "stopper", "group" or "crossing"
     unit: int  # members of one group or crossing pair share it
     speed: float  # m/s
     stature: float  # m
@@ -296,10 +311,15 @@ class _Plan:
     offset: float = 0.0
     ahead: float = 0.0  # m, how far ahead of the path position
     stature: float = STATURE_M
+    stop_at: float = math.inf  # m along the path where the person stands still ...
+    stop_for: float = 0.0  # ... for this many seconds
 
     def walk(self, times: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Ground positions (N, 2, NaN off the path), headings (N,) and distances walked (N,)."""
         s = self.speed * (times - self.t0) + self.ahead
+        if self.stop_for > 0:
+            standing = self.speed * self.stop_for
+            s = np.where(s < self.stop_at, s, np.maximum(s - standing, self.stop_at))
         pos, heading = self.path.at(s)
         left = np.stack([-np.sin(heading), np.cos(heading)], axis=-1)
         pos = pos + self.offset * left
@@ -453,6 +473,30 @@ def _walker_unit(rng: np.random.Generator, layout: _Layout, centre: float) -> _U
     return _Unit("walker", [plan])
 
 
+def _stopper_unit(rng: np.random.Generator, layout: _Layout, centre: float) -> _Unit | None:
+    """A walker who stands still for ``stop_duration`` at a point of the path in the middle half
+    of the stretch seen in the image."""
+    walker = _walker_unit(rng, layout, centre)
+    if walker is None:
+        return None
+    plan = walker.plans[0]
+    seen = ~np.isnan(layout.boxes(plan)[:, 0])
+    if not seen.any():
+        return None
+    walked = plan.walk(layout.times)[2][seen]
+    stop_at = float(np.quantile(walked, rng.uniform(0.25, 0.75)))
+    duration = layout.config.stop_duration
+    t0 = plan.t0 - duration / 2  # still centred on ``centre``
+    return _Unit(
+        "stopper",
+        [
+            _Plan(
+                plan.path, t0, plan.speed, stature=plan.stature, stop_at=stop_at, stop_for=duration
+            )
+        ],
+    )
+
+
 def _group_unit(rng: np.random.Generator, layout: _Layout, centre: float) -> _Unit | None:
     path = _curved_path(rng, layout.ground, 2.5)
     if path is None:
@@ -521,6 +565,7 @@ def _layout(rng: np.random.Generator, config: StreetConfig, ground: _Ground) -> 
         _place(rng, layout, _crossing_unit, (0.3, 0.7))
     makers: list[UnitMaker] = []
     makers += [_group_unit] * config.groups + [_walker_unit] * config.walkers
+    makers += [_stopper_unit] * config.stoppers
     slots = rng.permutation(len(makers))
     for maker, slot in zip(makers, slots, strict=True):
         lo = 0.1 + 0.8 * slot / len(makers)  # spread over the clip, overlapping in time

@@ -1,0 +1,35 @@
+"""run_demo as the graph tests run it: the whole graph as separate processes on a video."""
+
+from __future__ import annotations
+
+import subprocess
+
+from ros_process import executable
+
+VIEW_FRACTION = 0.35  # a 168 px view on a 640x480 scene
+SWEEP_RATE = 0.6  # rad/s: 170 px/s, the search crosses the scene in about 3 s
+
+
+def run_demo(
+    video, out, *settings, mode="servo", render=False, small_view=True, graph="surveillance"
+):
+    """run_demo on `video` with `graph`; `settings` are node.param=value; `small_view`: the
+    tests' 168 px view and fast sweep (else the graph's own)."""
+    command = [
+        str(executable("tracker_ptz_sim", "run_demo")),
+        "--video",
+        str(video),
+        "--out",
+        str(out),
+    ]
+    command += ["--mode", mode, "--graph", graph]
+    if small_view:
+        command += ["--set", f"ptz_camera.view_height_fraction={VIEW_FRACTION}"]
+        command += ["--set", f"ptz_controller.sweep_rate={SWEEP_RATE}"]
+    for setting in settings:
+        command += ["--set", setting]
+    if not render:
+        command.append("--no-video")
+    result = subprocess.run(command, capture_output=True, text=True, timeout=300)
+    assert result.returncode == 0, result.stdout + result.stderr
+    return result.stdout
