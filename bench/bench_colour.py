@@ -24,7 +24,6 @@ for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
 
 import argparse  # noqa: E402
-import json  # noqa: E402
 import platform  # noqa: E402
 import statistics  # noqa: E402
 import sys  # noqa: E402
@@ -34,6 +33,7 @@ from pathlib import Path  # noqa: E402
 
 import cv2  # noqa: E402
 import numpy as np  # noqa: E402
+from timing import summary, write_results  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 for _pkg in ("tracker_msgs", "tracker_detect", "tracker_filter", "tracker_ptz_sim"):
@@ -56,15 +56,6 @@ def ball_video(count: int) -> tuple[list[np.ndarray], np.ndarray]:
     truth = np.concatenate([study.concentric_circles(rng) for _ in range(-(-count // 200))])
     background = study.desk(rng)
     return [study.render_ball(background, c, rng) for c in truth[:count]], truth[:count]
-
-
-def summary(times: list[float]) -> dict:
-    ordered = sorted(times)
-    return {
-        "median_ms": statistics.median(ordered),
-        "p95_ms": ordered[int(0.95 * (len(ordered) - 1))],
-        "mean_ms": statistics.fmean(ordered),
-    }
 
 
 def start_box(truth: np.ndarray) -> Rect:
@@ -229,9 +220,7 @@ def main() -> int:
     print_table(
         f"per 640x480 frame (CamShift + both predictors <= {FRAME_TARGET_MS} ms)", per_frame
     )
-    OUT.parent.mkdir(parents=True, exist_ok=True)
-    OUT.write_text(json.dumps(results, indent=2) + "\n")
-    print(f"\nwrote {OUT.relative_to(ROOT)}")
+    write_results(OUT, results, ROOT)
     return 0
 
 

@@ -21,7 +21,6 @@ for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
 
 import argparse  # noqa: E402
-import json  # noqa: E402
 import platform  # noqa: E402
 import statistics  # noqa: E402
 import sys  # noqa: E402
@@ -29,6 +28,7 @@ import time  # noqa: E402
 from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
+from timing import summary, write_results  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 for _pkg in ("tracker_msgs", "tracker_filter"):
@@ -57,15 +57,6 @@ def timed_steps(tracker, frames, warmup: int) -> tuple[list[float], list]:
             times.append(1e3 * elapsed)
             outputs.append(tracks)
     return times, outputs
-
-
-def summary(times: list[float]) -> dict:
-    ordered = sorted(times)
-    return {
-        "median_ms": statistics.median(ordered),
-        "p95_ms": ordered[int(0.95 * (len(ordered) - 1))],
-        "mean_ms": statistics.fmean(ordered),
-    }
 
 
 def bench_multi(quick: bool) -> tuple[dict, list]:
@@ -199,9 +190,7 @@ def main() -> int:
         {"tracks_to_msg": results["track_array_message"]},
     )
     print_table("single target", results["single_target"])
-    OUT.parent.mkdir(parents=True, exist_ok=True)
-    OUT.write_text(json.dumps(results, indent=2) + "\n")
-    print(f"\nwrote {OUT.relative_to(ROOT)}")
+    write_results(OUT, results, ROOT)
     return 0
 
 

@@ -42,6 +42,7 @@ from tracker_msgs_py.geometry import Rect
 from tracker_msgs_py.params import check_config
 
 HUE_RANGE = 180  # OpenCV's 8-bit hue convention: [0, 180)
+SAME_TARGET_IOU = 0.3  # a handed-over box overlapping the tracked one this much is the same target
 
 
 @dataclass(frozen=True)
@@ -348,7 +349,7 @@ class CamShiftTracker:
         threshold = self.config.rehandover_similarity
         if threshold <= 0:
             return "tracking (rehandover_similarity 0: never re-handed)"
-        if region.iou(self.last_box) > 0.0:
+        if region.iou(self.last_box) >= SAME_TARGET_IOU:
             return "it is the tracked target"
         offered = self.similarity(region, frame)
         if offered < threshold:
