@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -39,6 +39,7 @@ from tracker_detect.image_pose_pairing import (
     SceneSettings,
 )
 from tracker_detect.registration import CameraIntrinsics
+from tracker_detect.seeding import Guidance, Offer, OfferResult, SeededSession, SeedingConfig
 from tracker_detect.target_gate import HeldImage, TargetGate
 from tracker_msgs.msg import Blob as BlobMsg
 from tracker_msgs.msg import BlobArray, PtzState, Target, Track
@@ -57,7 +58,7 @@ from tracker_msgs_py.codec import (
 )
 from tracker_msgs_py.geometry import Rect
 from tracker_msgs_py.node_main import SuiteNode, run_node
-from tracker_msgs_py.params import ParamSpec, declare_parameters
+from tracker_msgs_py.params import ParamSpec, config_from_params, declare_parameters
 from tracker_msgs_py.stamps import Order, StampOrder
 
 NODE_PARAMETERS = [
@@ -215,11 +216,14 @@ class DetectorNode(SuiteNode):
             )
         self.create_service(SelectRegion, "select_region", self._on_select_region)
         self.recent_frames: dict[int, CameraFrame] = {}
-        self.guide_target: Target | None = None
-        self.pending_region = self._initial_region()
+        self.guide: Guidance | None = None
+        self.latest_offer: Offer | None = None
         self.gate: TargetGate | None = None
-        self.latest_handover: Target | None = None
+        self.session: SeededSession | None = None
         if isinstance(self.detector, SeededDetector):
+            self.session = SeededSession(
+                self.detector, self._seeding_config(), self._initial_region()
+            )
             self.create_subscription(Target, "target", self._on_target, 10)
             self.create_subscription(Target, "handover_target", self._on_handover_target, 10)
             if self.params["lockstep_targets"]:
@@ -278,6 +282,9 @@ class DetectorNode(SuiteNode):
         self.pairing.configure(
             self.params["pose_buffer_size"], self._max_gap_ns(), self._scene_settings()
         )
+        if self.session is not None and isinstance(self.detector, SeededDetector):
+            self.session.detector = self.detector  # rebuilt when it cannot reconfigure
+            self.session.config = self._seeding_config()
         if self.gate is not None:
             self.gate.wait_handover = self.params["handover"]
             self.gate.wait_guide = self.params["guide_from_target"]
@@ -320,7 +327,7 @@ class DetectorNode(SuiteNode):
                 self._detect_now(held.item, held.handover)
         self.detector.reset()
         self.recent_frames.clear()
-        self.guide_target = self.latest_handover = None
+        self.guide = self.latest_offer = None
         self._handle(self.pairing.new_epoch(stamp_ns))  # still answered once, as every image is
 
     def _on_ptz_state(self, msg: PtzState) -> None:
@@ -410,14 +417,13 @@ class DetectorNode(SuiteNode):
             for held in self.gate.expire(time.monotonic()):
                 self._release(held)
 
-    def _detect_now(self, image: PairedImage, handover: Target | None) -> None:
+    def _detect_now(self, image: PairedImage, offer: Offer | None) -> None:
         frame = CameraFrame(image.stamp_ns, image.pixels, image.view)
-        if isinstance(self.detector, SeededDetector):
-            if handover is not None:
-                self._hand_over(self.detector, handover, frame)
-            self._prepare_seeded(self.detector, frame)
         try:
-            detection = self.detector.process(frame)
+            if self.session is None:
+                detection = self.detector.process(frame)
+            else:
+                detection = self._seeded_step(self.session, frame, offer)
         except StaleFrameError:
             self.counters.stale_stamp += 1
             return
@@ -433,97 +439,81 @@ class DetectorNode(SuiteNode):
             )
         if detection.registration_fallback:
             self.counters.registration_fallbacks += 1
-        if isinstance(self.detector, SeededDetector) and not detection.blobs:
-            detection = self._passed_through(detection, handover)
         self.detections_pub.publish(self._blob_array(detection, image.token))
         self._publish_debug(detection, image.token)
 
-    # --- seeded detectors: start, hand-over, guidance -----------------------------------------
+    # --- seeded detectors: start, hand-over, guidance (seeding.SeededSession) ------------------
 
-    def _passed_through(self, detection: Detection, handover: Target | None) -> Detection:
-        """With `handover_passthrough`, a seeded detector that found nothing reports the measured
-        hand-over box of the image (score 0), so what follows the detections follows the other
-        tracker's target until this detector takes over."""
-        if not self.params["handover_passthrough"]:
-            return detection
-        if handover is None and self.gate is None:  # live: the newest, if it is of this image
-            latest = self.latest_handover
-            if latest is not None and stamp_to_ns(latest.header.stamp) == detection.stamp_ns:
-                handover = latest
-        if handover is None or not handover.locked:
-            return detection
-        if handover.track.status != Track.STATUS_CONFIRMED:
-            return detection
-        try:
-            box = msg_to_rect(handover.track.bbox)
-        except ValueError:
-            return detection  # reported when it was offered
-        cx, cy = box.center
-        blob = Blob(cx, cy, box, box.area, max(round(box.area), 1), 0.0)
-        return replace(detection, blobs=[blob], target_present=True)
+    def _seeding_config(self) -> SeedingConfig:
+        return config_from_params(SeedingConfig, self.params)
 
     def _initial_region(self) -> Rect | None:
         x, y, w, h = (float(v) for v in self.params["initial_region"])
         return Rect(x, y, w, h) if w > 0 and h > 0 else None
 
-    def _prepare_seeded(self, detector: SeededDetector, frame: CameraFrame) -> None:
-        """Start on `initial_region` in the first image; guide the search by the target."""
-        if self.pending_region is not None:
-            reason = detector.select_region(self.pending_region, frame)
-            self.get_logger().info(
-                f"initial_region {self.pending_region}: {reason or 'tracking started'}"
-            )
-            self.pending_region = None
-        target = self.guide_target
-        if target is None or not self.params["guide_from_target"] or not detector.tracking:
+    def _seeded_step(
+        self, session: SeededSession, frame: CameraFrame, offer: Offer | None
+    ) -> Detection:
+        if offer is None and self.gate is None:  # live: the newest offer, if it is of this image
+            latest = self.latest_offer
+            offer = latest if latest is not None and latest.stamp_ns == frame.stamp_ns else None
+        region = session.pending_region
+        step = session.step(frame, offer, self.guide)
+        if step.initial is not None:
+            self.get_logger().info(f"initial_region {region}: {step.initial}")
+        if offer is not None:
+            self._report_offer(offer, step.offer)
+        return step.detection
+
+    def _report_offer(self, offer: Offer, result: OfferResult | None) -> None:
+        if result is None:
             return
-        age = (frame.stamp_ns - stamp_to_ns(target.header.stamp)) / NS_PER_S
-        if 0.0 <= age <= self.params["guide_max_age"]:
-            track = target.track
-            detector.guide((track.x + track.vx * age, track.y + track.vy * age))
+        if result.taken:
+            self.guide = None  # the old target's guidance belongs to another object
+            again = "re-" if result.again else ""
+            self.get_logger().info(f"{again}handed over target {offer.track_id} at {offer.box}")
+        elif result.refused is not None:
+            self.problems.report(
+                "hand-over refused", f"hand-over of {offer.box} refused: {result.refused}"
+            )
 
     def _on_target(self, msg: Target) -> None:
-        self.guide_target = msg if msg.locked and msg.track.status != Track.STATUS_LOST else None
+        measured = msg.locked and msg.track.status != Track.STATUS_LOST
+        track, stamp = msg.track, stamp_to_ns(msg.header.stamp)
+        self.guide = Guidance(stamp, track.x, track.y, track.vx, track.vy) if measured else None
         if self.gate is not None:
-            for held in self.gate.add_guide(stamp_to_ns(msg.header.stamp), time.monotonic()):
+            for held in self.gate.add_guide(stamp, time.monotonic()):
                 self._release(held)
 
     def _on_handover_target(self, msg: Target) -> None:
-        detector = self.detector
-        if not self.params["handover"] or not isinstance(detector, SeededDetector):
+        if not self.params["handover"] or self.session is None:
             return
-        stamp = stamp_to_ns(msg.header.stamp)
-        self.latest_handover = msg
-        if self.gate is not None:  # applied to the image of its stamp when that is processed
-            for held in self.gate.add_handover(stamp, msg, time.monotonic()):
+        offer = self._offer(msg)
+        if self.gate is not None:  # offered with the image of its stamp when that is processed
+            for held in self.gate.add_handover(
+                stamp_to_ns(msg.header.stamp), offer, time.monotonic()
+            ):
                 self._release(held)
             return
-        frame = self.recent_frames.get(stamp)
-        if frame is None:
-            return  # that image is gone (or never came); the next target will do
-        self._hand_over(detector, msg, frame)
-
-    def _hand_over(self, detector: SeededDetector, msg: Target, frame: CameraFrame) -> None:
-        """Offer `msg`'s box in `frame` to the detector, when the target was measured in it and
-        has been for `handover_min_hits` frames (a young track's box is often a fragment)."""
-        track = msg.track
-        if not msg.locked or track.status != Track.STATUS_CONFIRMED:
-            return  # only a measured (not coasting) box is worth learning a colour model from
-        if track.hits < self.params["handover_min_hits"]:
+        if offer is None:
             return
+        self.latest_offer = offer
+        frame = self.recent_frames.get(offer.stamp_ns)
+        if frame is not None:  # its image was processed already: offer it there
+            self._report_offer(offer, self.session.offer(frame, offer))
+
+    def _offer(self, msg: Target) -> Offer | None:
+        """The hand-over target as an Offer; None when unlocked or its box is unusable."""
+        if not msg.locked:
+            return None
+        track = msg.track
         try:
-            region = msg_to_rect(track.bbox)
+            box = msg_to_rect(track.bbox)
         except ValueError as error:
             self.problems.report("invalid hand-over box", f"ignored a hand-over target: {error}")
-            return
-        was_tracking = detector.tracking
-        reason = detector.hand_over(region, frame)
-        if reason is None:
-            self.guide_target = None  # the old target's guidance belongs to another object
-            again = "re-" if was_tracking else ""
-            self.get_logger().info(f"{again}handed over target {track.id} at {region}")
-        elif not was_tracking:
-            self.problems.report("hand-over refused", f"hand-over of {region} refused: {reason}")
+            return None
+        measured = track.status == Track.STATUS_CONFIRMED
+        return Offer(stamp_to_ns(msg.header.stamp), int(track.id), box, measured, int(track.hits))
 
     def _on_select_region(
         self, request: SelectRegion.Request, response: SelectRegion.Response

@@ -1,0 +1,142 @@
+"""How a seeded detector (CamShift) is started, handed over and guided, image by image (no rclpy).
+
+A seeded detector follows one target it was started on. Besides its images it reads:
+- an initial region (a parameter), used on the first image;
+- another tracker's target for the image (the hand-over source, e.g. the motion tracker's): when
+  it was measured in this image (confirmed, not coasting) in at least `handover_min_hits` images,
+  it is offered to the detector, which takes it when not tracking, or when it judges its own
+  target wrong (CamShift: the offered box's colours match its model better);
+- its own tracker's target (guidance): its position moved by its velocity to the image's stamp is
+  where the search starts, when at most `guide_max_age` old;
+- with `handover_passthrough`, an image where the detector finds nothing reports the measured
+  offered box (score 0), so whatever follows the detections follows the other tracker's target
+  until the detector takes over.
+The detector node converts messages into `Offer` and `Guidance` and calls `SeededSession.step`;
+the in-process pipeline calls the same, so both decide alike.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+from tracker_detect.detector import Blob, CameraFrame, Detection, SeededDetector
+from tracker_msgs_py.geometry import Rect
+
+NS_PER_S = 1_000_000_000
+
+
+@dataclass(frozen=True)
+class Offer:
+    """Another tracker's target in one image."""
+
+    stamp_ns: int
+    track_id: int
+    box: Rect  # scene px
+    measured: bool  # locked, and updated by a measurement in this image (not coasting)
+    hits: int  # images it was measured in since it began
+
+
+@dataclass(frozen=True)
+class Guidance:
+    """The own tracker's target: position [scene px] and velocity [px/s] at `stamp_ns`."""
+
+    stamp_ns: int
+    x: float
+    y: float
+    vx: float
+    vy: float
+
+    def at(self, stamp_ns: int) -> tuple[float, float]:
+        age = (stamp_ns - self.stamp_ns) / NS_PER_S
+        return self.x + self.vx * age, self.y + self.vy * age
+
+    def age(self, stamp_ns: int) -> float:
+        return (stamp_ns - self.stamp_ns) / NS_PER_S
+
+
+@dataclass(frozen=True)
+class SeedingConfig:
+    handover: bool = True
+    handover_min_hits: int = 5
+    handover_passthrough: bool = False
+    guide_from_target: bool = True
+    guide_max_age: float = 0.5  # s
+
+    def problems(self) -> list[str]:
+        """What is wrong with these values (empty when usable)."""
+        checks = {
+            "handover_min_hits must be >= 1": self.handover_min_hits >= 1,
+            "guide_max_age must be >= 0": self.guide_max_age >= 0,
+        }
+        return [message for message, ok in checks.items() if not ok]
+
+
+@dataclass(frozen=True)
+class OfferResult:
+    taken: bool
+    again: bool  # taken while tracking something else (a re-hand-over)
+    refused: str | None  # why a detector that was not tracking refused it
+
+
+@dataclass(frozen=True)
+class SeededStep:
+    detection: Detection
+    initial: str | None  # the outcome of the initial region, on the image it was tried
+    offer: OfferResult | None  # the outcome of this image's offer, when one was made
+
+
+class SeededSession:
+    """One seeded detector with its initial region, hand-over policy and guidance."""
+
+    def __init__(
+        self,
+        detector: SeededDetector,
+        config: SeedingConfig | None = None,
+        initial_region: Rect | None = None,
+    ) -> None:
+        self.detector = detector
+        self.config = config or SeedingConfig()
+        self.pending_region = initial_region
+
+    def offer(self, frame: CameraFrame, offered: Offer) -> OfferResult | None:
+        """Offer `offered`'s box in `frame` when the policy allows; None when it does not."""
+        if not (self.config.handover and offered.measured):
+            return None  # only a measured box is worth learning a model from
+        if offered.hits < self.config.handover_min_hits:
+            return None  # a young track's box is often a fragment
+        was_tracking = self.detector.tracking
+        reason = self.detector.hand_over(offered.box, frame)
+        refused = reason if reason is not None and not was_tracking else None
+        return OfferResult(reason is None, reason is None and was_tracking, refused)
+
+    def step(
+        self, frame: CameraFrame, offered: Offer | None = None, guide: Guidance | None = None
+    ) -> SeededStep:
+        """Start (initial region), take the offer, place the search, detect, pass through."""
+        initial = None
+        if self.pending_region is not None:
+            initial = self.detector.select_region(self.pending_region, frame) or "tracking started"
+            self.pending_region = None
+        result = self.offer(frame, offered) if offered is not None else None
+        handed_over = result is not None and result.taken
+        if guide is not None and not handed_over and self._guided(guide, frame.stamp_ns):
+            self.detector.guide(guide.at(frame.stamp_ns))
+        detection = self.detector.process(frame)
+        if not detection.blobs and self.config.handover_passthrough:
+            detection = passed_through(detection, offered)
+        return SeededStep(detection, initial, result)
+
+    def _guided(self, guide: Guidance, stamp_ns: int) -> bool:
+        if not (self.config.guide_from_target and self.detector.tracking):
+            return False
+        return 0.0 <= guide.age(stamp_ns) <= self.config.guide_max_age
+
+
+def passed_through(detection: Detection, offered: Offer | None) -> Detection:
+    """`detection` reporting the measured offered box (score 0) instead of nothing."""
+    if offered is None or not offered.measured:
+        return detection
+    box = offered.box
+    cx, cy = box.center
+    blob = Blob(cx, cy, box, box.area, max(round(box.area), 1), 0.0)
+    return replace(detection, blobs=[blob], target_present=True)
