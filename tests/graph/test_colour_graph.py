@@ -80,3 +80,23 @@ def test_colour_graph_replays_are_reproducible(stopper, first_run):
     again, _ = colour_run(stopper, "again")
     assert (out / "tracks.txt").read_text() == (again / "tracks.txt").read_text()
     assert (out / "tracks.txt").read_text().strip()
+
+
+def test_in_process_colour_pipeline_matches_the_graph(stopper, first_run):
+    """The benchmark's fast path steps the colour graph's components in the graph's order (the
+    hand-over and guidance through the same tracker_detect.seeding): the same windows, observed
+    tracks and targets as the graph."""
+    from tracker_ptz_sim.bringup import pipeline
+    from tracker_ptz_sim.bringup.graph import load_graph
+    from tracker_ptz_sim.evaluation import scoring
+
+    scene, _, _ = stopper
+    _, frames = first_run
+    graph = scoring.trace_from_frames(frames)
+    settings = pipeline.PipelineSettings.from_graph(load_graph("colour"))
+    fast = scoring.trace_from_steps(
+        pipeline.run(scene.frames, scene.stamps_ns(), settings), scene.fps
+    )
+    assert fast.windows == graph.windows
+    assert fast.target_ids == graph.target_ids and len(fast.target_ids) >= 90
+    assert fast.hypotheses == graph.hypotheses

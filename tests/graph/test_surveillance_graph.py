@@ -78,7 +78,7 @@ def test_in_process_pipeline_matches_the_graph(one_walker, servo_run):
         "ptz_camera": {"view_height_fraction": VIEW_FRACTION},
         "ptz_controller": {"sweep_rate": SWEEP_RATE, "mode": "servo"},
     }
-    settings = pipeline.PipelineSettings.from_params_files(load_graph().params_files, overrides)
+    settings = pipeline.PipelineSettings.from_graph(load_graph(), overrides)
     steps = pipeline.run(scene.frames, scene.stamps_ns(), settings)
     fast = scoring.trace_from_steps(steps, scene.fps)
     assert fast.windows == graph.windows
@@ -107,7 +107,7 @@ def test_the_camera_zooms_out_for_a_person_taller_than_its_view(tmp_path):
     zoomed = [f for f, window in graph.windows.items() if window.height > nominal]
     assert len(zoomed) >= 5 and all(f in graph.targets for f in zoomed[:3])
     assert graph.windows[max(graph.windows)].height == nominal
-    settings = pipeline.PipelineSettings.from_params_files(load_graph().params_files)
+    settings = pipeline.PipelineSettings.from_graph(load_graph())
     fast = scoring.trace_from_steps(
         pipeline.run(scene.frames, scene.stamps_ns(), settings), scene.fps
     )

@@ -39,7 +39,15 @@ from tracker_detect.image_pose_pairing import (
     SceneSettings,
 )
 from tracker_detect.registration import CameraIntrinsics
-from tracker_detect.seeding import Guidance, Offer, OfferResult, SeededSession, SeedingConfig
+from tracker_detect.seeding import (
+    SEEDING_PARAMETERS,
+    Guidance,
+    Offer,
+    OfferResult,
+    SeededSession,
+    SeedingConfig,
+    initial_region,
+)
 from tracker_detect.target_gate import HeldImage, TargetGate
 from tracker_msgs.msg import Blob as BlobMsg
 from tracker_msgs.msg import BlobArray, PtzState, Target, Track
@@ -98,46 +106,7 @@ NODE_PARAMETERS = [
     ParamSpec(
         "reliable_images", False, "reliable QoS for images (lockstep replays)", read_only=True
     ),
-    ParamSpec(
-        "initial_region",
-        [0.0, 0.0, 0.0, 0.0],
-        "seeded detectors (camshift): x, y, w, h [scene px] to start on in the first image "
-        "(zero size: none)",
-        validator=lambda v: None if len(v) == 4 else "initial_region needs x, y, width, height",
-    ),
-    ParamSpec(
-        "handover",
-        True,
-        "seeded detectors: offer the box of the locked target on `handover_target` that was "
-        "measured in that image (e.g. the motion tracker's): taken when not tracking, or when "
-        "the detector judges its own target wrong (camshift: rehandover_similarity)",
-    ),
-    ParamSpec(
-        "handover_passthrough",
-        False,
-        "seeded detectors: while the detector finds nothing, report the measured hand-over box "
-        "of the image (score 0), so the camera follows the other tracker's target until this "
-        "detector takes over",
-    ),
-    ParamSpec(
-        "handover_min_hits",
-        5,
-        "seeded detectors: hand over only a target measured in at least this many frames",
-        1,
-        100000,
-    ),
-    ParamSpec(
-        "guide_from_target",
-        True,
-        "seeded detectors: search each image where `target`'s track is predicted to be",
-    ),
-    ParamSpec(
-        "guide_max_age",
-        0.5,
-        "seeded detectors: use a `target` at most this old for the guidance [s]",
-        0.0,
-        10.0,
-    ),
+    *SEEDING_PARAMETERS,
     ParamSpec(
         "lockstep_targets",
         False,
@@ -448,8 +417,7 @@ class DetectorNode(SuiteNode):
         return config_from_params(SeedingConfig, self.params)
 
     def _initial_region(self) -> Rect | None:
-        x, y, w, h = (float(v) for v in self.params["initial_region"])
-        return Rect(x, y, w, h) if w > 0 and h > 0 else None
+        return initial_region(self.params["initial_region"])
 
     def _seeded_step(
         self, session: SeededSession, frame: CameraFrame, offer: Offer | None

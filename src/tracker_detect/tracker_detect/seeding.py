@@ -17,10 +17,12 @@ the in-process pipeline calls the same, so both decide alike.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, replace
 
 from tracker_detect.detector import Blob, CameraFrame, Detection, SeededDetector
 from tracker_msgs_py.geometry import Rect
+from tracker_msgs_py.params import ParamSpec
 
 NS_PER_S = 1_000_000_000
 
@@ -69,6 +71,59 @@ class SeedingConfig:
             "guide_max_age must be >= 0": self.guide_max_age >= 0,
         }
         return [message for message, ok in checks.items() if not ok]
+
+
+_DEFAULTS = SeedingConfig()
+
+#: The seeding's node parameters (the detector node declares them beside the method's).
+SEEDING_PARAMETERS: tuple[ParamSpec, ...] = (
+    ParamSpec(
+        "initial_region",
+        [0.0, 0.0, 0.0, 0.0],
+        "seeded detectors (camshift): x, y, w, h [scene px] to start on in the first image "
+        "(zero size: none)",
+        validator=lambda v: None if len(v) == 4 else "initial_region needs x, y, width, height",
+    ),
+    ParamSpec(
+        "handover",
+        _DEFAULTS.handover,
+        "seeded detectors: offer the box of the locked target on `handover_target` that was "
+        "measured in that image (e.g. the motion tracker's): taken when not tracking, or when "
+        "the detector judges its own target wrong (camshift: rehandover_similarity)",
+    ),
+    ParamSpec(
+        "handover_passthrough",
+        _DEFAULTS.handover_passthrough,
+        "seeded detectors: while the detector finds nothing, report the measured hand-over box "
+        "of the image (score 0), so the camera follows the other tracker's target until this "
+        "detector takes over",
+    ),
+    ParamSpec(
+        "handover_min_hits",
+        _DEFAULTS.handover_min_hits,
+        "seeded detectors: hand over only a target measured in at least this many frames",
+        1,
+        100000,
+    ),
+    ParamSpec(
+        "guide_from_target",
+        _DEFAULTS.guide_from_target,
+        "seeded detectors: search each image where `target`'s track is predicted to be",
+    ),
+    ParamSpec(
+        "guide_max_age",
+        _DEFAULTS.guide_max_age,
+        "seeded detectors: use a `target` at most this old for the guidance [s]",
+        0.0,
+        10.0,
+    ),
+)
+
+
+def initial_region(values: Sequence[float]) -> Rect | None:
+    """The `initial_region` parameter (x, y, w, h) as a region; None for a zero size."""
+    x, y, w, h = (float(v) for v in values)
+    return Rect(x, y, w, h) if w > 0 and h > 0 else None
 
 
 @dataclass(frozen=True)

@@ -143,7 +143,7 @@ def benchmark_one(
     else:
         from tracker_ptz_sim.bringup.graph import load_graph
 
-        settings = pipeline.PipelineSettings.from_params_files(load_graph().params_files, overrides)
+        settings = pipeline.PipelineSettings.from_graph(load_graph(), overrides)
         trace = run_in_process(scene, settings)
     seconds = time.perf_counter() - started
     title = f"{scene_name}, {configuration}, {path}"

@@ -1,39 +1,50 @@
-"""The surveillance graph in one process, for fast benchmarks (no rclpy).
+"""A graph in one process, for fast benchmarks (no rclpy).
 
 Per scene frame, in the order the lockstep graph runs it: the camera model advances to the frame's
 stamp and renders its window (ptz_camera), the registered detector finds blobs in that image
-(detector), the registered tracker steps with them and the target selector picks the track to
+(ssim_detector), the registered tracker steps with them and the target selector picks the track to
 follow (tracker), and the pan-tilt controller answers with a command the camera applies before the
-next frame (ptz_controller). Parameters come from the same params file the graph uses
-(config/surveillance.yaml) on top of each method's defaults, with the same `node.param` overrides.
+next frame (ptz_controller). In the colour graph the motion tracker's target is then offered to the
+seeded detector (colour_detector, through `tracker_detect.seeding`, guided by its own tracker's
+previous target) and its tracker (colour_tracker) picks what the controller follows. Parameters
+come from the same params files the graph uses on top of each method's defaults, with the same
+`node.param` overrides.
 
 What it leaves out is transport: the messages' conversions are mirrored (blob areas are rounded as
-tracker_msgs/Blob stores them; the mask reaches the tracker as mono8 0/255), so a run matches the
-graph's run on the same input up to DDS timing, which lockstep removes.
+tracker_msgs/Blob stores them; the mask reaches the tracker as mono8 0/255; targets carry the
+locked track's box, hits, position and velocity), so a run matches the graph's run on the same
+input up to DDS timing, which lockstep removes.
 """
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Iterator, Mapping, Sequence
+from collections.abc import Iterable, Iterator, Mapping
 from dataclasses import dataclass, field
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from tracker_detect.detector import CameraFrame, Detection, Detector
+from tracker_detect.detector import CameraFrame, Detection, Detector, SeededDetector
 from tracker_detect.detectors import DETECTORS
 from tracker_detect.registration import View
+from tracker_detect.seeding import (
+    SEEDING_PARAMETERS,
+    Guidance,
+    Offer,
+    SeededSession,
+    SeedingConfig,
+    initial_region,
+)
 from tracker_filter.config import SELECTION_DEFAULTS
 from tracker_filter.models import extrapolate_positions
 from tracker_filter.observation import Detections, Need, Observation
 from tracker_filter.selection import AUTOMATIC_POLICIES, TargetSelector
 from tracker_filter.trackers import TRACKERS
-from tracker_filter.tracking import Tracker, TrackSet
+from tracker_filter.tracking import Tracker, TrackSet, TrackStatus
 from tracker_msgs_py.codec import NS_PER_S
 from tracker_msgs_py.geometry import Rect
 from tracker_msgs_py.params import config_from_params
-from tracker_ptz_sim.bringup.graph import node_parameters
+from tracker_ptz_sim.bringup.graph import Graph, node_parameters
 from tracker_ptz_sim.control.controller import (
     CameraPose,
     Command,
@@ -49,8 +60,46 @@ from tracker_ptz_sim.simulation.camera_model import (
     PtzSnapshot,
 )
 
-CAMERA, DETECTOR, TRACKER, CONTROLLER = "ptz_camera", "ssim_detector", "tracker", "ptz_controller"
+CAMERA, CONTROLLER = "ptz_camera", "ptz_controller"
+DETECTOR, TRACKER = "ssim_detector", "tracker"
+COLOUR_DETECTOR, COLOUR_TRACKER = "colour_detector", "colour_tracker"
 Overrides = Mapping[str, Mapping[str, Any]]  # node name -> parameter -> value
+
+
+@dataclass(frozen=True)
+class StageSettings:
+    """One detector node and the tracker node fed by it, resolved to plain values."""
+
+    detector_method: str
+    detector_values: dict[str, Any]
+    tracker_method: str
+    tracker_values: dict[str, Any]
+    selection: dict[str, Any]  # the tracker's selection parameters (config.SELECTION_PARAMETERS)
+    seeding: SeedingConfig | None = None  # a seeded detector's hand-over policy and guidance
+    initial_region: Rect | None = None
+
+    @classmethod
+    def of(cls, detector: dict[str, Any], tracker: dict[str, Any]) -> StageSettings:
+        """From the two nodes' parameters (each method's defaults for what they do not set)."""
+        detector_method = DETECTORS.get(detector.get("method", DETECTORS.names()[0]))
+        tracker_method = TRACKERS.get(tracker.get("method", TRACKERS.names()[0]))
+        preset = tracker.get("preset") or ("multi" if "multi" in tracker_method.presets else "")
+        tracker_all = {**SELECTION_DEFAULTS, **tracker_method.defaults(preset), **tracker}
+        seeding, initial = None, None
+        node = {spec.name: spec.default for spec in SEEDING_PARAMETERS} | detector
+        detector_values = _method_values(detector_method.defaults(), detector)
+        if isinstance(detector_method.build(detector_values), SeededDetector):
+            seeding = config_from_params(SeedingConfig, node)
+            initial = initial_region(node["initial_region"])
+        return cls(
+            detector_method.name,
+            detector_values,
+            tracker_method.name,
+            _method_values(tracker_method.defaults(preset), tracker_all),
+            {name: tracker_all[name] for name in SELECTION_DEFAULTS},
+            seeding,
+            initial,
+        )
 
 
 @dataclass(frozen=True)
@@ -58,46 +107,36 @@ class PipelineSettings:
     """Everything the graph's nodes are configured with, resolved to plain values."""
 
     camera: PtzConfig
-    detector_method: str
-    detector_values: dict[str, Any]
-    tracker_method: str
-    tracker_values: dict[str, Any]
-    selection: dict[str, Any]  # the tracker's selection parameters (config.SELECTION_PARAMETERS)
+    motion: StageSettings  # ssim_detector + tracker
     controller: ControllerConfig
+    colour: StageSettings | None = None  # colour_detector + colour_tracker (the colour graph)
 
     @classmethod
-    def from_params_files(
-        cls, params_files: Sequence[Path], overrides: Overrides | None = None
-    ) -> PipelineSettings:
-        """The settings params files (and `node -> param -> value` overrides) give the graph."""
+    def from_graph(cls, graph: Graph, overrides: Overrides | None = None) -> PipelineSettings:
+        """The settings of `graph`'s nodes (its params files and `node -> param -> value`
+        overrides)."""
         overrides = overrides or {}
 
         def params(node: str) -> dict[str, Any]:
-            return {**node_parameters(params_files, node), **overrides.get(node, {})}
+            return {**node_parameters(graph.params_files, node), **overrides.get(node, {})}
 
-        camera, detector, tracker, control = (
-            params(n) for n in (CAMERA, DETECTOR, TRACKER, CONTROLLER)
-        )
-        detector_method = DETECTORS.get(detector.get("method", DETECTORS.names()[0]))
-        tracker_method = TRACKERS.get(tracker.get("method", TRACKERS.names()[0]))
-        preset = tracker.get("preset") or ("multi" if "multi" in tracker_method.presets else "")
-        tracker_all = {**SELECTION_DEFAULTS, **tracker_method.defaults(preset), **tracker}
         controller_defaults = ControllerConfig()
         control_values = {
             **{k: getattr(controller_defaults, k) for k in ControllerConfig.__dataclass_fields__},
             "pan_limits": list(controller_defaults.pan_limits),
             "home": list(controller_defaults.home),
             "presets": [v for pose in controller_defaults.presets for v in pose],
-            **control,
+            **params(CONTROLLER),
         }
+        names = {node.name for node in graph.nodes}
+        colour = None
+        if COLOUR_DETECTOR in names:
+            colour = StageSettings.of(params(COLOUR_DETECTOR), params(COLOUR_TRACKER))
         return cls(
-            camera=config_from_params(PtzConfig, camera),
-            detector_method=detector_method.name,
-            detector_values=_method_values(detector_method.defaults(), detector),
-            tracker_method=tracker_method.name,
-            tracker_values=_method_values(tracker_method.defaults(preset), tracker_all),
-            selection={name: tracker_all[name] for name in SELECTION_DEFAULTS},
+            camera=config_from_params(PtzConfig, params(CAMERA)),
+            motion=StageSettings.of(params(DETECTOR), params(TRACKER)),
             controller=controller_config(control_values),
+            colour=colour,
         )
 
 
@@ -108,7 +147,8 @@ def _method_values(defaults: Mapping[str, Any], given: Mapping[str, Any]) -> dic
 
 @dataclass
 class Step:
-    """What the graph produced for one scene frame."""
+    """What the graph produced for one scene frame: the followed pipeline's detection, tracks and
+    target (the colour one in the colour graph, as the recorded topics hold them)."""
 
     stamp_ns: int
     camera: PtzSnapshot  # the pose the frame's image was taken at
@@ -121,6 +161,113 @@ class Step:
 
 
 @dataclass
+class Tracked:
+    """A tracker node's output for one frame: its tracks and its target."""
+
+    tracks: TrackSet
+    target_id: int | None  # the selected track, None when nothing is selected
+    index: int | None  # the selected track's row in `tracks`
+
+    @property
+    def locked(self) -> bool:
+        return self.index is not None
+
+
+class TrackingStage:
+    """A tracker node: the registered tracker, target selection, and its time base."""
+
+    def __init__(self, settings: StageSettings) -> None:
+        self.tracker: Tracker = TRACKERS.get(settings.tracker_method).build(
+            settings.tracker_values, 1
+        )
+        selection = settings.selection
+        self.selector = TargetSelector(
+            AUTOMATIC_POLICIES[selection["selection_policy"]],
+            selection["min_lock_time"],
+            selection["switch_margin"],
+            selection["target_max_misses"],
+        )
+        self.lead_time = float(selection["lead_time"])
+        self._epoch_ns: int | None = None
+
+    def step(self, stamp_ns: int, view: np.ndarray, detection: Detection, window: Rect) -> Tracked:
+        if self._epoch_ns is None:
+            self._epoch_ns = stamp_ns
+        needs = self.tracker.needs
+        mask = detection.mask * np.uint8(255) if detection.mask is not None else None
+        tracks = self.tracker.step(
+            Observation(
+                time=(stamp_ns - self._epoch_ns) / NS_PER_S,
+                detections=detections_of(detection),
+                present=detection.target_present,
+                image=view if Need.IMAGE in needs else None,
+                mask=mask if Need.MASK in needs else None,
+                window=window if Need.WINDOW in needs else None,
+            )
+        )
+        selection = self.selector.update(tracks, window.center)
+        track_id = selection.track_id if selection is not None else None
+        index = None if track_id is None else tracks.index_of(track_id)
+        return Tracked(tracks, track_id, index)
+
+    def target(self, tracked: Tracked) -> TargetEstimate | None:
+        """The controller's view of the locked track, as the Target message carries it."""
+        if tracked.index is None:
+            return None
+        tracks = tracked.tracks
+        mean, layout = tracks.means[tracked.index], tracks.layout
+        x, y = (float(v) for v in layout.positions(mean))
+        vx, vy = (float(v) for v in layout.velocities(mean))
+        px, py = (float(v) for v in extrapolate_positions(mean, layout, self.lead_time)[0])
+        values = (x, y, vx, vy, px, py)
+        height = float(tracks.bboxes[tracked.index][3])
+        return TargetEstimate(*values, height=height) if all(np.isfinite(values)) else None
+
+
+def offer_of(stamp_ns: int, tracked: Tracked) -> Offer | None:
+    """A tracker's target as the hand-over source sees it (tracker_msgs/Target's track)."""
+    if tracked.index is None:
+        return None
+    tracks, i = tracked.tracks, tracked.index
+    box = Rect(*(float(v) for v in tracks.bboxes[i]))
+    box = Rect(box.x, box.y, max(box.width, 0.0), max(box.height, 0.0))
+    measured = int(tracks.status[i]) == int(TrackStatus.CONFIRMED)
+    return Offer(stamp_ns, int(tracks.ids[i]), box, measured, int(tracks.hits[i]))
+
+
+def guidance_of(stamp_ns: int, tracked: Tracked) -> Guidance | None:
+    """A tracker's target as its seeded detector's guidance (locked and not lost)."""
+    if tracked.index is None or int(tracked.tracks.status[tracked.index]) == int(TrackStatus.LOST):
+        return None
+    tracks, i = tracked.tracks, tracked.index
+    x, y = (float(v) for v in tracks.layout.positions(tracks.means[i]))
+    vx, vy = (float(v) for v in tracks.layout.velocities(tracks.means[i]))
+    return Guidance(stamp_ns, x, y, vx, vy)
+
+
+class ColourStage:
+    """The colour graph's colour_detector (a seeded detector) and colour_tracker."""
+
+    def __init__(self, settings: StageSettings) -> None:
+        detector = DETECTORS.get(settings.detector_method).build(settings.detector_values)
+        if not isinstance(detector, SeededDetector):
+            raise ValueError(f"{settings.detector_method} is not a seeded detector")
+        self.session = SeededSession(detector, settings.seeding, settings.initial_region)
+        self.tracking = TrackingStage(settings)
+        self.guide: Guidance | None = None
+
+    def step(
+        self, frame: CameraFrame, window: Rect, offer: Offer | None
+    ) -> tuple[Detection, Tracked]:
+        seeded = self.session.step(frame, offer, self.guide)
+        if seeded.offer is not None and seeded.offer.taken:
+            self.guide = None
+        tracked = self.tracking.step(frame.stamp_ns, frame.image, seeded.detection, window)
+        self.guide = guidance_of(frame.stamp_ns, tracked)
+        return seeded.detection, tracked
+
+
+@dataclass
 class InProcessGraph:
     """The graph's nodes as plain objects; `step` once per scene frame, in stamp order."""
 
@@ -129,22 +276,16 @@ class InProcessGraph:
     scene_height: int
     camera: PtzCameraModel = field(init=False)
     detector: Detector = field(init=False)
-    tracker: Tracker = field(init=False)
-    selector: TargetSelector = field(init=False)
+    motion: TrackingStage = field(init=False)
+    colour: ColourStage | None = field(init=False)
     controller: PanTiltController = field(init=False)
-    _epoch_ns: int | None = field(default=None, init=False)
 
     def __post_init__(self) -> None:
         s = self.settings
         self.camera = PtzCameraModel(s.camera, self.scene_width, self.scene_height)
-        self.detector = DETECTORS.get(s.detector_method).build(s.detector_values)
-        self.tracker = TRACKERS.get(s.tracker_method).build(s.tracker_values, 1)
-        self.selector = TargetSelector(
-            AUTOMATIC_POLICIES[s.selection["selection_policy"]],
-            s.selection["min_lock_time"],
-            s.selection["switch_margin"],
-            s.selection["target_max_misses"],
-        )
+        self.detector = DETECTORS.get(s.motion.detector_method).build(s.motion.detector_values)
+        self.motion = TrackingStage(s.motion)
+        self.colour = ColourStage(s.colour) if s.colour is not None else None
         self.controller = PanTiltController(s.controller)
 
     def step(self, stamp_ns: int, scene: np.ndarray) -> Step:
@@ -152,13 +293,15 @@ class InProcessGraph:
         snapshot = self.camera.advance(t)
         view = self.camera.render(scene, snapshot.window)
         height, width = view.shape[:2]
-        detection = self.detector.process(
-            CameraFrame(stamp_ns, view, View(snapshot.window, width, height))
-        )
-        tracks = self._track(stamp_ns, view, detection, snapshot.window)
-        selection = self.selector.update(tracks, snapshot.window.center)
-        target_id = selection.track_id if selection is not None else None
-        target = self._target(tracks, target_id)
+        frame = CameraFrame(stamp_ns, view, View(snapshot.window, width, height))
+        detection = self.detector.process(frame)
+        tracked = self.motion.step(stamp_ns, view, detection, snapshot.window)
+        followed = self.motion
+        if self.colour is not None:
+            offer = offer_of(stamp_ns, tracked)
+            detection, tracked = self.colour.step(frame, snapshot.window, offer)
+            followed = self.colour.tracking
+        target = followed.target(tracked)
         pose = CameraPose(
             snapshot.pan,
             snapshot.tilt,
@@ -179,40 +322,8 @@ class InProcessGraph:
                 command.zoom,
             )
         )
-        locked = target_id if target is not None else None
-        return Step(stamp_ns, snapshot, view, detection, tracks, locked, target, command)
-
-    def _track(
-        self, stamp_ns: int, view: np.ndarray, detection: Detection, window: Rect
-    ) -> TrackSet:
-        if self._epoch_ns is None:
-            self._epoch_ns = stamp_ns
-        needs = self.tracker.needs
-        mask = detection.mask * np.uint8(255) if detection.mask is not None else None
-        return self.tracker.step(
-            Observation(
-                time=(stamp_ns - self._epoch_ns) / NS_PER_S,
-                detections=detections_of(detection),
-                present=detection.target_present,
-                image=view if Need.IMAGE in needs else None,
-                mask=mask if Need.MASK in needs else None,
-                window=window if Need.WINDOW in needs else None,
-            )
-        )
-
-    def _target(self, tracks: TrackSet, track_id: int | None) -> TargetEstimate | None:
-        """The controller's view of the locked track, as the Target message carries it."""
-        index = None if track_id is None else tracks.index_of(track_id)
-        if index is None:
-            return None
-        mean, layout = tracks.means[index], tracks.layout
-        x, y = (float(v) for v in layout.positions(mean))
-        vx, vy = (float(v) for v in layout.velocities(mean))
-        lead = float(self.settings.selection["lead_time"])
-        px, py = (float(v) for v in extrapolate_positions(mean, layout, lead)[0])
-        values = (x, y, vx, vy, px, py)
-        height = float(tracks.bboxes[index][3])
-        return TargetEstimate(*values, height=height) if all(np.isfinite(values)) else None
+        locked = tracked.target_id if target is not None else None
+        return Step(stamp_ns, snapshot, view, detection, tracked.tracks, locked, target, command)
 
 
 def detections_of(detection: Detection) -> Detections:
