@@ -66,6 +66,9 @@ class CamShiftConfig:
     # a box offered while tracking something apart is taken when its colours match the model's at
     # least this well (Bhattacharyya) and better than the tracked box's do (0: never)
     rehandover_similarity: float = 0.6
+    # a found box whose colours match the model's less (Bhattacharyya) is a miss: CamShift slid
+    # onto a background of a like colour (0: no check)
+    min_similarity: float = 0.6
 
     def problems(self) -> list[str]:
         """What is wrong with these values (empty when usable)."""
@@ -84,6 +87,7 @@ class CamShiftConfig:
             "max_size_ratio must be > 1": self.max_size_ratio > 1,
             "min_model_pixels must be >= 1": self.min_model_pixels >= 1,
             "rehandover_similarity must be in [0, 1]": 0 <= self.rehandover_similarity <= 1,
+            "min_similarity must be in [0, 1]": 0 <= self.min_similarity <= 1,
         }
         return [message for message, ok in checks.items() if not ok]
 
@@ -445,7 +449,7 @@ class CamShiftTracker:
         start = _clip((x - rx, y - ry, w, h), rw, rh)
         if start[2] < 1 or start[3] < 1:
             return None, searched
-        return self._camshift(prob, start, (rx, ry), view, model), searched
+        return self._camshift(frame, prob, start, (rx, ry), model), searched
 
     def _reacquire(
         self, frame: CameraFrame, view: View, model: ColourModel
@@ -461,7 +465,7 @@ class CamShiftTracker:
         if peak / 255.0 < self.config.min_density_ratio * model.density:
             return None, searched
         start = _clip((u - w // 2, v - h // 2, w, h), width, height)
-        return self._camshift(prob, start, (0, 0), view, model), searched
+        return self._camshift(frame, prob, start, (0, 0), model), searched
 
     def _back_projection(
         self, frame: CameraFrame, region: tuple[int, int, int, int], model: ColourModel
@@ -472,13 +476,15 @@ class CamShiftTracker:
 
     def _camshift(
         self,
+        frame: CameraFrame,
         prob: np.ndarray,
         start: tuple[int, int, int, int],
         offset: tuple[int, int],
-        view: View,
         model: ColourModel,
     ) -> Found | None:
-        """cv2.CamShift on `prob` (image px from `offset`); None when the result is a miss."""
+        """cv2.CamShift on `prob` (image px of `frame` from `offset`); None when the result is a
+        miss."""
+        view = frame.view or View.identity(*frame.size)
         criteria = (
             cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_COUNT,
             self.config.max_iterations,
@@ -500,6 +506,10 @@ class CamShiftTracker:
         growth = math.sqrt(reported.area / (model.size[0] * model.size[1]))
         if growth > self.config.max_size_ratio:
             return None  # spread over a background of the target's colour
+        if self.config.min_similarity > 0 and (
+            self.similarity(reported, frame) < self.config.min_similarity
+        ):
+            return None  # slid onto something of a like colour that is not the target
         oriented = self._oriented_to_scene(view, cx + offset[0], cy + offset[1], bw, bh, angle_deg)
         window = view.rect_to_scene(nx + offset[0], ny + offset[1], nw, nh)
         return Found(oriented, reported, window, density)

@@ -382,6 +382,14 @@ CAMSHIFT_PARAMETERS: tuple[ParamSpec, ...] = (
         1_000_000,
     ),
     ParamSpec(
+        "min_similarity",
+        _C.min_similarity,
+        "a found box whose colours match the model's less (Bhattacharyya coefficient of the "
+        "plain histograms) is a miss: CamShift slid onto a like-coloured background (0: no check)",
+        0.0,
+        1.0,
+    ),
+    ParamSpec(
         "rehandover_similarity",
         _C.rehandover_similarity,
         "while tracking, a handed-over box apart from the tracked one is taken when its colours "

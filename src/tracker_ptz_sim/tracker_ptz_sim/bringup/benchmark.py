@@ -6,10 +6,12 @@
 
 Scenes are street scenes (`simulation.street`): people walking with a gait and perspective over a
 real background (the median of the sample clip vtest.avi when it can be fetched, else a generated
-plaza), with groups, crossings, fluttering tape, foliage, flicker, lighting drift, noise and JPEG
-compression. Ground truth is every person's visible box. Each configuration is a set of
-`node.param` overrides on config/surveillance.yaml; `seed000` is seed 000's own mode (SSIM of frame
-k against k-3, the seed's tracker preset, the camera jumping straight to the target).
+plaza), with groups, crossings, people who stop, fluttering tape, foliage, flicker, lighting drift,
+noise and JPEG compression. Ground truth is every person's visible box. Each configuration is a
+graph with `node.param` overrides on its parameter files: `suite` is the surveillance graph as
+shipped; `seed000` is seed 000's own mode (SSIM of frame k against k-3, the seed's tracker preset,
+the camera jumping straight to the target); `colour` is the colour graph (seed 001: motion hands its
+target over to CamShift, which the camera follows; one track, so its MOT scores count one person).
 
 Scores (`evaluation.scoring`): CLEAR MOT, IDF1 and HOTA at IoU >= 0.5 in the camera view and over
 the whole scene, and the pan-tilt figures. Writes to --out (default out/benchmark): results.json,
@@ -25,7 +27,7 @@ import json
 import math
 import sys
 import time
-from dataclasses import asdict, dataclass, replace
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -33,6 +35,7 @@ import numpy as np
 
 from tracker_filter.config import PRESETS
 from tracker_ptz_sim.bringup import pipeline
+from tracker_ptz_sim.bringup.graph import load_graph
 from tracker_ptz_sim.evaluation import scoring
 from tracker_ptz_sim.simulation import street
 from tracker_ptz_sim.simulation.scenes import (
@@ -52,18 +55,31 @@ _SUITE_TRACKER = (
     "split_merged",
     "target_max_misses",
 )
-#: Configurations compared: name -> node -> parameter -> value, over config/surveillance.yaml.
-#: A new tracker or detector joins the benchmark with one line here.
-CONFIGURATIONS: dict[str, dict[str, dict[str, Any]]] = {
-    "suite": {},
-    "seed000": {
-        "ssim_detector": {"method": "ssim"},
-        # the seed's tracker preset, also for what config/surveillance.yaml sets on top of presets
-        "tracker": {"preset": "seed000"}
-        | {name: PRESETS["seed000"][name] for name in _SUITE_TRACKER},
-        "ptz_controller": {"mode": "direct", "zoom_control": False},
-        "ptz_camera": {"min_zoom": 1.0},
-    },
+
+
+@dataclass(frozen=True)
+class Configuration:
+    """A graph (`graph.GRAPHS`) and node -> parameter -> value overrides on its params files."""
+
+    graph: str = "surveillance"
+    overrides: dict[str, dict[str, Any]] = field(default_factory=dict)
+
+
+#: Configurations compared. A new tracker or detector joins the benchmark with one line here.
+CONFIGURATIONS: dict[str, Configuration] = {
+    "suite": Configuration(),
+    "seed000": Configuration(
+        overrides={
+            "ssim_detector": {"method": "ssim"},
+            # the seed's tracker preset, also for what surveillance.yaml sets on top of presets
+            "tracker": {"preset": "seed000"}
+            | {name: PRESETS["seed000"][name] for name in _SUITE_TRACKER},
+            "ptz_controller": {"mode": "direct", "zoom_control": False},
+            "ptz_camera": {"min_zoom": 1.0},
+        }
+    ),
+    # seed 001: motion hands its target over to CamShift, which the camera follows (one track)
+    "colour": Configuration("colour"),
 }
 PATHS = ("in-process", "graph")
 
@@ -112,14 +128,15 @@ def run_in_process(scene: Scene, settings: pipeline.PipelineSettings) -> scoring
     return scoring.trace_from_steps(steps, scene.fps)
 
 
-def run_graph(scene_dir: Path, overrides: dict[str, dict[str, Any]], out: Path) -> scoring.RunTrace:
+def run_graph(
+    scene_dir: Path, graph_name: str, overrides: dict[str, dict[str, Any]], out: Path
+) -> scoring.RunTrace:
     from tracker_ptz_sim.bringup import demo
-    from tracker_ptz_sim.bringup.graph import load_graph
     from tracker_ptz_sim.evaluation import run_report
     from tracker_ptz_sim.simulation.scenes import scene_video
 
     result = demo.run_graph(
-        load_graph(), scene_video(scene_dir), out, overrides, demo.install_space(), 1800.0
+        load_graph(graph_name), scene_video(scene_dir), out, overrides, demo.install_space(), 1800.0
     )
     if not result.complete:
         raise RuntimeError(f"the graph run is incomplete: {'; '.join(result.problems)}")
@@ -131,6 +148,7 @@ def benchmark_one(
     scene_dir: Path,
     scene: Scene,
     configuration: str,
+    graph_name: str,
     overrides: dict[str, dict[str, Any]],
     path: str,
     out: Path,
@@ -139,11 +157,9 @@ def benchmark_one(
     run_dir.mkdir(parents=True, exist_ok=True)
     started = time.perf_counter()
     if path == "graph":
-        trace = run_graph(scene_dir, overrides, run_dir)
+        trace = run_graph(scene_dir, graph_name, overrides, run_dir)
     else:
-        from tracker_ptz_sim.bringup.graph import load_graph
-
-        settings = pipeline.PipelineSettings.from_graph(load_graph(), overrides)
+        settings = pipeline.PipelineSettings.from_graph(load_graph(graph_name), overrides)
         trace = run_in_process(scene, settings)
     seconds = time.perf_counter() - started
     title = f"{scene_name}, {configuration}, {path}"
@@ -237,9 +253,17 @@ def main(argv: list[str] | None = None) -> int:
                 for path in paths:
                     label = f"{name}-{config.seed}"
                     print(f"{label} / {configuration} / {path} ...", flush=True)
-                    overrides = _merged(CONFIGURATIONS[configuration], extra)
+                    chosen = CONFIGURATIONS[configuration]
+                    overrides = _merged(chosen.overrides, extra)
                     result = benchmark_one(
-                        label, scene_dir, scene, configuration, overrides, path, args.out
+                        label,
+                        scene_dir,
+                        scene,
+                        configuration,
+                        chosen.graph,
+                        overrides,
+                        path,
+                        args.out,
                     )
                     results.append(replace(result, scene=name, seed=config.seed))
                     print(scoring.format_scores(result.scores), flush=True)
