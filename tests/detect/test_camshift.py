@@ -259,3 +259,16 @@ def test_a_handed_over_box_replaces_the_target_only_when_its_colours_match_bette
     assert tracker.similarity(walked_on, image) > tracker.similarity(red_box, image)
     assert tracker.hand_over(walked_on, image) is None
     assert tracker.selection == walked_on
+
+
+def test_a_target_that_does_not_stand_out_from_its_surroundings_is_refused():
+    """A box on a red wall (a red coat in front of it): the back-projection is as strong around it
+    as on it, so CamShift would slide off; the selection is refused with the reason."""
+    scene = background()
+    scene[100:300, 150:350] = TARGET_BGR  # the wall, the coat's own colour
+    tracker = CamShiftTracker()
+    reason = tracker.select_region(true_box(250.0, 200.0), frame(0, scene))
+    assert reason is not None and "stand out" in reason
+    assert tracker.model is None
+    unchecked = CamShiftTracker(CamShiftConfig(min_contrast=0.0))
+    assert unchecked.select_region(true_box(250.0, 200.0), frame(0, scene)) is None

@@ -69,6 +69,9 @@ class CamShiftConfig:
     # a found box whose colours match the model's less (Bhattacharyya) is a miss: CamShift slid
     # onto a background of a like colour (0: no check)
     min_similarity: float = 0.6
+    # a selection whose mean back-projection is less than this x its surroundings' is refused:
+    # its colours do not stand out (0: no check)
+    min_contrast: float = 3.0
 
     def problems(self) -> list[str]:
         """What is wrong with these values (empty when usable)."""
@@ -88,6 +91,7 @@ class CamShiftConfig:
             "min_model_pixels must be >= 1": self.min_model_pixels >= 1,
             "rehandover_similarity must be in [0, 1]": 0 <= self.rehandover_similarity <= 1,
             "min_similarity must be in [0, 1]": 0 <= self.min_similarity <= 1,
+            "min_contrast must be >= 0": self.min_contrast >= 0,
         }
         return [message for message, ok in checks.items() if not ok]
 
@@ -218,6 +222,19 @@ def bhattacharyya(p: np.ndarray, q: np.ndarray) -> float:
     return float(np.sqrt(p * q).sum())
 
 
+def selection_contrast(prob: np.ndarray, box: tuple[int, int, int, int]) -> float:
+    """Mean of `prob` inside `box` (x, y, w, h) over its mean in the rest of the image (inf when
+    the rest is dark or empty)."""
+    x, y, w, h = box
+    inside = prob[y : y + h, x : x + w]
+    rest_pixels = prob.size - inside.size
+    rest = (float(prob.sum(dtype=np.float64)) - float(inside.sum(dtype=np.float64))) / max(
+        rest_pixels, 1
+    )
+    mean_inside = float(inside.mean()) if inside.size else 0.0
+    return mean_inside / rest if rest > 0 else math.inf
+
+
 def colour_spread(prob: np.ndarray) -> tuple[float, float, float, float] | None:
     """Centroid and 4-sigma extent (cx, cy, ex, ey) of a back-projection, px; None if empty
     or flat along an axis."""
@@ -332,6 +349,14 @@ class CamShiftTracker:
         if histogram.max() <= 0:
             return "the region's colours are all in its surroundings too"
         cv2.normalize(histogram, histogram, 0, 255, cv2.NORM_MINMAX)
+        contrast = selection_contrast(
+            back_projection(selection.context, histogram, config), selection.box
+        )
+        if contrast < config.min_contrast:
+            return (
+                f"its colours do not stand out from its surroundings (contrast {contrast:.1f} < "
+                f"min_contrast {config.min_contrast}): CamShift would slide off it"
+            )
         prob = back_projection(inner, histogram, config)
         spread = colour_spread(prob)
         if spread is None:

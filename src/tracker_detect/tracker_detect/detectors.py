@@ -382,6 +382,14 @@ CAMSHIFT_PARAMETERS: tuple[ParamSpec, ...] = (
         1_000_000,
     ),
     ParamSpec(
+        "min_contrast",
+        _C.min_contrast,
+        "a selection whose mean back-projection is below this x its surroundings' is refused: its "
+        "colours do not stand out (0: no check)",
+        0.0,
+        1000.0,
+    ),
+    ParamSpec(
         "min_similarity",
         _C.min_similarity,
         "a found box whose colours match the model's less (Bhattacharyya coefficient of the "

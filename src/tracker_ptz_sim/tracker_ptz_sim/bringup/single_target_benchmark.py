@@ -77,6 +77,7 @@ class PersonRun:
     start: int
     scores: SingleTargetScores
     iou: dict[int, float]  # per scored frame
+    refused: str = ""  # why CamShift would not start on the person (every frame then missed)
 
 
 def people(scene: Scene) -> dict[int, dict[int, Rect]]:
@@ -119,16 +120,22 @@ def run_scene(label: str, scene: Scene) -> list[PersonRun]:
         region = truth[start]
         for variant, setup in VARIANTS.items():
             guide = predictor(setup.rule, scene.fps)
-            boxes = follow(scene.frames, stamps, start, region, max(scored), guide, setup.camshift)
+            refused = ""
+            try:
+                boxes = follow(
+                    scene.frames, stamps, start, region, max(scored), guide, setup.camshift
+                )
+            except ValueError as error:  # the selection is refused: nothing is tracked
+                boxes, refused = {}, str(error)
             scores = score_single_target(scored, boxes)
             iou = {k: (b.iou(boxes[k]) if boxes.get(k) else 0.0) for k, b in scored.items()}  # type: ignore[arg-type]
-            runs.append(PersonRun(label, person, variant, start, scores, iou))
+            runs.append(PersonRun(label, person, variant, start, scores, iou, refused))
     return runs
 
 
 def table(runs: list[PersonRun]) -> str:
     header = (
-        "| scenes | variant | people | frames | Q1 mean IoU | Q2 centre in box | "
+        "| scenes | variant | people (refused) | frames | Q1 mean IoU | Q2 centre in box | "
         "IoU >= 0.5 | missed |"
     )
     lines = [header, "|" + "---|" * (header.count("|") - 1)]
@@ -136,16 +143,17 @@ def table(runs: list[PersonRun]) -> str:
     for preset in [*presets, "all"]:
         for variant in VARIANTS:
             chosen = [
-                r.scores
+                r
                 for r in runs
                 if r.variant == variant and (preset == "all" or r.scene.startswith(preset + "-"))
             ]
             if not chosen:
                 continue
-            total = pooled(chosen)
+            total = pooled([r.scores for r in chosen])
             missed = total.missed / total.frames if total.frames else math.nan
+            refused = sum(1 for r in chosen if r.refused)
             lines.append(
-                f"| {preset} | {variant} | {len(chosen)} | {total.frames} | "
+                f"| {preset} | {variant} | {len(chosen)} ({refused}) | {total.frames} | "
                 f"{total.mean_iou:.3f} | {100 * total.centre_in_box:.1f} % | "
                 f"{100 * total.success:.1f} % | {100 * missed:.1f} % |"
             )
