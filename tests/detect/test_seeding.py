@@ -93,3 +93,20 @@ def test_pass_through_reports_the_measured_offer_until_the_detector_has_a_target
     assert session.step(frame(1), offer(1, measured=False)).detection.blobs == []
     plain = SeededSession(RegionDetector(), SeedingConfig(handover=False))
     assert plain.step(frame(0), offer(0)).detection.blobs == []
+
+
+def test_the_source_track_measured_apart_from_the_detectors_box_starts_it_there_again():
+    """The detector drifted (its box stayed behind) while the track that started it still measures
+    the walker elsewhere: started again on the track's box. Another track's box is the detector's
+    to judge (RegionDetector refuses it while tracking), and so is the source track once
+    handover_follow_source is off."""
+    session = SeededSession(RegionDetector())
+    session.step(frame(0), offer(0))  # started from track 3
+    walked_on = Rect(200, 60, 20, 40)
+    other = Offer(NS, 8, walked_on, True, 10)
+    assert not session.step(frame(1), other).offer.taken
+    step = session.step(frame(2), Offer(2 * NS, 3, walked_on, True, 10))
+    assert step.offer.taken and step.offer.again and boxes(step) == [walked_on]
+    fixed = SeededSession(RegionDetector(), SeedingConfig(handover_follow_source=False))
+    fixed.step(frame(0), offer(0))
+    assert not fixed.step(frame(1), offer(1, box=walked_on)).offer.taken

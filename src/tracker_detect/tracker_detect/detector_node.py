@@ -295,6 +295,8 @@ class DetectorNode(SuiteNode):
             for held in self.gate.clear():
                 self._detect_now(held.item, held.handover)
         self.detector.reset()
+        if self.session is not None:
+            self.session.reset()
         self.recent_frames.clear()
         self.guide = self.latest_offer = None
         self._handle(self.pairing.new_epoch(stamp_ns))  # still answered once, as every image is

@@ -5,7 +5,11 @@ A seeded detector follows one target it was started on. Besides its images it re
 - another tracker's target for the image (the hand-over source, e.g. the motion tracker's): when
   it was measured in this image (confirmed, not coasting) in at least `handover_min_hits` images,
   it is offered to the detector, which takes it when not tracking, or when it judges its own
-  target wrong (CamShift: the offered box's colours match its model better);
+  target wrong (CamShift: the offered box's colours match its model better); and while the very
+  track that started the detector is still measured apart from the detector's box, the detector
+  is the one that drifted (the track still measures the walker): it is started there again
+  (`handover_follow_source`). Once that track is lost (the person stopped, and change detection
+  no longer sees them) the detector is on its own;
 - its own tracker's target (guidance): its position moved by its velocity to the image's stamp is
   where the search starts, when at most `guide_max_age` old;
 - with `handover_passthrough`, an image where the detector finds nothing reports the measured
@@ -25,6 +29,7 @@ from tracker_msgs_py.geometry import Rect
 from tracker_msgs_py.params import ParamSpec
 
 NS_PER_S = 1_000_000_000
+SAME_OBJECT_IOU = 0.3  # an offered box overlapping the detector's own this much is the same object
 
 
 @dataclass(frozen=True)
@@ -61,6 +66,7 @@ class SeedingConfig:
     handover: bool = True
     handover_min_hits: int = 5
     handover_passthrough: bool = False
+    handover_follow_source: bool = True
     guide_from_target: bool = True
     guide_max_age: float = 0.5  # s
 
@@ -97,6 +103,12 @@ SEEDING_PARAMETERS: tuple[ParamSpec, ...] = (
         "seeded detectors: while the detector finds nothing, report the measured hand-over box "
         "of the image (score 0), so the camera follows the other tracker's target until this "
         "detector takes over",
+    ),
+    ParamSpec(
+        "handover_follow_source",
+        _DEFAULTS.handover_follow_source,
+        "seeded detectors: while the track whose box started the detector is measured apart from "
+        "the detector's box, start it there again (the detector drifted)",
     ),
     ParamSpec(
         "handover_min_hits",
@@ -153,6 +165,13 @@ class SeededSession:
         self.config = config or SeedingConfig()
         self.pending_region = initial_region
 
+        self.source_id: int | None = None  # the track whose offer the detector last took
+        self.last_box: Rect | None = None  # the detector's own last box
+
+    def reset(self) -> None:
+        """A new epoch: forget the source track and the last box."""
+        self.source_id, self.last_box = None, None
+
     def offer(self, frame: CameraFrame, offered: Offer) -> OfferResult | None:
         """Offer `offered`'s box in `frame` when the policy allows; None when it does not."""
         if not (self.config.handover and offered.measured):
@@ -160,9 +179,23 @@ class SeededSession:
         if offered.hits < self.config.handover_min_hits:
             return None  # a young track's box is often a fragment
         was_tracking = self.detector.tracking
-        reason = self.detector.hand_over(offered.box, frame)
+        if was_tracking and self._drifted_from(offered):
+            reason = self.detector.select_region(offered.box, frame)
+        else:
+            reason = self.detector.hand_over(offered.box, frame)
+        if reason is None:
+            self.source_id, self.last_box = offered.track_id, offered.box
         refused = reason if reason is not None and not was_tracking else None
         return OfferResult(reason is None, reason is None and was_tracking, refused)
+
+    def _drifted_from(self, offered: Offer) -> bool:
+        """The source track, still measured, lies apart from the detector's box."""
+        return (
+            self.config.handover_follow_source
+            and offered.track_id == self.source_id
+            and self.last_box is not None
+            and offered.box.iou(self.last_box) < SAME_OBJECT_IOU
+        )
 
     def step(
         self, frame: CameraFrame, offered: Offer | None = None, guide: Guidance | None = None
@@ -177,7 +210,9 @@ class SeededSession:
         if guide is not None and not handed_over and self._guided(guide, frame.stamp_ns):
             self.detector.guide(guide.at(frame.stamp_ns))
         detection = self.detector.process(frame)
-        if not detection.blobs and self.config.handover_passthrough:
+        if detection.blobs:
+            self.last_box = detection.blobs[0].bbox
+        elif self.config.handover_passthrough:
             detection = passed_through(detection, offered)
         return SeededStep(detection, initial, result)
 
