@@ -11,10 +11,17 @@ the one safe order:
 
 A shutdown is never a failure: the exit code is 0 unless the node itself reported one (2 when it
 cannot start, e.g. a bad path or parameter, printed once without a traceback).
+
+The teardown has a deadline (`TEARDOWN_S`): the middleware's own teardown has been seen to block
+(a node's process in Fast DDS's participant deletion, `rcl_node_fini`, while the rest of the graph
+was stopping too: a replay then lost the node to SIGKILL). Past the deadline the process says so
+in one line and exits with its code without waiting longer; by then its workers are joined and
+nothing of the node publishes.
 """
 
 from __future__ import annotations
 
+import os
 import sys
 import threading
 import time
@@ -35,6 +42,7 @@ from tracker_msgs_py.problems import ProblemLog
 
 SIGNAL_POLL_S = 0.1  # longest a stop signal waits for the executor to return to Python
 WORKER_JOIN_S = 1.5  # workers get this long to leave (the node must exit within 2 s)
+TEARDOWN_S = 1.8  # the whole teardown, workers included, before the process exits regardless
 DIAGNOSTICS_PERIOD_S = 1.0
 
 
@@ -147,6 +155,8 @@ def run_node(make_node: Callable[[], SuiteNode], args: Sequence[str] | None = No
         signal_handler_options=SignalHandlerOptions.NO,
     )
     node = None
+    executor = None
+    code = 0
     try:
         if stop_signals.requested():
             return 0
@@ -155,11 +165,30 @@ def run_node(make_node: Callable[[], SuiteNode], args: Sequence[str] | None = No
         executor.add_node(node)
         while not stop_signals.requested() and not node.finished.is_set():
             executor.spin_once(timeout_sec=SIGNAL_POLL_S)
+        code = node.exit_code
     except (StartupError, ParameterError) as error:
         print(f"[FATAL] {error}", file=sys.stderr, flush=True)
-        return 2
+        code = 2
     finally:
+        deadline = threading.Timer(TEARDOWN_S, _exit_after_stuck_teardown, args=(code,))
+        deadline.daemon = True
+        deadline.start()
+        if executor is not None:
+            executor.shutdown(timeout_sec=0.0)
         if node is not None:
             node.destroy_node()
         rclpy.try_shutdown()
-    return node.exit_code
+        deadline.cancel()
+    return code
+
+
+def _exit_after_stuck_teardown(code: int) -> None:
+    """The teardown outlived TEARDOWN_S (see the module docstring): exit without it."""
+    print(
+        f"[WARN] the middleware's teardown did not finish within {TEARDOWN_S} s; exiting "
+        f"with {code} without waiting for it",
+        file=sys.stderr,
+        flush=True,
+    )
+    sys.stdout.flush()
+    os._exit(code)

@@ -241,6 +241,7 @@ def main(argv: list[str] | None = None) -> int:
     args.out.mkdir(parents=True, exist_ok=True)
     background, described = background_image(args.background)
     results: list[RunScores] = []
+    failures: list[str] = []
     for name in scene_names:
         for k in range(args.seeds):
             preset = street.STREET_PRESETS[name]
@@ -255,24 +256,31 @@ def main(argv: list[str] | None = None) -> int:
                     print(f"{label} / {configuration} / {path} ...", flush=True)
                     chosen = CONFIGURATIONS[configuration]
                     overrides = _merged(chosen.overrides, extra)
-                    result = benchmark_one(
-                        label,
-                        scene_dir,
-                        scene,
-                        configuration,
-                        chosen.graph,
-                        overrides,
-                        path,
-                        args.out,
-                    )
+                    try:
+                        result = benchmark_one(
+                            label,
+                            scene_dir,
+                            scene,
+                            configuration,
+                            chosen.graph,
+                            overrides,
+                            path,
+                            args.out,
+                        )
+                    except RuntimeError as error:  # an incomplete graph run: say so, go on
+                        failures.append(f"{label} / {configuration} / {path}: {error}")
+                        print(f"FAILED: {failures[-1]}", file=sys.stderr, flush=True)
+                        continue
                     results.append(replace(result, scene=name, seed=config.seed))
                     print(scoring.format_scores(result.scores), flush=True)
     text = table(results)
     note = f"Scenes over: {described}; {args.out}/runs/* hold each run's tracks, scores and plots."
+    if failures:
+        note += "\n\nRuns that did not complete (left out of the table):\n" + "\n".join(failures)
     (args.out / "table.md").write_text(text + "\n\n" + note + "\n")
     scoring.write_json([asdict(r) for r in results], args.out / "results.json")
     print(f"\n{text}\n\n{note}")
-    return 0
+    return 1 if failures else 0
 
 
 if __name__ == "__main__":
