@@ -448,9 +448,9 @@ class DetectorNode(SuiteNode):
             )
 
     def _on_target(self, msg: Target) -> None:
-        measured = msg.locked and msg.track.status != Track.STATUS_LOST
+        following = msg.locked and msg.track.status != Track.STATUS_LOST  # coasting is fine
         track, stamp = msg.track, stamp_to_ns(msg.header.stamp)
-        self.guide = Guidance(stamp, track.x, track.y, track.vx, track.vy) if measured else None
+        self.guide = Guidance(stamp, track.x, track.y, track.vx, track.vy) if following else None
         if self.gate is not None:
             for held in self.gate.add_guide(stamp, time.monotonic()):
                 self._release(held)
