@@ -15,6 +15,7 @@ from tracker_filter.robust_kalman import (
     ModelUncertainty,
     RobustKalmanConfig,
     RobustKalmanFilter,
+    RobustModel,
     exact_lambda,
     lambda_lower_bound,
     regularised_cost,
@@ -91,7 +92,8 @@ def g_transcribed(lam, x_filtered, p_filtered, z, unc: ModelUncertainty = UNCERT
     w, a = inv(R), H @ np.hstack([F, np.eye(6)])
     b = z - H @ F @ x_filtered
     h_bar, e_a, e_b = H @ unc.M, np.hstack([unc.E_f, unc.E_g]), -unc.E_f @ x_filtered
-    w_lam = w + w @ h_bar @ np.linalg.pinv(lam * np.eye(1) - h_bar.T @ w @ h_bar) @ h_bar.T @ w
+    k = unc.M.shape[1]
+    w_lam = w + w @ h_bar @ np.linalg.pinv(lam * np.eye(k) - h_bar.T @ w @ h_bar) @ h_bar.T @ w
     q_lam = weight + lam * e_a.T @ e_a
     x = inv(q_lam + a.T @ w_lam @ a) @ (a.T @ w_lam @ b + lam * e_a.T @ e_b)
     r = a @ x - b
@@ -164,24 +166,34 @@ def test_cheap_rule_uses_one_and_a_half_times_the_lower_bound():
     assert lams == pytest.approx([1.5 * 0.08 / 3] * 4, rel=1e-12)
 
 
-def test_exact_rule_lambda_is_a_minimum_of_g():
+#: a rank-two uncertainty (k = 2): position and velocity perturbed apart, so that G has more
+#: than one pole and the exact rule searches a grid instead of solving for the turning point
+RANK_TWO = ModelUncertainty(
+    M=np.array([[0.2, 0.0], [0.2, 0.1], [0.1, 0.0], [0.1, 0.1], [0.1, 0.0], [0.1, 0.0]]),
+    E_f=np.array([[0.0, 0.0, 1.0, 1.0, 1.0, 1.0], [0.0, 0.0, 1.0, -1.0, 0.0, 0.0]]),
+    E_g=np.array([[1.0, 1.0, 0.0, 0.0, 0.0, 0.0], [0.0, 0.0, 1.0, 0.0, 0.0, 0.0]]),
+)
+
+
+@pytest.mark.parametrize("unc", [UNCERTAINTY, RANK_TWO], ids=["rank one", "rank two"])
+def test_exact_rule_lambda_is_a_minimum_of_g(unc: ModelUncertainty):
     zs = circle_measurements(40)
-    f = start(LambdaRule.EXACT, zs[0])
-    lower = lambda_lower_bound(MODEL, UNCERTAINTY)
+    f = start(LambdaRule.EXACT, zs[0], unc)
+    lower = lambda_lower_bound(MODEL, unc)
     interior = 0
     for i, z in enumerate(zs[1:], start=1):
         x, p = f.mean, f.covariance
         f.predict(i / 20.0)
-        lam = exact_lambda(MODEL, UNCERTAINTY, x, p, z, lower)
-        cost = g_transcribed(lam, x, p, z)
+        lam = exact_lambda(MODEL, unc, x, p, z, lower)
+        cost = g_transcribed(lam, x, p, z, unc)
         for other in (lam, lower * 1.01, lower * 30):
-            fast = regularised_cost(other, MODEL, UNCERTAINTY, x, p, z)
-            assert fast == pytest.approx(g_transcribed(other, x, p, z), rel=1e-9)
+            fast = regularised_cost(other, MODEL, unc, x, p, z)
+            assert fast == pytest.approx(g_transcribed(other, x, p, z, unc), rel=1e-9)
         s = np.log10(lam / lower - 1.0)
         lo, hi = EXACT_SEARCH_DECADES
         for side, end in ((-1, lo), (1, hi)):
             beside = lower * (1.0 + 10.0 ** (s + side * np.array([0.05, 0.3, 1.0])))
-            costs = [g_transcribed(b, x, p, z) for b in beside]
+            costs = [g_transcribed(b, x, p, z, unc) for b in beside]
             if abs(s - end) < 1e-6:  # G still falls at the search's end (see EXACT_SEARCH_DECADES)
                 continue
             assert min(costs) > cost
@@ -189,6 +201,25 @@ def test_exact_rule_lambda_is_a_minimum_of_g():
         f.update(z)
         assert f.lam == pytest.approx(lam, rel=1e-12)
     assert interior >= 5
+
+
+def test_rank_one_lambda_is_no_worse_than_a_fine_search():
+    """Seed 001's uncertainty has rank one: lambda_hat is G's turning point in closed form, at
+    least as low as the best of 20001 values over the whole search range."""
+    zs = circle_measurements(60, seed=5)
+    f = start(LambdaRule.EXACT, zs[0])
+    lower = lambda_lower_bound(MODEL, UNCERTAINTY)
+    lams = lower * (1.0 + 10.0 ** np.linspace(*EXACT_SEARCH_DECADES, 20001))
+    robust = RobustModel(MODEL, UNCERTAINTY)
+    for i, z in enumerate(zs[1:], start=1):
+        x, p = f.mean, f.covariance
+        f.predict(i / 20.0)
+        f.update(z)
+        terms = robust.cost_terms(x, p, z)
+        best = float(terms.costs(lams).min())
+        found = terms.cost(f.lam)
+        assert found == pytest.approx(g_transcribed(f.lam, x, p, z), rel=1e-9)
+        assert found <= best * (1.0 + 1e-12)
 
 
 def test_exact_rule_predicts_with_the_previous_steps_lambda():

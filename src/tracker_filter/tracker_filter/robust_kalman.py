@@ -224,13 +224,18 @@ class RobustModel:
 
     def exact_lambda(self, mean: np.ndarray, covariance: np.ndarray, z: np.ndarray) -> float:
         """lambda_hat = argmin_{lambda > lambda_l} G(lambda) (eq. 3.20, erratum: argmin, not
-        argmax).
+        argmax), over lambda_l (1 + 10^s), s in EXACT_SEARCH_DECADES.
 
-        G (closed form, `cost_terms`) is evaluated on lambda = lambda_l (1 + 10^s), s on a grid
-        over EXACT_SEARCH_DECADES; the parabola through the best point and its neighbours places
-        the minimum between grid points (kept only where G is lower still).
+        G (closed form, `cost_terms`) has a single stationary point in closed form when the
+        uncertainty has rank one (k = 1, seed 001; see `_CostTerms.turning_point`): lambda_hat is
+        exact. Otherwise G is evaluated on a grid of s and the parabola through the best point and
+        its neighbours places the minimum between grid points (kept only where G is lower still).
         """
         terms = self.cost_terms(mean, covariance, z)
+        low, high = float(self._search_lambdas[0]), float(self._search_lambdas[-1])
+        turning = terms.turning_point()
+        if turning is not None:
+            return min(max(turning, low), high)
         costs = terms.costs(self._search_lambdas)
         best = int(np.argmin(costs))
         if 0 < best < EXACT_GRID_POINTS - 1:
@@ -256,6 +261,29 @@ class _CostTerms:
 
     def cost(self, lam: float) -> float:
         return float((self.g2 * lam / (lam + self.nu)).sum())
+
+    def turning_point(self) -> float | None:
+        """The minimiser of G over lambda > lambda_l when G has one term with nu > 0 and one with
+        nu < 0 (the rest nu = 0, constant in lambda), as for a rank-one uncertainty: J then has
+        one positive, one negative and otherwise zero eigenvalues, and so has L^-1 J L^-T.
+
+        G'(lambda) = a^2 / (lambda + nu_+)^2 - b^2 / (lambda + nu_-)^2 with a^2 = g_+^2 nu_+,
+        b^2 = -g_-^2 nu_-, both denominators positive for lambda > lambda_l >= -nu_-. So G falls
+        from its pole while b (lambda + nu_+) > a (lambda + nu_-); if a > b it turns once, at
+        lambda = (b nu_+ - a nu_-) / (a - b), else it falls for ever (inf: the search's end).
+        None when G has another shape."""
+        nu, g2 = self.nu.tolist(), self.g2.tolist()  # a few numbers: plain floats are faster
+        tiny = 1e-12 * max(abs(v) for v in nu)
+        up = [i for i, v in enumerate(nu) if v > tiny]
+        down = [i for i, v in enumerate(nu) if v < -tiny]
+        if len(up) != 1 or len(down) != 1:
+            return None
+        nu_up, nu_down = nu[up[0]], nu[down[0]]
+        a = math.sqrt(g2[up[0]] * nu_up)
+        b = math.sqrt(-g2[down[0]] * nu_down)
+        if a <= b:
+            return math.inf
+        return (b * nu_up - a * nu_down) / (a - b)
 
 
 def _vertex(s: np.ndarray, g: np.ndarray) -> float | None:
