@@ -1,0 +1,253 @@
+"""Seed 003's colour-histogram SIR particle filter (Rodríguez Moya 2009, after Bagdanov et al.
+2007) with its extensions, one filter per target, no rclpy.
+
+State (eq. 34), per particle: [x y w h vx vy vw vh], the rectangle's top-left corner, width and
+height and their rates, in px and px per frame. Each frame (`ColourParticleFilter.step`):
+
+    propagate  x_t = A x_{t-1} + v,  A = [[I4, I4], [0, I4]],  v ~ N(0, diag(sigma^2))   (eq. 36)
+    weigh      w_i = similarity of particle i's rectangle to the reference (the appearance)
+    correct    w_i <- c(w_i)   (Ext 1: linear, sigmoid or exponential; none in the baseline)
+    estimate   the weighted mean sum_i w_i x_i / sum_i w_i   (or the best particle)
+    resample   N particles drawn by weight (multinomial as the thesis's pseudocode, or systematic)
+
+Ext 2 (adaptive noise): with s the similarity of the previous estimate to the reference,
+zeta = [erf(alpha ((1 - s) - beta)) + 1] / 2 and the static components' std (x y w h) is
+zeta sigma, the dynamic ones' (1 - zeta) sigma: a good match moves the particles by their
+velocities only, a lost one spreads them in place (a search).
+
+The reference is taken from the start rectangle and never updated, as in the thesis. Every random
+draw comes from the filter's own `numpy.random.Generator`, so a run is reproducible.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from enum import StrEnum
+from typing import Protocol
+
+import numpy as np
+from scipy.special import erf
+
+from tracker_filter.colour_histograms import (
+    ColourSpace,
+    bin_count,
+    bin_image,
+    clip_bounds,
+    coefficients,
+    histogram,
+)
+
+STATE = ("x", "y", "w", "h", "vx", "vy", "vw", "vh")
+#: the thesis's recommended noise std per state component (px, px per frame)
+RECOMMENDED_SIGMA = (0.5, 0.5, 0.125, 0.125, 0.25, 0.25, 0.0002, 0.0002)
+MIN_SIDE = 2.0  # px: a particle's rectangle never shrinks below this
+
+
+class Resampling(StrEnum):
+    MULTINOMIAL = "multinomial"
+    SYSTEMATIC = "systematic"
+
+
+class EstimateRule(StrEnum):
+    MEAN = "mean"  # the weighted mean (the thesis)
+    BEST = "best"  # the particle of largest weight
+
+
+class WeightCorrection(StrEnum):
+    NONE = "none"
+    LINEAR = "linear"
+    SIGMOID = "sigmoid"
+    EXPONENTIAL = "exponential"
+
+
+@dataclass(frozen=True)
+class ParticleFilterConfig:
+    """Parameters; the defaults are the thesis's final algorithm (Ext 1 sigmoid + Ext 2)."""
+
+    particles: int = 750
+    sigma: tuple[float, ...] = RECOMMENDED_SIGMA
+    resampling: Resampling = Resampling.MULTINOMIAL
+    estimate: EstimateRule = EstimateRule.MEAN
+    correction: WeightCorrection = WeightCorrection.SIGMOID
+    sigmoid_alpha: float = 8.0
+    sigmoid_beta: float = 0.5
+    exponential_lambda: float = 10.0
+    adaptive_noise: bool = True
+    noise_alpha: float = 20.0
+    noise_beta: float = 0.7
+
+    def problems(self) -> list[str]:
+        """What is wrong with these values (empty when usable)."""
+        checks = {
+            "particles must be >= 1": self.particles >= 1,
+            "sigma needs 8 values >= 0": len(self.sigma) == len(STATE)
+            and all(math.isfinite(s) and s >= 0 for s in self.sigma),
+            "sigmoid_alpha must be > 0": self.sigmoid_alpha > 0,
+            "exponential_lambda must be > 0": self.exponential_lambda > 0,
+            "noise_alpha must be > 0": self.noise_alpha > 0,
+        }
+        return [message for message, ok in checks.items() if not ok]
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "resampling", Resampling(self.resampling))
+        object.__setattr__(self, "estimate", EstimateRule(self.estimate))
+        object.__setattr__(self, "correction", WeightCorrection(self.correction))
+        object.__setattr__(self, "sigma", tuple(float(s) for s in self.sigma))
+        problems = self.problems()
+        if problems:
+            raise ValueError("; ".join(problems))
+
+
+def corrected_weights(weights: np.ndarray, config: ParticleFilterConfig) -> np.ndarray:
+    """Ext 1, applied to the raw similarities before the estimate and resampling:
+
+    linear       w' = 0.9 (w - min) / (max - min) + 0.1   (all 1 when max = min)
+    sigmoid      w' = [erf(alpha (w - beta)) + 1] / 2      (alpha 8, beta 0.5: 0.61 -> 0.893)
+    exponential  w' = exp(-lambda (1 - w))
+    """
+    rule = config.correction
+    if rule is WeightCorrection.NONE:
+        return weights
+    if rule is WeightCorrection.LINEAR:
+        low, high = float(weights.min()), float(weights.max())
+        if high <= low:
+            return np.ones_like(weights)
+        return 0.9 * (weights - low) / (high - low) + 0.1
+    if rule is WeightCorrection.SIGMOID:
+        return (erf(config.sigmoid_alpha * (weights - config.sigmoid_beta)) + 1.0) / 2.0
+    return np.exp(-config.exponential_lambda * (1.0 - weights))
+
+
+def static_noise_share(similarity: float, alpha: float = 20.0, beta: float = 0.7) -> float:
+    """Ext 2's zeta = [erf(alpha ((1 - s) - beta)) + 1] / 2 (0.4 -> 0.002, 0.3 -> 0.5, 0.2 -> 0.998)."""
+    return (math.erf(alpha * ((1.0 - similarity) - beta)) + 1.0) / 2.0
+
+
+def propagate(particles: np.ndarray, sigma: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+    """Eq. 36 with one frame's step: position and size move by their rates, plus noise."""
+    moved = particles.copy()
+    moved[:, :4] += particles[:, 4:]
+    moved += rng.standard_normal(particles.shape) * sigma
+    moved[:, 2:4] = np.maximum(moved[:, 2:4], MIN_SIDE)
+    return moved
+
+
+def resample(weights: np.ndarray, rule: Resampling, rng: np.random.Generator) -> np.ndarray:
+    """Indices of the N particles kept, drawn with probability proportional to `weights`:
+    multinomial (one uniform draw per particle through the inverse CDF) or systematic (one draw,
+    N equally spaced points)."""
+    n = len(weights)
+    cdf = np.cumsum(weights)
+    cdf /= cdf[-1]
+    multinomial = rule is Resampling.MULTINOMIAL
+    points = rng.random(n) if multinomial else (rng.random() + np.arange(n)) / n
+    return np.minimum(np.searchsorted(cdf, points, side="right"), n - 1)
+
+
+class Appearance(Protocol):
+    """What a particle's rectangle is compared by: a reference taken once, similarities in [0, 1]."""
+
+    def reference(self, image: np.ndarray, box: np.ndarray) -> None:
+        """Takes the reference from `box` (x, y, w, h) of the bgr8 `image`."""
+
+    def similarities(self, image: np.ndarray, boxes: np.ndarray) -> np.ndarray:
+        """Similarity of each box (N, 4) to the reference; 1 = identical."""
+
+
+@dataclass
+class HistogramAppearance:
+    """Colour histogram(s) and the Bhattacharyya coefficient (the baseline, Ext 3 and Ext 4).
+
+    `regions` > 1 splits the rectangle into that many horizontal bands of equal height, each with
+    its own reference; the similarity is the product of their coefficients (Ext 4: 3 regions)."""
+
+    space: ColourSpace = ColourSpace.RGB
+    bins: int = 16
+    regions: int = 1
+    _sqrt_references: np.ndarray | None = None
+
+    def _bands(self, boxes: np.ndarray) -> np.ndarray:
+        """Each box's `regions` bands, box by box: (N * regions, 4)."""
+        bands = np.repeat(boxes, self.regions, axis=0).astype(float)
+        band_height = bands[:, 3] / self.regions
+        bands[:, 1] += np.tile(np.arange(self.regions), len(boxes)) * band_height
+        bands[:, 3] = band_height
+        return bands
+
+    def reference(self, image: np.ndarray, box: np.ndarray) -> None:
+        bins_of_pixels = bin_image(image, self.space, self.bins)
+        count = bin_count(self.space, self.bins)
+        bounds = clip_bounds(self._bands(np.asarray(box, float)[None]), image.shape)
+        hists = [histogram(bins_of_pixels, b, count) for b in bounds]
+        if any(h.sum() == 0 for h in hists):
+            raise ValueError(f"the reference box {box} holds no pixels of the image")
+        self._sqrt_references = np.sqrt(np.stack(hists))
+
+    def similarities(self, image: np.ndarray, boxes: np.ndarray) -> np.ndarray:
+        if self._sqrt_references is None:
+            raise RuntimeError("similarities before a reference was taken")
+        bounds = clip_bounds(self._bands(boxes), image.shape)
+        # bins of only the part of the image the rectangles cover
+        x0, y0 = bounds[:, 0].min(), bounds[:, 1].min()
+        x1, y1 = bounds[:, 2].max(), bounds[:, 3].max()
+        bins_of_pixels = bin_image(
+            image[y0 : max(y1, y0 + 1), x0 : max(x1, x0 + 1)], self.space, self.bins
+        )
+        bounds -= np.array([x0, y0, x0, y0])
+        which = np.tile(np.arange(self.regions), len(boxes))
+        rho = coefficients(bins_of_pixels, bounds, self._sqrt_references, which)
+        return rho.reshape(len(boxes), self.regions).prod(axis=1)
+
+
+@dataclass(frozen=True)
+class ParticleEstimate:
+    box: np.ndarray  # x, y, w, h (px)
+    velocity: np.ndarray  # vx, vy, vw, vh (px per frame)
+    similarity: float  # of the estimate's rectangle to the reference
+
+
+class ColourParticleFilter:
+    """One target's filter: started on a rectangle of an image, stepped once per frame."""
+
+    def __init__(
+        self,
+        image: np.ndarray,
+        box: np.ndarray,
+        appearance: Appearance,
+        config: ParticleFilterConfig,
+        rng: np.random.Generator,
+    ) -> None:
+        box = np.asarray(box, dtype=float)
+        if box.shape != (4,) or not np.all(np.isfinite(box)) or min(box[2], box[3]) < MIN_SIDE:
+            raise ValueError(f"a start box is x, y, width, height with sides >= {MIN_SIDE} px")
+        appearance.reference(image, box)
+        self.appearance, self.config, self.rng = appearance, config, rng
+        self.base_sigma = np.array(config.sigma)
+        start = np.concatenate([box, np.zeros(4)])
+        self.particles = np.tile(start, (config.particles, 1))  # N copies, velocity 0
+        self.estimate = ParticleEstimate(box, np.zeros(4), 1.0)
+
+    def noise(self) -> np.ndarray:
+        """This frame's noise std per component (Ext 2 moves it by the last estimate's match)."""
+        if not self.config.adaptive_noise:
+            return self.base_sigma
+        zeta = static_noise_share(
+            self.estimate.similarity, self.config.noise_alpha, self.config.noise_beta
+        )
+        return self.base_sigma * np.repeat([zeta, 1.0 - zeta], 4)
+
+    def step(self, image: np.ndarray) -> ParticleEstimate:
+        particles = propagate(self.particles, self.noise(), self.rng)
+        raw = self.appearance.similarities(image, particles[:, :4])
+        weights = corrected_weights(raw, self.config)
+        total = float(weights.sum())
+        weights = weights / total if total > 0 else np.full(len(weights), 1.0 / len(weights))
+        if self.config.estimate is EstimateRule.MEAN:
+            state = weights @ particles
+        else:
+            state = particles[int(np.argmax(weights))]
+        similarity = float(self.appearance.similarities(image, state[None, :4])[0])
+        self.estimate = ParticleEstimate(state[:4].copy(), state[4:].copy(), similarity)
+        self.particles = particles[resample(weights, self.config.resampling, self.rng)]
+        return self.estimate

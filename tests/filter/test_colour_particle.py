@@ -1,0 +1,175 @@
+"""Seed 003's colour particle filter: the thesis's worked values, the histogram kernel against
+plain NumPy, reproducibility, and tracking a coloured person on a textured background."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from tracker_filter.colour_histograms import (
+    ColourSpace,
+    bin_count,
+    bin_image,
+    clip_bounds,
+    coefficients,
+    coefficients_reference,
+    histogram,
+)
+from tracker_filter.colour_particle import (
+    ColourParticleFilter,
+    HistogramAppearance,
+    ParticleFilterConfig,
+    Resampling,
+    WeightCorrection,
+    corrected_weights,
+    resample,
+    static_noise_share,
+)
+
+
+def test_sigmoid_correction_gives_the_thesis_values():
+    config = ParticleFilterConfig(correction=WeightCorrection.SIGMOID)
+    got = corrected_weights(np.array([0.61, 0.75, 0.25]), config)
+    np.testing.assert_allclose(got, [0.893, 0.998, 0.002], atol=5e-4)
+
+
+def test_linear_and_exponential_corrections():
+    w = np.array([0.2, 0.5, 0.8])
+    linear = corrected_weights(w, ParticleFilterConfig(correction=WeightCorrection.LINEAR))
+    np.testing.assert_allclose(linear, [0.1, 0.55, 1.0])
+    flat = corrected_weights(np.full(3, 0.4), ParticleFilterConfig(correction="linear"))
+    np.testing.assert_array_equal(flat, np.ones(3))
+    exponential = corrected_weights(w, ParticleFilterConfig(correction="exponential"))
+    np.testing.assert_allclose(exponential, np.exp(-10 * (1 - w)))
+
+
+def test_adaptive_noise_share_gives_the_thesis_values():
+    got = [static_noise_share(s) for s in (0.4, 0.3, 0.2)]
+    np.testing.assert_allclose(got, [0.002, 0.5, 0.998], atol=5e-4)
+
+
+@pytest.mark.parametrize("space", list(ColourSpace))
+def test_kernel_equals_one_numpy_histogram_per_rectangle(space):
+    rng = np.random.default_rng(0)
+    image = rng.integers(0, 256, size=(120, 160, 3), dtype=np.uint8)
+    bins = bin_image(image, space, 16)
+    count = bin_count(space, 16)
+    assert bins.min() >= 0 and bins.max() < count
+    refs = np.sqrt(np.stack([histogram(bins, b, count) for b in ([10, 10, 40, 60], [0, 0, 5, 5])]))
+    boxes = np.column_stack(
+        [rng.uniform(-20, 150, 300), rng.uniform(-20, 110, 300), rng.uniform(0, 60, (300, 2))]
+    )
+    bounds = clip_bounds(boxes, image.shape)
+    which = rng.integers(0, 2, 300)
+    fast = coefficients(bins, bounds, refs, which)
+    np.testing.assert_allclose(fast, coefficients_reference(bins, bounds, refs, which), atol=1e-12)
+    empty = (bounds[:, 2] == bounds[:, 0]) | (bounds[:, 3] == bounds[:, 1])
+    assert empty.any() and np.all(fast[empty] == 0.0)
+    assert coefficients(bins, bounds[:1] * 0 + [10, 10, 40, 60], refs, [0])[0] == pytest.approx(1.0)
+
+
+def test_resampling_follows_the_weights():
+    rng = np.random.default_rng(1)
+    weights = np.array([0.0, 0.1, 0.6, 0.3])
+    for rule in Resampling:
+        picks = np.concatenate([resample(weights, rule, rng) for _ in range(500)])
+        shares = np.bincount(picks, minlength=4) / len(picks)
+        np.testing.assert_allclose(shares, weights, atol=0.01)
+    # systematic: every particle of weight w is drawn floor(N w) or ceil(N w) times
+    counts = np.bincount(resample(np.array([0.25, 0.25, 0.5]), Resampling.SYSTEMATIC, rng))
+    assert counts.tolist() in ([1, 1, 1], [0, 1, 2], [1, 0, 2])
+
+
+def textured_scene(frames: int, seed: int = 0):
+    """A red-shirted, blue-trousered 30 x 80 px person walking 2 px/frame right and 0.5 px/frame
+    down over a textured grey-green background; returns images and true boxes (x, y, w, h)."""
+    rng = np.random.default_rng(seed)
+    background = rng.integers(60, 160, size=(240, 320, 3), dtype=np.uint8)
+    background[..., 1] = np.clip(background[..., 1].astype(int) + 30, 0, 255)
+    images, boxes = [], []
+    for k in range(frames):
+        x, y = 40.0 + 2.0 * k, 60.0 + 0.5 * k
+        image = background.copy()
+        xi, yi = round(x), round(y)
+        image[yi : yi + 40, xi : xi + 30] = (40, 40, 200)  # shirt (bgr)
+        image[yi + 40 : yi + 80, xi : xi + 30] = (150, 60, 30)  # trousers
+        noise = rng.integers(-12, 13, size=image.shape)
+        images.append(np.clip(image.astype(int) + noise, 0, 255).astype(np.uint8))
+        boxes.append(np.array([xi, yi, 30.0, 80.0]))
+    return images, boxes
+
+
+def iou(a: np.ndarray, b: np.ndarray) -> float:
+    w = max(0.0, min(a[0] + a[2], b[0] + b[2]) - max(a[0], b[0]))
+    h = max(0.0, min(a[1] + a[3], b[1] + b[3]) - max(a[1], b[1]))
+    inter = w * h
+    return inter / (a[2] * a[3] + b[2] * b[3] - inter)
+
+
+@pytest.mark.parametrize(
+    ("appearance", "settled_iou"),
+    [
+        (HistogramAppearance(), 0.8),
+        # without V, the shirt's and trousers' hues also fit a box shifted up or down a little
+        (HistogramAppearance(ColourSpace.HSV), 0.6),
+        (HistogramAppearance(regions=3), 0.8),
+    ],
+    ids=["rgb", "hsv", "three regions"],
+)
+def test_final_algorithm_follows_a_walking_person(appearance, settled_iou: float):
+    images, truth = textured_scene(60)
+    f = ColourParticleFilter(
+        images[0],
+        truth[0],
+        appearance,
+        ParticleFilterConfig(particles=300),
+        np.random.default_rng(2),
+    )
+    overlaps = [
+        iou(f.step(image).box, box) for image, box in zip(images[1:], truth[1:], strict=True)
+    ]
+    # the state starts at rest (the thesis): the box lags until the particles' velocities have
+    # grown to the walker's 2 px per frame, then stays on them
+    assert min(overlaps) > 0.2
+    assert np.mean(overlaps[-30:]) > settled_iou
+
+
+def test_same_seed_same_run_and_another_seed_another_run():
+    images, truth = textured_scene(15)
+
+    def run(seed: int) -> np.ndarray:
+        f = ColourParticleFilter(
+            images[0],
+            truth[0],
+            HistogramAppearance(),
+            ParticleFilterConfig(particles=200),
+            np.random.default_rng(seed),
+        )
+        return np.array([f.step(image).box for image in images[1:]])
+
+    np.testing.assert_array_equal(run(5), run(5))
+    assert not np.array_equal(run(5), run(6))
+
+
+def test_bad_start_boxes_and_parameters_are_refused():
+    image = np.zeros((50, 50, 3), np.uint8)
+    with pytest.raises(ValueError, match="start box"):
+        ColourParticleFilter(
+            image,
+            [1, 1, 0, 5],
+            HistogramAppearance(),
+            ParticleFilterConfig(),
+            np.random.default_rng(0),
+        )
+    with pytest.raises(ValueError, match="no pixels"):
+        ColourParticleFilter(
+            image,
+            [80, 80, 5, 5],
+            HistogramAppearance(),
+            ParticleFilterConfig(),
+            np.random.default_rng(0),
+        )
+    with pytest.raises(ValueError, match="particles"):
+        ParticleFilterConfig(particles=0)
+    with pytest.raises(ValueError, match="sigma"):
+        ParticleFilterConfig(sigma=(1.0, 2.0))
