@@ -1,6 +1,7 @@
 """Single-target accuracy as seed 003 measures it (no rclpy), for trackers started on a rectangle,
-and the loop that runs seed 001's CamShift over recorded frames, alone or with a filter's
-prediction placing each search window (`follow`).
+and the loops that run them over recorded frames: seed 001's CamShift, alone or with a filter's
+prediction placing each search window (`follow`), and seed 003's colour particle filter
+(`follow_particles`).
 
 - Q1 ("quality"): IoU of the estimated and the true box per frame, averaged over the frames the
   target is in the ground truth (a frame without an estimate scores 0);
@@ -18,6 +19,7 @@ import numpy as np
 
 from tracker_detect.camshift import CamShiftConfig, CamShiftTracker
 from tracker_detect.detector import CameraFrame
+from tracker_filter.colour_particle import Appearance, ColourParticleFilter, ParticleFilterConfig
 from tracker_filter.filters import FilterFactory
 from tracker_msgs_py.codec import NS_PER_S
 from tracker_msgs_py.geometry import Rect
@@ -111,4 +113,25 @@ def follow(
         boxes[k] = blobs[0].bbox if blobs else None
         if state is not None and blobs:
             state.update(np.array([blobs[0].centroid_x, blobs[0].centroid_y]))
+    return boxes
+
+
+def follow_particles(
+    frames: np.ndarray | Sequence[np.ndarray],
+    start: int,
+    region: Rect,
+    last: int,
+    appearance: Appearance,
+    config: ParticleFilterConfig,
+    seed: int,
+) -> dict[int, Rect | None]:
+    """Seed 003's particle filter started on `region` of frame `start` (its reference), run over
+    frames start+1..last of a static camera; the estimate's box per frame."""
+    start_box = np.array([region.x, region.y, region.width, region.height])
+    rng = np.random.default_rng(seed)
+    tracker = ColourParticleFilter(frames[start], start_box, appearance, config, rng)
+    boxes: dict[int, Rect | None] = {}
+    for k in range(start + 1, last + 1):
+        x, y, w, h = (float(v) for v in tracker.step(frames[k]).box)
+        boxes[k] = Rect(x, y, w, h)
     return boxes
