@@ -194,7 +194,7 @@ def test_reconfigure_rebuilds_the_model_from_the_selection():
 def test_background_weights_are_comaniciu_min_ratio():
     """Bin u weighs min(o*/o_u, 1), o* the smallest non-zero count around the selection; a colour
     absent around it keeps weight 1."""
-    from tracker_detect.camshift import background_weights
+    from tracker_msgs_py.histograms import background_weights
 
     around = np.array([[0.0], [10.0], [40.0], [5.0]], np.float32)
     assert background_weights(around)[:, 0] == pytest.approx([1.0, 0.5, 0.125, 1.0])

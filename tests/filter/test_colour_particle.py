@@ -214,3 +214,20 @@ def test_bad_start_boxes_and_parameters_are_refused():
         ParticleFilterConfig(particles=0)
     with pytest.raises(ValueError, match="sigma"):
         ParticleFilterConfig(sigma=(1.0, 2.0))
+
+
+def test_background_weighting_tells_a_thin_person_from_the_street_around_them():
+    """A box mostly of street around a thin red figure: its plain histogram also matches the bare
+    street next to it; weighted by the surroundings, the street's colours count for little."""
+    rng = np.random.default_rng(6)
+    image = np.clip(rng.normal(120, 8, size=(200, 300, 3)), 0, 255).astype(np.uint8)
+    image[60:140, 140:152] = (30, 30, 200)  # the figure: 12 of the box's 40 px width
+    box, street = np.array([126.0, 60, 40, 80]), np.array([40.0, 60, 40, 80])
+    plain, weighted = HistogramAppearance(), HistogramAppearance(background_weighting=True)
+    for appearance in (plain, weighted):
+        appearance.reference(image, box)
+    assert plain.similarities(image, street[None])[0] > 0.7
+    # only the reference is weighted (candidates keep their street pixels): the true box scores
+    # well below 1 but far above the bare street
+    on_street, on_box = weighted.similarities(image, np.stack([street, box]))
+    assert on_street < 0.3 and on_box > 2 * on_street

@@ -39,6 +39,7 @@ import numpy as np
 from tracker_detect.detector import Blob, CameraFrame, Detection, StaleFrameError
 from tracker_detect.registration import View
 from tracker_msgs_py.geometry import Rect
+from tracker_msgs_py.histograms import background_weights
 from tracker_msgs_py.params import check_config
 
 HUE_RANGE = 180  # OpenCV's 8-bit hue convention: [0, 180)
@@ -198,16 +199,6 @@ def colour_histogram(hsv: np.ndarray, mask: np.ndarray, config: CamShiftConfig) 
     """Pixel counts of the masked pixels per hue (x saturation) bin, float32."""
     channels, bins, ranges = _channels(config)
     return cv2.calcHist([np.ascontiguousarray(hsv)], channels, mask, bins, ranges)
-
-
-def background_weights(surroundings: np.ndarray) -> np.ndarray:
-    """Comaniciu's background-weighted histogram: bin u weighs min(o* / o_u, 1), o* the smallest
-    non-zero count of the surroundings' histogram o; colours absent around the target weigh 1."""
-    present = surroundings > 0
-    if not present.any():
-        return np.ones_like(surroundings)
-    rarest = surroundings[present].min()
-    return np.where(present, rarest / np.maximum(surroundings, rarest), 1.0).astype(np.float32)
 
 
 def colour_distribution(hsv: np.ndarray, config: CamShiftConfig) -> np.ndarray | None:
