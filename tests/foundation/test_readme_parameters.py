@@ -46,6 +46,9 @@ def node_parameters() -> dict[tuple[str, str], list]:
             ParamSpec("preset", "", ""),
             *parameter_specs(TRACKERS.get("gated_hungarian"), "multi"),
         ],
+        ("tracker_filter/README.md", "### `colour_particles`"): list(
+            TRACKERS.get("colour_particles").parameters
+        ),
     }
 
 

@@ -282,8 +282,25 @@ class ParticleEstimate:
     similarity: float  # of the estimate's rectangle to the reference
 
 
+@dataclass(frozen=True)
+class ImageView:
+    """Where an image lies in the frame the filter's boxes live in (scene px): the image's pixel
+    (u, v) is at origin + (u, v) / scale. The default is the identity (boxes in image px)."""
+
+    origin: tuple[float, float] = (0.0, 0.0)
+    scale: float = 1.0  # image px per scene px
+
+    def to_image(self, boxes: np.ndarray) -> np.ndarray:
+        """Boxes (N, 4) x, y, w, h from scene px to image px."""
+        out = boxes * self.scale
+        out[:, 0] -= self.origin[0] * self.scale
+        out[:, 1] -= self.origin[1] * self.scale
+        return out
+
+
 class ColourParticleFilter:
-    """One target's filter: started on a rectangle of an image, stepped once per frame."""
+    """One target's filter: started on a rectangle of an image, stepped once per frame. Boxes and
+    states are in the frame of `view` (scene px when the camera moves; image px by default)."""
 
     def __init__(
         self,
@@ -292,11 +309,12 @@ class ColourParticleFilter:
         appearance: Appearance,
         config: ParticleFilterConfig,
         rng: np.random.Generator,
+        view: ImageView = ImageView(),
     ) -> None:
         box = np.asarray(box, dtype=float)
         if box.shape != (4,) or not np.all(np.isfinite(box)) or min(box[2], box[3]) < MIN_SIDE:
             raise ValueError(f"a start box is x, y, width, height with sides >= {MIN_SIDE} px")
-        appearance.reference(image, box)
+        appearance.reference(image, view.to_image(box[None])[0])
         self.appearance, self.config, self.rng = appearance, config, rng
         self.base_sigma = np.array(config.sigma)
         start = np.concatenate([box, np.zeros(4)])
@@ -312,9 +330,9 @@ class ColourParticleFilter:
         )
         return self.base_sigma * np.repeat([zeta, 1.0 - zeta], 4)
 
-    def step(self, image: np.ndarray) -> ParticleEstimate:
+    def step(self, image: np.ndarray, view: ImageView = ImageView()) -> ParticleEstimate:
         particles = propagate(self.particles, self.noise(), self.rng)
-        raw = self.appearance.similarities(image, particles[:, :4])
+        raw = self.appearance.similarities(image, view.to_image(particles[:, :4]))
         weights = corrected_weights(raw, self.config)
         total = float(weights.sum())
         weights = weights / total if total > 0 else np.full(len(weights), 1.0 / len(weights))
@@ -322,7 +340,7 @@ class ColourParticleFilter:
             state = weights @ particles
         else:
             state = particles[int(np.argmax(weights))]
-        similarity = float(self.appearance.similarities(image, state[None, :4])[0])
+        similarity = float(self.appearance.similarities(image, view.to_image(state[None, :4]))[0])
         self.estimate = ParticleEstimate(state[:4].copy(), state[4:].copy(), similarity)
         self.particles = particles[resample(weights, self.config.resampling, self.rng)]
         return self.estimate

@@ -1,0 +1,271 @@
+"""Seed 003's multi-target colour tracker: one particle filter and reference per target (no rclpy).
+
+A `tracking.Tracker` that needs the camera image and window. Each frame:
+- every target's `ColourParticleFilter` steps on the image (its states in scene px, mapped into
+  the image through the camera window); an estimate whose similarity to the reference is at
+  least `min_similarity` is a hit, else a miss;
+- a detection that overlaps no target's estimate (IoU < `new_track_iou`) starts a new filter on
+  its box (the thesis's future work: start from motion, not by hand); `seed(rect)` starts one on a
+  drawn rectangle (the select-target service);
+- a target is confirmed after `confirm_hits` hits, reported LOST after more than `max_misses`
+  consecutive misses; a frame without its image or window is a miss for every target.
+
+State layout "x y vx vy w h": the estimate's centre, its velocity (px/s, from the filter's px per
+frame over the frame interval) and size; the covariance is the particles' sample covariance. Each
+filter draws from its own generator, seeded by (`seed`, track id): a replay gives the same tracks.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+
+from tracker_filter.colour_histograms import ColourSpace
+from tracker_filter.colour_particle import (
+    RECOMMENDED_SIGMA,
+    Appearance,
+    ColourParticleFilter,
+    CovarianceAppearance,
+    HistogramAppearance,
+    ImageView,
+    ParticleFilterConfig,
+    Resampling,
+    WeightCorrection,
+)
+from tracker_filter.layout import StateLayout
+from tracker_filter.observation import Detections, Need, Observation
+from tracker_filter.tracking import TrackBook, TrackSet
+from tracker_msgs_py.geometry import Rect
+from tracker_msgs_py.params import ParamSpec
+from tracker_msgs_py.registry import Method
+
+LAYOUT = StateLayout.from_names("x y vx vy w h")
+APPEARANCES = ("rgb", "hsv", "three_regions", "covariance")
+
+
+def make_appearance(name: str, bins: int, background_weighting: bool) -> Appearance:
+    if name == "covariance":
+        return CovarianceAppearance()
+    space = ColourSpace.HSV if name == "hsv" else ColourSpace.RGB
+    regions = 3 if name == "three_regions" else 1
+    return HistogramAppearance(space, bins, regions, background_weighting)
+
+
+def _view(observation: Observation) -> ImageView | None:
+    image, window = observation.image, observation.window
+    if image is None or window is None or window.width <= 0:
+        return None
+    return ImageView((window.x, window.y), image.shape[1] / window.width)
+
+
+def _iou(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """IoU of box a (4,) with each of boxes b (N, 4), all x, y, w, h."""
+    w = np.clip(np.minimum(a[0] + a[2], b[:, 0] + b[:, 2]) - np.maximum(a[0], b[:, 0]), 0, None)
+    h = np.clip(np.minimum(a[1] + a[3], b[:, 1] + b[:, 3]) - np.maximum(a[1], b[:, 1]), 0, None)
+    inter = w * h
+    union = a[2] * a[3] + b[:, 2] * b[:, 3] - inter
+    return np.divide(inter, union, out=np.zeros(len(b)), where=union > 0)
+
+
+class ColourParticleTracker:
+    """One `ColourParticleFilter` per target, bookkept by a `TrackBook`."""
+
+    needs = frozenset({Need.IMAGE, Need.WINDOW})
+    layout = LAYOUT
+
+    def __init__(
+        self,
+        config: ParticleFilterConfig,
+        appearance: str = "rgb",
+        bins: int = 16,
+        background_weighting: bool = True,
+        min_similarity: float = 0.3,
+        new_track_iou: float = 0.3,
+        confirm_hits: int = 3,
+        max_misses: int = 5,
+        seed: int = 0,
+        first_id: int = 1,
+    ) -> None:
+        self.config, self.appearance, self.bins = config, appearance, bins
+        self.background_weighting, self.min_similarity = background_weighting, min_similarity
+        self.new_track_iou, self.confirm_hits, self.max_misses = (
+            new_track_iou,
+            confirm_hits,
+            max_misses,
+        )
+        self.random_seed = seed
+        self.book = TrackBook(first_id)
+        self.filters: list[ColourParticleFilter] = []
+        self.states = np.zeros((0, LAYOUT.dim))
+
+    @property
+    def next_id(self) -> int:
+        return self.book.next_id
+
+    def reset(self, reset_ids: bool = False) -> int:
+        self.filters, self.states = [], np.zeros((0, LAYOUT.dim))
+        return self.book.reset(reset_ids)
+
+    def seed(self, rect: Rect, observation: Observation) -> int | None:
+        """Start a confirmed target on `rect` (scene px) of this frame; its id, or None when the
+        frame has no image or the rectangle holds none of it."""
+        view = _view(observation)
+        if view is None or observation.image is None:
+            return None
+        box = np.array([[rect.x, rect.y, rect.width, rect.height]])
+        found = Detections(box[:, :2] + box[:, 2:] / 2, box[:, 2] * box[:, 3], box, np.ones(1))
+        if not self._start(observation.image, observation.time, view, found, np.array([0]), True):
+            return None
+        return int(self.book.ids[-1])
+
+    def _start(
+        self,
+        image: np.ndarray,
+        t: float,
+        view: ImageView,
+        found: Detections,
+        new: np.ndarray,
+        confirmed: bool,
+    ) -> bool:
+        started: list[int] = []
+        for i in new:
+            rng = np.random.default_rng([self.random_seed, self.book.next_id + len(started)])
+            appearance = make_appearance(self.appearance, self.bins, self.background_weighting)
+            try:
+                f = ColourParticleFilter(image, found.bboxes[i], appearance, self.config, rng, view)
+            except ValueError:  # a box too small or outside the image: nothing to follow
+                continue
+            self.filters.append(f)
+            started.append(int(i))
+        if not started:
+            return False
+        chosen = np.array(started)
+        self.book.add(t, found, chosen, np.full(len(chosen), confirmed))
+        boxes = found.bboxes[chosen]
+        rows = np.column_stack([found.positions[chosen], np.zeros((len(chosen), 2)), boxes[:, 2:]])
+        self.states = np.concatenate([self.states, rows])
+        return True
+
+    def _covariances(self, interval: float) -> np.ndarray:
+        out = np.tile(np.eye(LAYOUT.dim), (len(self.filters), 1, 1))
+        for row, f in enumerate(self.filters):
+            p = f.particles
+            samples = np.column_stack([p[:, :2] + p[:, 2:4] / 2, p[:, 4:6] / interval, p[:, 2:4]])
+            out[row] = np.cov(samples.T) + 1e-9 * np.eye(LAYOUT.dim)
+        return out
+
+    def step(self, observation: Observation) -> TrackSet:
+        t, book = observation.time, self.book
+        book.check_time(t)
+        interval = t - book.time if book.time is not None else 1.0
+        view = _view(observation)
+        estimates = Detections.empty()
+        hits = np.zeros(len(book), dtype=bool)
+        image = observation.image
+        if view is not None and image is not None and len(self.filters):
+            found = [f.step(image, view) for f in self.filters]
+            boxes = np.array([e.box for e in found])
+            centres = boxes[:, :2] + boxes[:, 2:] / 2
+            similarity = np.array([e.similarity for e in found])
+            estimates = Detections(centres, boxes[:, 2] * boxes[:, 3], boxes, similarity)
+            hits = similarity >= self.min_similarity
+            velocity = np.array([e.velocity[:2] for e in found]) / max(interval, 1e-9)
+            self.states = np.column_stack([centres, velocity, boxes[:, 2:]])
+        rows = np.flatnonzero(hits)
+        updated = book.record_frame(rows, rows, estimates, LAYOUT.positions(self.states))
+        book.confirm(book.hits >= self.confirm_hits)
+        lost = book.misses > self.max_misses
+        if view is not None and image is not None:
+            detections, _ = observation.detections.validated()
+            new = [
+                i
+                for i in range(len(detections))
+                if not len(estimates)
+                or _iou(detections.bboxes[i], estimates.bboxes).max() < self.new_track_iou
+            ]
+            count = len(book)
+            if new and self._start(image, t, view, detections, np.array(new), False):
+                added = len(book) - count
+                updated = np.concatenate([updated, np.ones(added, dtype=bool)])
+                lost = np.concatenate([lost, np.zeros(added, dtype=bool)])
+        tracks = book.snapshot(
+            t, LAYOUT, self.states.copy(), self._covariances(max(interval, 1e-9)), updated,
+            lost, {},
+        )  # fmt: skip
+        if lost.any():
+            book.keep(~lost)
+            self.states = self.states[~lost]
+            self.filters = [f for f, gone in zip(self.filters, lost, strict=True) if not gone]
+        book.finish(t)
+        return tracks
+
+
+_C = ParticleFilterConfig()
+PARAMETERS: tuple[ParamSpec, ...] = (
+    ParamSpec("particles", _C.particles, "particles per target (thesis: 750)", 1, 100000),
+    ParamSpec("bins", 16, "histogram bins per channel, K (thesis: 16)", 2, 64),
+    ParamSpec("appearance", "rgb", "what a particle's box is compared by", choices=APPEARANCES),
+    ParamSpec(
+        "background_weighting",
+        True,
+        "reference weighted by the start box's surroundings (Comaniciu; not the thesis's)",
+    ),
+    ParamSpec(
+        "noise_scale",
+        8.0,
+        "x the thesis's noise std per component (1: its 0.5 px, 0.25 px/frame...)",
+        0.0,
+        1000.0,
+    ),
+    ParamSpec(
+        "correction",
+        _C.correction.value,
+        "weight correction (Ext 1)",
+        choices=tuple(c.value for c in WeightCorrection),
+    ),
+    ParamSpec("adaptive_noise", _C.adaptive_noise, "Ext 2: noise moves with the match"),
+    ParamSpec(
+        "resampling",
+        _C.resampling.value,
+        "how particles are drawn by weight",
+        choices=tuple(r.value for r in Resampling),
+    ),
+    ParamSpec("min_similarity", 0.3, "an estimate matching less is a miss", 0.0, 1.0),
+    ParamSpec("new_track_iou", 0.3, "a detection overlapping a target less starts one", 0.0, 1.0),
+    ParamSpec("confirm_hits", 3, "hits before a target is confirmed", 1, 1000),
+    ParamSpec("max_misses", 5, "consecutive misses after which a target is lost", 0, 10000),
+    ParamSpec("seed", 0, "random seed (a replay gives the same tracks)", 0, 2**31 - 1),
+)
+
+
+def build(values: Mapping[str, Any], first_id: int = 1) -> ColourParticleTracker:
+    config = ParticleFilterConfig(
+        particles=values["particles"],
+        sigma=tuple(values["noise_scale"] * s for s in RECOMMENDED_SIGMA),
+        correction=WeightCorrection(values["correction"]),
+        adaptive_noise=values["adaptive_noise"],
+        resampling=Resampling(values["resampling"]),
+    )
+    return ColourParticleTracker(
+        config,
+        appearance=values["appearance"],
+        bins=values["bins"],
+        background_weighting=values["background_weighting"],
+        min_similarity=values["min_similarity"],
+        new_track_iou=values["new_track_iou"],
+        confirm_hits=values["confirm_hits"],
+        max_misses=values["max_misses"],
+        seed=values["seed"],
+        first_id=first_id,
+    )
+
+
+METHOD: Method[Any] = Method(
+    name="colour_particles",
+    description="one colour-histogram particle filter per target (seed 003), started from "
+    "detections or a drawn rectangle",
+    build=build,
+    parameters=PARAMETERS,
+)
