@@ -84,6 +84,7 @@ class ColourParticleTracker:
         min_similarity: float = 0.3,
         new_track_iou: float = 0.3,
         confirm_hits: int = 3,
+        confirm_travel: float = 12.0,
         max_misses: int = 5,
         seed: int = 0,
         first_id: int = 1,
@@ -95,6 +96,7 @@ class ColourParticleTracker:
             confirm_hits,
             max_misses,
         )
+        self.confirm_travel = confirm_travel
         self.random_seed = seed
         self.book = TrackBook(first_id)
         self.filters: list[ColourParticleFilter] = []
@@ -156,29 +158,54 @@ class ColourParticleTracker:
             out[row] = np.cov(samples.T) + 1e-9 * np.eye(LAYOUT.dim)
         return out
 
+    def _measurements(
+        self, estimates: Detections, detections: Detections
+    ) -> tuple[Detections, np.ndarray]:
+        """Per target, what measured it this frame, and whether anything did. A confirmed target
+        is measured by its own estimate when that matches its reference; a tentative one only by a
+        detection overlapping its estimate (IoU >= new_track_iou), whose box it then takes, so
+        that something still in the background (a sign that matches its own colours forever) is
+        never confirmed; `confirm_travel` asks those detections to have moved, as a person does."""
+        boxes = estimates.bboxes.copy()
+        hits = estimates.scores >= self.min_similarity
+        for row in np.flatnonzero(~self.book.confirmed):
+            if not len(detections):
+                hits[row] = False
+                continue
+            overlap = _iou(estimates.bboxes[row], detections.bboxes)
+            best = int(np.argmax(overlap))
+            hits[row] = overlap[best] >= self.new_track_iou
+            if hits[row]:
+                boxes[row] = detections.bboxes[best]
+        centres = boxes[:, :2] + boxes[:, 2:] / 2
+        return Detections(centres, boxes[:, 2] * boxes[:, 3], boxes, estimates.scores), hits
+
     def step(self, observation: Observation) -> TrackSet:
         t, book = observation.time, self.book
         book.check_time(t)
         interval = t - book.time if book.time is not None else 1.0
         view = _view(observation)
-        estimates = Detections.empty()
+        estimates = measured = Detections.empty()
         hits = np.zeros(len(book), dtype=bool)
         image = observation.image
+        detections, _ = observation.detections.validated()
         if view is not None and image is not None and len(self.filters):
             found = [f.step(image, view) for f in self.filters]
             boxes = np.array([e.box for e in found])
             centres = boxes[:, :2] + boxes[:, 2:] / 2
             similarity = np.array([e.similarity for e in found])
             estimates = Detections(centres, boxes[:, 2] * boxes[:, 3], boxes, similarity)
-            hits = similarity >= self.min_similarity
             velocity = np.array([e.velocity[:2] for e in found]) / max(interval, 1e-9)
             self.states = np.column_stack([centres, velocity, boxes[:, 2:]])
+            measured, hits = self._measurements(estimates, detections)
         rows = np.flatnonzero(hits)
-        updated = book.record_frame(rows, rows, estimates, LAYOUT.positions(self.states))
-        book.confirm(book.hits >= self.confirm_hits)
+        positions = LAYOUT.positions(self.states)
+        updated = book.record_frame(rows, rows, measured, positions)
+        book.confirm(
+            (book.hits >= self.confirm_hits) & (book.measured_travel() >= self.confirm_travel)
+        )
         lost = book.misses > self.max_misses
         if view is not None and image is not None:
-            detections, _ = observation.detections.validated()
             new = [
                 i
                 for i in range(len(detections))
@@ -234,7 +261,10 @@ PARAMETERS: tuple[ParamSpec, ...] = (
     ),
     ParamSpec("min_similarity", 0.3, "an estimate matching less is a miss", 0.0, 1.0),
     ParamSpec("new_track_iou", 0.3, "a detection overlapping a target less starts one", 0.0, 1.0),
-    ParamSpec("confirm_hits", 3, "hits before a target is confirmed", 1, 1000),
+    ParamSpec("confirm_hits", 3, "detections on a new target before it is confirmed", 1, 1000),
+    ParamSpec(
+        "confirm_travel", 12.0, "px those detections must have moved to confirm it", 0.0, 1e4
+    ),
     ParamSpec("max_misses", 5, "consecutive misses after which a target is lost", 0, 10000),
     ParamSpec("seed", 0, "random seed (a replay gives the same tracks)", 0, 2**31 - 1),
 )
@@ -256,6 +286,7 @@ def build(values: Mapping[str, Any], first_id: int = 1) -> ColourParticleTracker
         min_similarity=values["min_similarity"],
         new_track_iou=values["new_track_iou"],
         confirm_hits=values["confirm_hits"],
+        confirm_travel=values["confirm_travel"],
         max_misses=values["max_misses"],
         seed=values["seed"],
         first_id=first_id,

@@ -11,7 +11,8 @@ noise and JPEG compression. Ground truth is every person's visible box. Each con
 graph with `node.param` overrides on its parameter files: `suite` is the surveillance graph as
 shipped; `seed000` is seed 000's own mode (SSIM of frame k against k-3, the seed's tracker preset,
 the camera jumping straight to the target); `colour` is the colour graph (seed 001: motion hands its
-target over to CamShift, which the camera follows; one track, so its MOT scores count one person).
+target over to CamShift, which the camera follows; one track, so its MOT scores count one person);
+`particles` is the surveillance graph with seed 003's `colour_particles` tracker.
 
 Scores (`evaluation.scoring`): CLEAR MOT, IDF1 and HOTA at IoU >= 0.5 in the camera view and over
 the whole scene, and the pan-tilt figures. Writes to --out (default out/benchmark): results.json,
@@ -80,6 +81,8 @@ CONFIGURATIONS: dict[str, Configuration] = {
     ),
     # seed 001: motion hands its target over to CamShift, which the camera follows (one track)
     "colour": Configuration("colour"),
+    # seed 003: the surveillance graph with one colour particle filter per target as its tracker
+    "particles": Configuration(overrides={"tracker": {"method": "colour_particles"}}),
 }
 PATHS = ("in-process", "graph")
 
