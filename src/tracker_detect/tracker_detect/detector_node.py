@@ -62,6 +62,7 @@ from tracker_msgs_py.codec import (
     msg_to_rect,
     msg_to_window,
     rect_to_msg,
+    result_qos,
     stamp_to_ns,
 )
 from tracker_msgs_py.geometry import Rect
@@ -170,7 +171,7 @@ class DetectorNode(SuiteNode):
         self.image_order = StampOrder()
         self.last_frame: CameraFrame | None = None
         reliable = self.params["reliable_images"]
-        self.detections_pub = self.create_publisher(BlobArray, "detections", 10)
+        self.detections_pub = self.create_publisher(BlobArray, "detections", result_qos())
         self.mask_pub = self.create_publisher(Image, "detector/motion_mask", image_qos(reliable))
         self.ssim_pub = self.create_publisher(Image, "detector/ssim_map", image_qos(reliable))
         self.create_subscription(Image, "camera/image_raw", self._on_image, image_qos(reliable))

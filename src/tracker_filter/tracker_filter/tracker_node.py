@@ -37,6 +37,7 @@ from tracker_msgs_py.codec import (
     image_to_bgr,
     msg_to_rect,
     msg_to_window,
+    result_qos,
     stamp_to_ns,
 )
 from tracker_msgs_py.node_main import SuiteNode, run_node
@@ -175,8 +176,8 @@ class TrackerNode(SuiteNode):
             frozenset(need.value for need in needs), self._params["pairing_capacity"]
         )
 
-        self._tracks_pub = self.create_publisher(TrackArray, "tracks", 10)
-        self._target_pub = self.create_publisher(Target, "target", 10)
+        self._tracks_pub = self.create_publisher(TrackArray, "tracks", result_qos())
+        self._target_pub = self.create_publisher(Target, "target", result_qos())
         self.create_subscription(BlobArray, "detections", self._on_detections, 10)
         self.create_subscription(PtzState, "ptz/state", self._on_ptz_state, 10)
         image_topics = {Need.IMAGE: "camera/image_raw", Need.MASK: "detector/motion_mask"}

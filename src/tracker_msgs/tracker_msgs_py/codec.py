@@ -50,11 +50,26 @@ class UnsupportedEncodingError(ValueError):
 def image_qos(reliable: bool = False, depth: int | None = None) -> QoSProfile:
     """Sensor-data QoS for image streams (best effort, keep last 5), or reliable for lockstep
     replays, with a deeper history (30) so a slower reader such as a recorder loses nothing."""
+    return _keep_last(depth or (30 if reliable else 5), reliable)
+
+
+RESULT_DEPTH = 200  # per-frame results: a recorder stalled ~20 s at 10 fps still loses nothing
+
+
+def result_qos() -> QoSProfile:
+    """Reliable QoS for small per-frame results (detections, tracks, target, pan-tilt state and
+    commands). Keep-last history still drops a sample a slow reader has not yet acknowledged
+    once `depth` newer ones are queued, so the depth covers a recorder that stalls on disk while
+    the graph keeps running; the messages are small, so the memory is a few hundred kB."""
+    return _keep_last(RESULT_DEPTH, reliable=True)
+
+
+def _keep_last(depth: int, reliable: bool) -> QoSProfile:
     from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
     return QoSProfile(
         history=HistoryPolicy.KEEP_LAST,
-        depth=depth or (30 if reliable else 5),
+        depth=depth,
         reliability=ReliabilityPolicy.RELIABLE if reliable else ReliabilityPolicy.BEST_EFFORT,
         durability=DurabilityPolicy.VOLATILE,
     )

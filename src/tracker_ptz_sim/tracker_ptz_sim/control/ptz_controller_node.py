@@ -17,7 +17,7 @@ from rclpy.clock import Clock, ClockType
 from sensor_msgs.msg import JointState
 
 from tracker_msgs.msg import PtzCommand, PtzState, Target
-from tracker_msgs_py.codec import NS_PER_S, msg_to_window, stamp_to_ns
+from tracker_msgs_py.codec import NS_PER_S, msg_to_window, result_qos, stamp_to_ns
 from tracker_msgs_py.node_main import SuiteNode, run_node
 from tracker_msgs_py.params import ParamSpec, declare_parameters
 from tracker_msgs_py.stamps import Order, StampOrder
@@ -135,7 +135,7 @@ class PtzControllerNode(SuiteNode):
         self.waiting: dict[int, tuple[Target, float]] = {}
         self.target_order = StampOrder()
         self.last_target_ns: int | None = None
-        self.command_pub = self.create_publisher(PtzCommand, "ptz/command", 10)
+        self.command_pub = self.create_publisher(PtzCommand, "ptz/command", result_qos())
         self.joint_pub = self._joint_publisher()
         self.create_subscription(Target, "target", self._on_target, 10)
         self.create_subscription(PtzState, "ptz/state", self._on_state, 10)
@@ -143,7 +143,7 @@ class PtzControllerNode(SuiteNode):
 
     def _joint_publisher(self):  # noqa: ANN202 - Publisher | None
         topic = self.params["joint_command_topic"]
-        return self.create_publisher(JointState, topic, 10) if topic else None
+        return self.create_publisher(JointState, topic, result_qos()) if topic else None
 
     def _on_change(self, changed: dict[str, Any]) -> None:
         self.controller.config = controller_config(self.params)

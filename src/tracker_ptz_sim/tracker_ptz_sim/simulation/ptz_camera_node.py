@@ -30,6 +30,7 @@ from tracker_msgs_py.codec import (
     image_qos,
     image_to_array,
     rect_to_msg,
+    result_qos,
     stamp_to_ns,
 )
 from tracker_msgs_py.node_main import SuiteNode, run_node
@@ -139,8 +140,8 @@ class PtzCameraNode(SuiteNode):
         qos = image_qos(self.params["reliable_images"])
         self.view_pub = self.create_publisher(Image, "camera/image_raw", qos)
         self.info_pub = self.create_publisher(CameraInfo, "camera/camera_info", qos)
-        self.state_pub = self.create_publisher(PtzState, "ptz/state", 10)
-        self.joint_pub = self.create_publisher(JointState, "ptz/joint_states", 10)
+        self.state_pub = self.create_publisher(PtzState, "ptz/state", result_qos())
+        self.joint_pub = self.create_publisher(JointState, "ptz/joint_states", result_qos())
         self.create_subscription(Image, "scene/image_raw", self._on_scene, qos)
         self.create_subscription(PtzCommandMsg, "ptz/command", self._on_command, 10)
         if self.params["lockstep"]:

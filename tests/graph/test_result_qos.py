@@ -1,0 +1,64 @@
+"""Every small per-frame result the demo records is published with a deep reliable history.
+
+A keep-last writer retransmits a lost sample only while it is still in its history; with the
+ROS default depth of 10 a recorder that stalled for a moment under load lost a few frames'
+detections, tracks and pan-tilt states from its bag (the replay had moved on by more than 10
+frames before the retransmission was asked for). This checks the history of each node's
+publisher of every non-image topic of both graphs (discovery does not carry the depth, so the
+publishers are read from the nodes themselves)."""
+
+from __future__ import annotations
+
+import pytest
+
+rclpy = pytest.importorskip("rclpy")
+
+from rclpy.qos import ReliabilityPolicy  # noqa: E402
+
+from tracker_detect.detector_node import DetectorNode  # noqa: E402
+from tracker_filter.tracker_node import TrackerNode  # noqa: E402
+from tracker_msgs_py.codec import RESULT_DEPTH  # noqa: E402
+from tracker_ptz_sim.bringup.graph import GRAPHS, load_graph  # noqa: E402
+from tracker_ptz_sim.control.ptz_controller_node import PtzControllerNode  # noqa: E402
+from tracker_ptz_sim.simulation.ptz_camera_node import PtzCameraNode  # noqa: E402
+
+pytestmark = pytest.mark.ros
+# Published by the video source (images, camera info, clock, status) or not per-frame results.
+NOT_RESULTS = {"/clock", "/replay/status", "/scene/image_raw", "/scene/camera_info"}
+NODES = [PtzCameraNode, DetectorNode, TrackerNode, PtzControllerNode]
+
+
+@pytest.fixture
+def running_nodes():
+    context = rclpy.Context()
+    rclpy.init(context=context)
+    nodes = [make(context=context) for make in NODES]
+    yield nodes
+    for node in nodes:
+        node.destroy_node()
+    rclpy.shutdown(context=context)
+
+
+def result_topics() -> set[str]:
+    topics = {t.name for graph in GRAPHS for t in load_graph(graph).topics}
+    images = {t for t in topics if t.endswith(("image_raw", "camera_info"))}
+    return topics - NOT_RESULTS - images
+
+
+def test_every_recorded_result_is_published_reliably_with_a_deep_history(running_nodes):
+    # One node of each kind in its default namespace: the colour graph's /motion/* copies are
+    # the same executables remapped, so the unprefixed topic stands for both.
+    offered = {
+        publisher.topic_name: publisher.qos_profile
+        for node in running_nodes
+        for publisher in node.publishers
+    }
+    topics = {t.removeprefix("/motion") for t in result_topics()}
+    assert topics <= offered.keys(), f"no node publishes {topics - offered.keys()}"
+    shallow = {
+        topic: (offered[topic].reliability.name, offered[topic].depth)
+        for topic in topics
+        if offered[topic].reliability != ReliabilityPolicy.RELIABLE
+        or offered[topic].depth < RESULT_DEPTH
+    }
+    assert not shallow, f"published with a shallow or best-effort history: {shallow}"
