@@ -8,9 +8,13 @@ import pytest
 from tracker_filter.colour_particle import HistogramAppearance, ParticleFilterConfig
 from tracker_msgs_py.geometry import Rect
 from tracker_ptz_sim.evaluation.single_target import (
+    CameraPath,
     SingleTargetScores,
+    WindowedFrames,
     centre_inside,
     follow_particles,
+    kept_through_gaps,
+    operator_path,
     pooled,
     score_single_target,
 )
@@ -77,3 +81,38 @@ def test_particle_filter_follows_a_coloured_box_and_replays_identically():
     scores = score_single_target({k: b for k, b in truth.items() if k >= 20}, boxes)
     assert scores.mean_iou > 0.6 and scores.missed == 0
     assert run() == boxes
+
+
+def test_an_occlusion_is_kept_when_the_estimate_is_back_on_the_target_afterwards():
+    truth = {k: Rect(float(k), 0.0, 10.0, 20.0) for k in [*range(0, 10), *range(20, 50)]}
+    on = {k: box for k, box in truth.items()}
+    assert kept_through_gaps(truth, on) == [True]
+    off_after = {
+        k: (Rect(box.x + 30, 0.0, 10.0, 20.0) if k >= 20 else box) for k, box in on.items()
+    }
+    assert kept_through_gaps(truth, off_after) == [False]
+    back_late = {k: box for k, box in off_after.items() if k < 20 or k >= 26} | {
+        k: box for k, box in on.items() if k >= 26
+    }
+    assert kept_through_gaps(truth, back_late) == [True]  # 14 of the next 20 frames
+    short_gap = {k: b for k, b in truth.items() if not 5 <= k < 8}
+    assert kept_through_gaps(short_gap, on) == [True]  # 10 missing frames still count
+    assert kept_through_gaps({k: truth[k] for k in range(10)}, on) == []  # no occlusion
+
+
+def test_the_operator_window_follows_the_target_with_a_lag_inside_the_scene():
+    truth = {k: Rect(100.0 + 15.0 * k, 200.0, 20.0, 40.0) for k in range(60) if not 20 <= k < 30}
+    path = operator_path(truth, range(60), (800, 400), (200, 150), fps=10.0, sway_px=0.0)
+    centres = np.array([path.origins[k][0] + 100 for k in range(60)])
+    target = 110.0 + 15.0 * np.arange(60)
+    lag = (target - centres)[:40]  # then the scene edge stops the window
+    assert lag[0] < 15 and np.all(lag[10:] > 0), "behind a target moving right"
+    assert np.all(np.diff(centres) >= 0), "pans on through the hidden frames"
+    assert all(0 <= path.origins[k][0] <= 600 and 0 <= path.origins[k][1] <= 250 for k in range(60))
+    assert path.origins[59][0] == 600  # stopped by the scene's edge
+    frames = np.arange(60 * 400 * 800, dtype=np.uint32).reshape(60, 400, 800)
+    view = WindowedFrames(frames, path)
+    x, y = path.origins[5]
+    assert view[5].shape == (150, 200) and view[5][0, 0] == frames[5, y, x]
+    assert path.to_view(5, Rect(float(x) - 5, float(y), 20.0, 30.0)) == Rect(0.0, 0.0, 15.0, 30.0)
+    assert CameraPath((10, 10), {0: (0, 0)}).to_view(0, Rect(50.0, 50.0, 5.0, 5.0)) is None

@@ -16,6 +16,7 @@ from tracker_filter.colour_histograms import (
     histogram,
 )
 from tracker_filter.colour_particle import (
+    RECOMMENDED_SIGMA,
     ColourParticleFilter,
     CovarianceAppearance,
     HistogramAppearance,
@@ -214,6 +215,8 @@ def test_bad_start_boxes_and_parameters_are_refused():
         ParticleFilterConfig(particles=0)
     with pytest.raises(ValueError, match="sigma"):
         ParticleFilterConfig(sigma=(1.0, 2.0))
+    with pytest.raises(ValueError, match="occlusion_ratio"):
+        ParticleFilterConfig(occlusion_ratio=1.0)
 
 
 def test_background_weighting_tells_a_thin_person_from_the_street_around_them():
@@ -231,3 +234,51 @@ def test_background_weighting_tells_a_thin_person_from_the_street_around_them():
     # well below 1 but far above the bare street
     on_street, on_box = weighted.similarities(image, np.stack([street, box]))
     assert on_street < 0.3 and on_box > 2 * on_street
+
+
+def occluded_scene(seed: int = 0):
+    """The textured scene's person walking 4 px/frame right behind a board hiding them
+    completely for 11 frames (1.1 s at 10 fps) and partly for 7 frames either side."""
+    rng = np.random.default_rng(seed)
+    background = rng.integers(60, 160, size=(200, 320, 3), dtype=np.uint8)
+    board = np.full((120, 70, 3), (150, 150, 150), np.uint8)
+    images, boxes = [], []
+    for k in range(60):
+        image = background.copy()
+        x = 10 + 4 * k
+        image[40:80, x : x + 30] = (40, 40, 200)
+        image[80:120, x : x + 30] = (150, 60, 30)
+        image[20:140, 130:200] = board
+        noise = rng.integers(-12, 13, size=image.shape)
+        images.append(np.clip(image.astype(int) + noise, 0, 255).astype(np.uint8))
+        boxes.append(np.array([x, 40.0, 30.0, 80.0]))
+    return images, boxes
+
+
+def kept_after_the_board(config: ParticleFilterConfig, seed: int) -> tuple[bool, list]:
+    """Whether the filter is on the person in most frames after they reappear whole, and its
+    estimates."""
+    images, truth = occluded_scene()
+    f = ColourParticleFilter(
+        images[0], truth[0], HistogramAppearance(), config, np.random.default_rng(seed)
+    )
+    estimates = [f.step(image) for image in images[1:]]
+    after = [iou(e.box, box) > 0.3 for e, box in zip(estimates[47:], truth[48:], strict=True)]
+    return sum(after) > len(after) / 2, estimates
+
+
+COASTING = ParticleFilterConfig(
+    particles=300, sigma=tuple(8 * s for s in RECOMMENDED_SIGMA), occlusion_ratio=0.7
+)
+
+
+def test_coasting_keeps_the_target_through_a_one_second_occlusion():
+    runs = [kept_after_the_board(COASTING, seed) for seed in range(10)]
+    assert sum(kept for kept, _ in runs) >= 9
+    for _, estimates in runs:
+        hidden = [e.hidden for e in estimates]
+        assert all(hidden[31:39]), "taken as hidden while wholly behind the board"
+        assert not any(hidden[:20]) and not any(hidden[50:]), "nor while in sight"
+        # frames 32-40: the estimate goes on at about the walking speed (4 px per frame)
+        advance = (estimates[39].box[0] - estimates[31].box[0]) / 8
+        assert 3.0 < advance < 5.0

@@ -5,6 +5,7 @@ from __future__ import annotations
 import dataclasses
 import itertools
 import json
+import math
 
 import cv2
 import numpy as np
@@ -50,6 +51,12 @@ def walkers() -> StreetScene:
 
 def boxes_of(scene: StreetScene, object_id: int) -> dict:
     return {b.frame: b for frame in scene.boxes for b in frame if b.object_id == object_id}
+
+
+def consecutive():
+    """A groupby key that is the same for consecutive integers."""
+    count = itertools.count()
+    return lambda n: n - next(count)
 
 
 def inside(box, scene: StreetScene, margin: int = 1) -> bool:
@@ -202,6 +209,21 @@ def test_crossing_pairs_hide_one_another(busy):
     assert occluded and min(occluded) < 0.7, "the nearer one hides the farther one"
 
 
+@pytest.mark.parametrize("seed", [3, 4])
+def test_a_board_hides_its_walker_completely_for_the_occlusion_time(seed):
+    config = small(walkers=1, occluders=1, occlusion=1.5, num_frames=80, seed=seed, **CLEAN)
+    scene = generate_street(config)
+    [person] = scene.people
+    boxes = boxes_of(scene, person.object_id)
+    first, last = min(boxes), max(boxes)
+    hidden = [n for n in range(first, last) if n not in boxes]  # not one pixel in sight
+    runs = [list(run) for _, run in itertools.groupby(hidden, consecutive())]
+    longest = max(runs, key=len)
+    assert 15 <= len(longest) <= 15 + 4  # 1.5 s at 10 fps, a little longer walking away
+    unhidden = boxes_of(generate_street(dataclasses.replace(config, occluders=0)), 1)
+    assert min(unhidden[n].visibility for n in longest) > 0.5  # the board, nothing else
+
+
 @pytest.mark.parametrize("kind", ["flutter", "foliage", "flicker"])
 def test_distractors_move_but_are_background(kind):
     counts = dict(flutter=0, foliage=0, flicker=0) | {kind: 1}
@@ -306,3 +328,7 @@ def test_bad_configs_are_rejected_with_the_reason():
         StreetConfig(person_height_far=20, person_height_near=500)
     with pytest.raises(ValueError, match="jpeg_quality"):
         StreetConfig(jpeg_quality=101)
+    with pytest.raises(ValueError, match="occluders"):
+        StreetConfig(occluders=-1)
+    with pytest.raises(ValueError, match="occlusion"):
+        StreetConfig(occlusion=math.nan)

@@ -15,6 +15,15 @@ zeta = [erf(alpha ((1 - s) - beta)) + 1] / 2 and the static components' std (x y
 zeta sigma, the dynamic ones' (1 - zeta) sigma: a good match moves the particles by their
 velocities only, a lost one spreads them in place (a search).
 
+Occlusion (not the thesis's; off by default): with `occlusion_ratio` r > 0, a frame whose best
+particle scores below r x the tracked level (a running mean of the best score over the frames
+where the target was seen) is taken as the target hidden. Its scores say nothing about the
+target, and resampling by them would pull the cloud onto whatever is in front (the thesis's filter
+stops at the occluder's edge), so the particles are not weighed or resampled: they coast on
+their velocities, with the full noise on every component (not Ext 2's share, which would freeze
+the velocities), so the cloud spreads along the way the target was going, wider the longer it
+is hidden, until a particle finds the target again.
+
 The reference is taken from the start rectangle and never updated, as in the thesis. Every random
 draw comes from the filter's own `numpy.random.Generator`, so a run is reproducible.
 """
@@ -48,6 +57,7 @@ STATE = ("x", "y", "w", "h", "vx", "vy", "vw", "vh")
 #: the thesis's recommended noise std per state component (px, px per frame)
 RECOMMENDED_SIGMA = (0.5, 0.5, 0.125, 0.125, 0.25, 0.25, 0.0002, 0.0002)
 MIN_SIDE = 2.0  # px: a particle's rectangle never shrinks below this
+LEVEL_GAIN = 0.1  # of the tracked level's running mean, per frame seen
 
 
 class Resampling(StrEnum):
@@ -82,6 +92,7 @@ class ParticleFilterConfig:
     adaptive_noise: bool = True
     noise_alpha: float = 20.0
     noise_beta: float = 0.7
+    occlusion_ratio: float = 0.0  # not the thesis's: 0 = off (see the module docstring)
 
     def problems(self) -> list[str]:
         """What is wrong with these values (empty when usable)."""
@@ -92,6 +103,7 @@ class ParticleFilterConfig:
             "sigmoid_alpha must be > 0": self.sigmoid_alpha > 0,
             "exponential_lambda must be > 0": self.exponential_lambda > 0,
             "noise_alpha must be > 0": self.noise_alpha > 0,
+            "occlusion_ratio must be in [0, 1)": 0.0 <= self.occlusion_ratio < 1.0,
         }
         return [message for message, ok in checks.items() if not ok]
 
@@ -280,6 +292,7 @@ class ParticleEstimate:
     box: np.ndarray  # x, y, w, h (px)
     velocity: np.ndarray  # vx, vy, vw, vh (px per frame)
     similarity: float  # of the estimate's rectangle to the reference
+    hidden: bool = False  # taken as occluded this frame: the estimate is the coasting cloud's mean
 
 
 @dataclass(frozen=True)
@@ -320,10 +333,12 @@ class ColourParticleFilter:
         start = np.concatenate([box, np.zeros(4)])
         self.particles = np.tile(start, (config.particles, 1))  # N copies, velocity 0
         self.estimate = ParticleEstimate(box, np.zeros(4), 1.0)
+        self.level: float | None = None  # the best particle's score while the target is seen
+        self.seen_velocity = np.zeros(4)  # running mean of the estimate's velocity while seen
 
     def noise(self) -> np.ndarray:
         """This frame's noise std per component (Ext 2 moves it by the last estimate's match)."""
-        if not self.config.adaptive_noise:
+        if not self.config.adaptive_noise or self.estimate.hidden:
             return self.base_sigma
         zeta = static_noise_share(
             self.estimate.similarity, self.config.noise_alpha, self.config.noise_beta
@@ -333,14 +348,31 @@ class ColourParticleFilter:
     def step(self, image: np.ndarray, view: ImageView = ImageView()) -> ParticleEstimate:
         particles = propagate(self.particles, self.noise(), self.rng)
         raw = self.appearance.similarities(image, view.to_image(particles[:, :4]))
-        weights = corrected_weights(raw, self.config)
+        hidden = self._hidden(float(raw.max()))
+        weights = np.zeros(0) if hidden else corrected_weights(raw, self.config)
         total = float(weights.sum())
-        weights = weights / total if total > 0 else np.full(len(weights), 1.0 / len(weights))
+        weights = weights / total if total > 0 else np.full(len(raw), 1.0 / len(raw))
         if self.config.estimate is EstimateRule.MEAN:
             state = weights @ particles
         else:
             state = particles[int(np.argmax(weights))]
         similarity = float(self.appearance.similarities(image, view.to_image(state[None, :4]))[0])
-        self.estimate = ParticleEstimate(state[:4].copy(), state[4:].copy(), similarity)
-        self.particles = particles[resample(weights, self.config.resampling, self.rng)]
+        if hidden and not self.estimate.hidden:
+            # the last frames, half hidden, slowed the cloud: coast at the velocity seen before
+            particles[:, 4:] += self.seen_velocity - weights @ particles[:, 4:]
+            state[4:] = self.seen_velocity
+        elif not hidden:
+            self.seen_velocity += LEVEL_GAIN * (state[4:] - self.seen_velocity)
+        self.estimate = ParticleEstimate(state[:4].copy(), state[4:].copy(), similarity, hidden)
+        self.particles = (
+            particles if hidden else particles[resample(weights, self.config.resampling, self.rng)]
+        )
         return self.estimate
+
+    def _hidden(self, best: float) -> bool:
+        """Whether the best score says the target is occluded; else it updates the level."""
+        ratio = self.config.occlusion_ratio
+        if ratio > 0 and self.level is not None and best < ratio * self.level:
+            return True
+        self.level = best if self.level is None else self.level + LEVEL_GAIN * (best - self.level)
+        return False

@@ -230,6 +230,7 @@ class ColourParticleTracker:
 
 
 _C = ParticleFilterConfig()
+OCCLUSION_RATIO = 0.7  # the suite's default (the thesis has no occlusion test: 0)
 PARAMETERS: tuple[ParamSpec, ...] = (
     ParamSpec("particles", _C.particles, "particles per target (thesis: 750)", 1, 100000),
     ParamSpec("bins", 16, "histogram bins per channel, K (thesis: 16)", 2, 64),
@@ -254,6 +255,13 @@ PARAMETERS: tuple[ParamSpec, ...] = (
     ),
     ParamSpec("adaptive_noise", _C.adaptive_noise, "Ext 2: noise moves with the match"),
     ParamSpec(
+        "occlusion_ratio",
+        OCCLUSION_RATIO,
+        "best particle below this x its usual score: hidden, the particles coast (0: off)",
+        0.0,
+        0.99,
+    ),
+    ParamSpec(
         "resampling",
         _C.resampling.value,
         "how particles are drawn by weight",
@@ -277,6 +285,7 @@ def build(values: Mapping[str, Any], first_id: int = 1) -> ColourParticleTracker
         correction=WeightCorrection(values["correction"]),
         adaptive_noise=values["adaptive_noise"],
         resampling=Resampling(values["resampling"]),
+        occlusion_ratio=values["occlusion_ratio"],
     )
     return ColourParticleTracker(
         config,

@@ -3,6 +3,8 @@ street scenes, one person at a time.
 
     single_target_benchmark                       every preset x 3 seeds, every variant
     single_target_benchmark --scenes walkers --seeds 1
+    single_target_benchmark --runs 10             particle filters 10 times (sigma_Q)
+    single_target_benchmark --sweep --runs 3      particle count and histogram bins
 
 Protocol: for every person of a scene, each tracker is started on the person's true box in the first
 frame where they are at least 90 % visible and 40 px tall (as a user would draw it) and runs to
@@ -15,8 +17,18 @@ as in the thesis) and with its search window placed at the one-step prediction o
 nominal or robust (exact lambda) Kalman filter (the thesis's future work). Seed 003's colour
 particle filter (750 particles, K = 16; its random generator seeded by the person's id) as the
 rows of its thesis's algorithm table: baseline, Ext 1 sigmoid, Ext 3 HSV, Ext 5 region covariance,
-final (Ext 1 + Ext 2); then the final algorithm with 8 x the thesis's noise, alone and with a
-background-weighted reference.
+final (Ext 1 + Ext 2); then the final algorithm with 8 x the thesis's noise, alone, with a
+background-weighted reference, and coasting through occlusions as well (the colour_particles
+tracker's defaults). With --runs R every particle filter runs R times per person with
+different seeds (person id + 1000 r) and the table gives the mean over runs and sigma_Q, the standard
+deviation of a run's Q over the runs (the thesis's 10 runs). --sweep runs instead the best particle
+filter with 100 / 500 / 750 / 2000 particles and K = 8 / 16 / 32 bins per channel.
+
+The "occluded" preset, where each person walks behind a board for 1 s, is watched by a moving
+camera: a 480x360 window aimed at the person as a camera operator would (0.7 s lag, 12 px sway;
+`evaluation.single_target.operator_path`), so the trackers see the scene move; its boxes are
+scored in that window. "kept" counts the occlusions after which the estimate is back on the person
+(its centre in Q2's square in most of the next 20 scored frames).
 
 Writes to --out (default out/single_target): table.md, results.json and per scene iou-<scene>.png
 (IoU over time per person and variant).
@@ -26,9 +38,12 @@ from __future__ import annotations
 
 import argparse
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import asdict, dataclass, replace
 from pathlib import Path
+from typing import ClassVar
+
+import numpy as np
 
 from tracker_detect.camshift import CamShiftConfig
 from tracker_filter.colour_histograms import ColourSpace
@@ -42,6 +57,7 @@ from tracker_filter.colour_particle import (
 )
 from tracker_filter.filters import FilterFactory
 from tracker_filter.models import seed001_nominal_model
+from tracker_filter.particle_tracker import OCCLUSION_RATIO
 from tracker_filter.robust_kalman import LambdaRule, RobustKalmanConfig, seed001_uncertainty
 from tracker_msgs_py.geometry import Rect
 from tracker_ptz_sim.bringup.benchmark import background_image, prepare_scene
@@ -49,8 +65,11 @@ from tracker_ptz_sim.evaluation.prediction_study import PRIOR_STD
 from tracker_ptz_sim.evaluation.scoring import write_json
 from tracker_ptz_sim.evaluation.single_target import (
     SingleTargetScores,
+    WindowedFrames,
     follow,
     follow_particles,
+    kept_through_gaps,
+    operator_path,
     pooled,
     score_single_target,
 )
@@ -66,16 +85,25 @@ Boxes = dict[int, Rect | None]
 
 
 @dataclass(frozen=True)
+class Footage:
+    """What a tracker is given: the camera's frames (indexed by scene frame), stamps and rate."""
+
+    frames: Sequence[np.ndarray] | np.ndarray
+    stamps_ns: list[int]
+    fps: float
+
+
+@dataclass(frozen=True)
 class Variant:
     """CamShift with a histogram configuration and the filter placing its search window."""
 
     camshift: CamShiftConfig
     rule: LambdaRule | None  # the filter placing the search window; None: the last window
+    random: ClassVar[bool] = False
 
-    def run(self, scene: Scene, start: int, region: Rect, last: int, seed: int) -> Boxes:
-        stamps = scene.stamps_ns()
-        guide = predictor(self.rule, scene.fps)
-        return follow(scene.frames, stamps, start, region, last, guide, self.camshift)
+    def run(self, footage: Footage, start: int, region: Rect, last: int, seed: int) -> Boxes:
+        guide = predictor(self.rule, footage.fps)
+        return follow(footage.frames, footage.stamps_ns, start, region, last, guide, self.camshift)
 
 
 @dataclass(frozen=True)
@@ -84,15 +112,17 @@ class ParticleVariant:
 
     appearance: Callable[[], Appearance]
     config: ParticleFilterConfig
+    random: ClassVar[bool] = True
 
-    def run(self, scene: Scene, start: int, region: Rect, last: int, seed: int) -> Boxes:
+    def run(self, footage: Footage, start: int, region: Rect, last: int, seed: int) -> Boxes:
         return follow_particles(
-            scene.frames, start, region, last, self.appearance(), self.config, seed
+            footage.frames, start, region, last, self.appearance(), self.config, seed
         )
 
 
 BASELINE = ParticleFilterConfig(correction=WeightCorrection.NONE, adaptive_noise=False)
 WIDE = ParticleFilterConfig(sigma=tuple(8 * s for s in RECOMMENDED_SIGMA))
+COASTING = replace(WIDE, occlusion_ratio=OCCLUSION_RATIO)
 
 #: What is compared: one line per variant.
 VARIANTS: dict[str, Variant | ParticleVariant] = {
@@ -114,7 +144,28 @@ VARIANTS: dict[str, Variant | ParticleVariant] = {
     "particles, final, 8 x sigma, background-weighted": ParticleVariant(
         lambda: HistogramAppearance(background_weighting=True), WIDE
     ),
+    # ... and coasting through occlusions (the colour_particles tracker's defaults)
+    "particles, final, 8 x sigma, background-weighted, coasting": ParticleVariant(
+        lambda: HistogramAppearance(background_weighting=True), COASTING
+    ),
 }
+
+
+def _best(particles: int = 750, bins: int = 16) -> ParticleVariant:
+    """The best particle filter here (final, 8 x sigma, background-weighted, coasting)."""
+    return ParticleVariant(
+        lambda: HistogramAppearance(bins=bins, background_weighting=True),
+        replace(COASTING, particles=particles),
+    )
+
+
+#: --sweep: the thesis's particle-count and histogram-size tables, on the best particle filter.
+SWEEP: dict[str, ParticleVariant] = {
+    **{f"best, N = {n}": _best(particles=n) for n in (100, 500, 750, 2000)},
+    **{f"best, K = {k}": _best(bins=k) for k in (8, 32)},
+}
+MOVING_CAMERA = {"occluded"}  # presets watched by a camera operator's moving window
+WINDOW = (480, 360)  # px, that window
 START_VISIBILITY = 0.9
 START_HEIGHT = 40.0  # px
 
@@ -136,6 +187,8 @@ class PersonRun:
     scores: SingleTargetScores
     iou: dict[int, float]  # per scored frame
     refused: str = ""  # why CamShift would not start on the person (every frame then missed)
+    run: int = 0  # which of the --runs (a particle filter's seed)
+    kept: tuple[bool, ...] = ()  # per occlusion: back on the person afterwards
 
 
 def people(scene: Scene) -> dict[int, dict[int, Rect]]:
@@ -165,66 +218,122 @@ def start_frame(scene: Scene, person: int) -> int | None:
     return None
 
 
-def run_scene(label: str, scene: Scene) -> list[PersonRun]:
-    runs = []
+def run_scene(
+    label: str,
+    scene: Scene,
+    variants: Mapping[str, Variant | ParticleVariant],
+    runs: int = 1,
+    moving: bool = False,
+) -> list[PersonRun]:
+    """Every variant on every person of `scene` (particle filters `runs` times), on the fixed
+    whole-scene camera or, `moving`, on a camera operator's window aimed at each person."""
+    out = []
+    footage = Footage(scene.frames, scene.stamps_ns(), scene.fps)
     for person, truth in sorted(people(scene).items()):
         start = start_frame(scene, person)
-        if start is None:
+        if start is None or not any(k > start for k in truth):
             continue
+        if moving:
+            footage, truth = windowed(scene, footage, truth, start)
         scored = {k: box for k, box in truth.items() if k > start}
         if not scored:
             continue
-        region = truth[start]
-        for variant, setup in VARIANTS.items():
-            refused = ""
-            try:
-                boxes = setup.run(scene, start, region, max(scored), seed=person)
-            except ValueError as error:  # the selection is refused: nothing is tracked
-                boxes, refused = {}, str(error)
-            scores = score_single_target(scored, boxes)
-            iou = {k: (b.iou(boxes[k]) if boxes.get(k) else 0.0) for k, b in scored.items()}  # type: ignore[arg-type]
-            runs.append(PersonRun(label, person, variant, start, scores, iou, refused))
-    return runs
+        for variant, setup in variants.items():
+            for run in range(runs if setup.random else 1):
+                out.append(
+                    run_person(
+                        label, person, variant, setup, footage, truth[start], scored, start, run
+                    )
+                )
+    return out
 
 
-def table(runs: list[PersonRun]) -> str:
+def windowed(
+    scene: Scene, footage: Footage, truth: dict[int, Rect], start: int
+) -> tuple[Footage, dict[int, Rect]]:
+    """The footage and true boxes of a camera operator's window aimed at this person."""
+    height, width = scene.frames.shape[1:3]
+    frames = range(start, max(truth) + 1)
+    path = operator_path(truth, frames, (width, height), WINDOW, scene.fps)
+    in_view = {k: path.to_view(k, box) for k, box in truth.items() if k in frames}
+    boxes = {k: box for k, box in in_view.items() if box is not None}
+    return replace(footage, frames=WindowedFrames(scene.frames, path)), boxes
+
+
+def run_person(
+    label: str,
+    person: int,
+    variant: str,
+    setup: Variant | ParticleVariant,
+    footage: Footage,
+    region: Rect,
+    scored: dict[int, Rect],
+    start: int,
+    run: int,
+) -> PersonRun:
+    refused = ""
+    try:
+        boxes = setup.run(footage, start, region, max(scored), seed=person + 1000 * run)
+    except ValueError as error:  # the selection is refused: nothing is tracked
+        boxes, refused = {}, str(error)
+    scores = score_single_target(scored, boxes)
+    iou = {k: (b.iou(boxes[k]) if boxes.get(k) else 0.0) for k, b in scored.items()}  # type: ignore[arg-type]
+    kept = tuple(kept_through_gaps(scored, boxes))
+    return PersonRun(label, person, variant, start, scores, iou, refused, run, kept)
+
+
+def table(runs: list[PersonRun], variants: Sequence[str]) -> str:
+    """One row per preset and variant: Q1, Q2 and success pooled over the people of a run, then
+    averaged over runs, with their standard deviation over runs (sigma_Q, 0 for one run)."""
     header = (
-        "| scenes | variant | people (refused) | frames | Q1 mean IoU | Q2 centre in box | "
-        "IoU >= 0.5 | missed |"
+        "| scenes | variant | people (refused) | frames | Q1 mean IoU | σ_Q1 | Q2 centre in box | "
+        "σ_Q2 | IoU >= 0.5 | missed | kept through occlusion |"
     )
     lines = [header, "|" + "---|" * (header.count("|") - 1)]
     presets = sorted({r.scene.rsplit("-", 1)[0] for r in runs})
     for preset in [*presets, "all"]:
-        for variant in VARIANTS:
+        for variant in variants:
             chosen = [
                 r
                 for r in runs
                 if r.variant == variant and (preset == "all" or r.scene.startswith(preset + "-"))
             ]
-            if not chosen:
-                continue
-            total = pooled([r.scores for r in chosen])
-            missed = total.missed / total.frames if total.frames else math.nan
-            refused = sum(1 for r in chosen if r.refused)
-            lines.append(
-                f"| {preset} | {variant} | {len(chosen)} ({refused}) | {total.frames} | "
-                f"{total.mean_iou:.3f} | {100 * total.centre_in_box:.1f} % | "
-                f"{100 * total.success:.1f} % | {100 * missed:.1f} % |"
-            )
+            if chosen:
+                lines.append(_row(preset, variant, chosen))
     return "\n".join(lines)
 
 
-def plot_scene(label: str, runs: list[PersonRun], path: Path) -> None:
-    """IoU over time, one panel per variant, one line per person."""
+def _row(preset: str, variant: str, chosen: list[PersonRun]) -> str:
+    by_run = [
+        pooled([r.scores for r in chosen if r.run == k]) for k in sorted({r.run for r in chosen})
+    ]
+    q1 = np.array([t.mean_iou for t in by_run])
+    q2 = np.array([t.centre_in_box for t in by_run])
+    spread = (lambda v: float(v.std(ddof=1))) if len(by_run) > 1 else (lambda v: 0.0)
+    first = [r for r in chosen if r.run == 0]
+    frames = by_run[0].frames
+    missed = np.mean([t.missed / t.frames for t in by_run]) if frames else math.nan
+    kept = [k for r in chosen for k in r.kept]
+    label = f"{preset} (moving camera)" if preset in MOVING_CAMERA else preset
+    return (
+        f"| {label} | {variant} | {len(first)} ({sum(1 for r in first if r.refused)}) | "
+        f"{frames} | {q1.mean():.3f} | {spread(q1):.3f} | {100 * q2.mean():.1f} % | "
+        f"{100 * spread(q2):.1f} % | {100 * np.mean([t.success for t in by_run]):.1f} % | "
+        f"{100 * missed:.1f} % | " + (f"{sum(kept)}/{len(kept)} |" if kept else "– |")
+    )
+
+
+def plot_scene(label: str, runs: list[PersonRun], variants: Sequence[str], path: Path) -> None:
+    """IoU over time, one panel per variant, one line per person (the first run)."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, axes = plt.subplots(len(VARIANTS), 1, figsize=(10, 2.4 * len(VARIANTS)), sharex=True)
-    for ax, variant in zip(axes, VARIANTS, strict=True):
+    fig, axes = plt.subplots(len(variants), 1, figsize=(10, 2.4 * len(variants)), sharex=True)
+    for ax, variant in zip(axes, variants, strict=True):
         for r in runs:
-            if r.variant == variant:
+            if r.variant == variant and r.run == 0:
                 frames = sorted(r.iou)
                 ax.plot(frames, [r.iou[k] for k in frames], lw=1, label=f"person {r.person}")
         ax.axhline(0.5, color="grey", lw=0.8, ls="--")
@@ -252,7 +361,14 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--seeds", type=int, default=3, help="scenes per preset")
     parser.add_argument("--frames", type=int, help="shorten every scene to this many frames")
     parser.add_argument("--background", choices=("vtest", "generated"), default="vtest")
+    parser.add_argument("--runs", type=int, default=1, help="seeds per particle filter and person")
+    parser.add_argument(
+        "--sweep", action="store_true", help="particle counts and bins of the best filter"
+    )
     args = parser.parse_args(argv)
+    if args.runs < 1:
+        parser.error("--runs must be >= 1")
+    variants: Mapping[str, Variant | ParticleVariant] = SWEEP if args.sweep else VARIANTS
     args.out.mkdir(parents=True, exist_ok=True)
     background, described = background_image(args.background)
     runs: list[PersonRun] = []
@@ -265,10 +381,11 @@ def main(argv: list[str] | None = None) -> int:
             label = f"{name}-{config.seed}"
             scene = load_scene(prepare_scene(name, config, background, args.cache))
             print(f"{label}: {len(people(scene))} people ...", flush=True)
-            scene_runs = run_scene(label, scene)
-            plot_scene(label, scene_runs, args.out / f"iou-{label}.png")
+            moving = name in MOVING_CAMERA
+            scene_runs = run_scene(label, scene, variants, args.runs, moving)
+            plot_scene(label, scene_runs, list(variants), args.out / f"iou-{label}.png")
             runs += scene_runs
-    text = table(runs)
+    text = table(runs, list(variants))
     note = (
         f"Scenes over: {described}; each tracker started on each person's true box where first "
         f"{START_VISIBILITY:.0%} visible; {args.out}/iou-*.png plot IoU over time."

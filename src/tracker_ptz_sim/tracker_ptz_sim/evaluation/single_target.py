@@ -7,11 +7,17 @@ prediction placing each search window (`follow`), and seed 003's colour particle
   target is in the ground truth (a frame without an estimate scores 0);
 - Q2 ("precision"): share of those frames whose estimated centre lies inside the square centred on
   the true box with side 0.8 x the box's shorter side;
-- success: share of frames with IoU >= 0.5 (the threshold the multi-target scores use).
+- success: share of frames with IoU >= 0.5 (the threshold the multi-target scores use);
+- kept through occlusion: after every stretch of frames where the target is hidden, whether the
+  estimate's centre is back in Q2's square in most of the frames that follow.
+
+A moving camera (`operator_path`, `WindowedFrames`) is a window over the recorded scene aimed,
+with a lag and some sway, at the target as a camera operator would; the trackers see the window.
 """
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
@@ -26,6 +32,8 @@ from tracker_msgs_py.geometry import Rect
 
 CENTRE_SQUARE = 0.8  # Q2's square side, times the true box's shorter side
 SUCCESS_IOU = 0.5
+MIN_GAP = 5  # frames: a shorter stretch without a scored box is not an occlusion
+AFTER_GAP = 20  # frames scored after an occlusion to decide whether the target was kept
 
 
 @dataclass(frozen=True)
@@ -82,6 +90,92 @@ def pooled(scores: list[SingleTargetScores]) -> SingleTargetScores:
         weighted("success"),
         sum(s.missed for s in scores),
     )
+
+
+def kept_through_gaps(
+    truth: Mapping[int, Rect],
+    estimates: Mapping[int, Rect | None],
+    min_gap: int = MIN_GAP,
+    after: int = AFTER_GAP,
+) -> list[bool]:
+    """For every stretch of at least `min_gap` frames without a true box between two frames with
+    one: whether the estimate's centre is in Q2's square in more than half of the next `after`
+    frames with a true box."""
+    frames = sorted(truth)
+    kept = []
+    for i in range(1, len(frames)):
+        if frames[i] - frames[i - 1] - 1 < min_gap:
+            continue
+        following = frames[i : i + after]
+        inside = 0
+        for k in following:
+            estimate = estimates.get(k)
+            inside += estimate is not None and centre_inside(estimate, truth[k])
+        kept.append(inside > len(following) / 2)
+    return kept
+
+
+@dataclass(frozen=True)
+class CameraPath:
+    """A camera window of `size` (w, h) px over the scene: its top-left corner in each frame."""
+
+    size: tuple[int, int]
+    origins: Mapping[int, tuple[int, int]]
+
+    def to_view(self, frame: int, box: Rect) -> Rect | None:
+        """`box` (scene px) in the window of `frame`, clipped to it; None when outside."""
+        x, y = self.origins[frame]
+        w, h = self.size
+        shifted = Rect(box.x - x, box.y - y, box.width, box.height)
+        return shifted.intersection(Rect(0.0, 0.0, float(w), float(h)))
+
+
+def operator_path(
+    truth: Mapping[int, Rect],
+    frames: range,
+    scene_size: tuple[int, int],
+    size: tuple[int, int],
+    fps: float,
+    lag_s: float = 0.7,
+    sway_px: float = 12.0,
+    sway_period_s: float = 3.0,
+) -> CameraPath:
+    """A hand-held camera kept on the target: the window's centre follows the true box's centre
+    (interpolated through the frames where it is hidden) with a first-order lag of `lag_s`, plus a
+    sinusoidal sway, clamped to the scene."""
+    known = sorted(k for k in truth if k in frames)
+    if not known:
+        raise ValueError("the target has no true box in these frames")
+    centres = np.array([truth[k].center for k in known])
+    xs = np.interp(list(frames), known, centres[:, 0])
+    ys = np.interp(list(frames), known, centres[:, 1])
+    gain = 1.0 - math.exp(-1.0 / (fps * lag_s))
+    (width, height), (w, h) = scene_size, size
+    cx, cy = xs[0], ys[0]
+    origins = {}
+    for i, k in enumerate(frames):
+        cx += gain * (xs[i] - cx)
+        cy += gain * (ys[i] - cy)
+        sway = sway_px * math.sin(2 * math.pi * i / (fps * sway_period_s))
+        x = int(np.clip(round(cx + sway - w / 2), 0, width - w))
+        y = int(np.clip(round(cy - h / 2), 0, height - h))
+        origins[k] = (x, y)
+    return CameraPath(size, origins)
+
+
+class WindowedFrames(Sequence[np.ndarray]):
+    """The frames a camera following `path` sees: frame k cropped to its window (views, no copy)."""
+
+    def __init__(self, frames: np.ndarray | Sequence[np.ndarray], path: CameraPath) -> None:
+        self._frames, self._path = frames, path
+
+    def __len__(self) -> int:
+        return len(self._frames)
+
+    def __getitem__(self, k: int) -> np.ndarray:  # type: ignore[override]  # no slices
+        x, y = self._path.origins[k]
+        w, h = self._path.size
+        return self._frames[k][y : y + h, x : x + w]
 
 
 def follow(

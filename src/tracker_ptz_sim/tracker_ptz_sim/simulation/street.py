@@ -5,7 +5,8 @@ looks like a fixed surveillance camera over a plaza: a real background (any imag
 per-pixel median of a clip from :func:`median_background`, or a procedural paved plaza with a
 building, benches and posts), people drawn as articulated figures with a walking gait and
 perspective sizes, groups walking side by side, pairs whose paths cross (one hides the other),
-people who stop and stand still for a while midway (change detection loses them),
+people who stop and stand still for a while midway (change detection loses them), advertising
+boards that hide a walker completely for a set time (``occluders``, ``occlusion``),
 things that move in place (fluttering barrier tape, shimmering foliage, a flickering screen or
 lamp), a slow lighting drift, lens blur, sensor noise, JPEG compression and optional camera jitter.
 
@@ -78,6 +79,8 @@ class StreetConfig:
     crossings: int = 0  # pairs whose paths cross at the same time, so one hides the other
     stoppers: int = 0  # people walking alone who stand still for stop_duration midway in view
     stop_duration: float = 5.0  # s
+    occluders: int = 0  # boards standing in front of walkers' paths, one per walker (first ones)
+    occlusion: float = 1.0  # s, each board hides its walker completely at least this long
     horizon_y: float = 0.25  # fraction of the height: nobody's foot is above this row
     person_height_far: float = 70.0  # px, a 1.7 m person with the foot at horizon_y
     person_height_near: float = 220.0  # px, the same person with the foot at the bottom edge
@@ -113,6 +116,7 @@ class StreetConfig:
                 "foliage",
                 "flicker",
                 "camera_jitter",
+                "occluders",
             ),
         )
         problems += _perspective_problems(c)
@@ -121,7 +125,8 @@ class StreetConfig:
             problems.append(
                 f"speed_range must satisfy 0.1 <= min <= max <= 10, got {c.speed_range}"
             )
-        for name in ("illumination_period", "optical_blur", "noise_sigma", "stop_duration"):
+        names = ("illumination_period", "optical_blur", "noise_sigma", "stop_duration", "occlusion")
+        for name in names:
             value = getattr(c, name)
             if not (math.isfinite(value) and value >= 0):
                 problems.append(f"{name} must be a finite number >= 0, got {value}")
@@ -166,6 +171,8 @@ STREET_PRESETS: dict[str, StreetConfig] = {
     "shaky": StreetConfig(walkers=5, camera_jitter=3, seed=8),
     # 2 people walking alone and 2 who stop for 5 s midway in view (change detection loses them).
     "stops": StreetConfig(walkers=2, stoppers=2, seed=21),
+    # 4 people walking alone, each hidden for 1 s by a board midway through their time in view.
+    "occluded": StreetConfig(walkers=4, occluders=4, seed=37),
 }
 
 
@@ -972,6 +979,21 @@ class _Flicker:
         _composite(canvas, label, patch, mask, self.x + dx, self.y + dy, 0)
 
 
+@dataclass(eq=False)
+class _Board:
+    """An advertising board standing on the ground, parallel to the image: opaque down to the
+    ground, so whatever walks behind it is hidden."""
+
+    depth: float
+    x: int
+    y: int
+    look: np.ndarray  # (h, w, 3) float32
+
+    def draw(self, canvas: np.ndarray, label: np.ndarray, n: int, dx: int, dy: int) -> None:
+        mask = np.ones(self.look.shape[:2], bool)
+        _composite(canvas, label, self.look, mask, self.x + dx, self.y + dy, 0)
+
+
 def _noise(
     rng: np.random.Generator, shape: tuple[int, int], sigma: float, channels: int = 1
 ) -> np.ndarray:
@@ -1053,6 +1075,59 @@ def _make_flicker(rng: np.random.Generator, ground: _Ground, n: int) -> _Flicker
     bright = tint * shading * texture
     on = np.cumsum(rng.uniform(size=n) < 0.15) % 2 == 1
     return _Flicker(float(y + h), x, y, dim.astype(np.float32), bright.astype(np.float32), on)
+
+
+BOARD_GAP_M = 0.6  # how far in front of the walker's nearest point in the hidden stretch
+BOARD_HEIGHT_M = 2.5
+BODY_HALF_WIDTH = 0.25  # of the stature in px: a walking figure's half width, limbs included
+
+
+def _make_board(
+    rng: np.random.Generator, ground: _Ground, person: _Person, config: StreetConfig
+) -> _Board | None:
+    """A board in front of ``person`` midway through its time in view, as wide as the stretch it
+    walks in ``config.occlusion`` seconds plus its body, so it is hidden that long; None when the
+    person is in view too briefly."""
+    seen = np.flatnonzero(person.present)
+    half = round(config.occlusion * config.fps / 2)
+    if len(seen) < 2 * half + 2 * round(config.fps):
+        return None
+    middle = int(seen[len(seen) // 2])
+    hidden = np.arange(middle - half, middle + half + 1)
+    foot, height = person.info.foot[hidden], person.info.height[hidden]
+    near = ground.to_ground(np.array([ground.width / 2, float(foot[:, 1].max())]))[1]
+    bottom = float(ground.to_image(np.array([0.0, max(near - BOARD_GAP_M, 1.0)]))[1])
+    px_per_m = float(ground.person_height(bottom)) / STATURE_M
+    top = min(bottom - BOARD_HEIGHT_M * px_per_m, float((foot[:, 1] - 1.05 * height).min()))
+    reach = BODY_HALF_WIDTH * height  # swinging arms and legs included
+    x0, x1 = math.floor((foot[:, 0] - reach).min()), math.ceil((foot[:, 0] + reach).max())
+    y0, y1 = math.floor(top), math.ceil(bottom)
+    return _Board(float(bottom), x0, y0, _board_look(rng, (y1 - y0, x1 - x0)))
+
+
+def _board_look(rng: np.random.Generator, shape: tuple[int, int]) -> np.ndarray:
+    """A dark frame around a poster: a pale ground with a few coloured blocks, slightly grainy."""
+    h, w = shape
+    look = np.empty((h, w, 3), np.float32)
+    look[:] = (58, 60, 64)
+    rim = max(2, round(0.04 * min(h, w)))
+    poster = look[rim : h - rim, rim : w - rim]
+    poster[:] = rng.uniform(170, 235, 3)
+    ph, pw = poster.shape[:2]
+    for _ in range(3):
+        bh, bw = round(rng.uniform(0.15, 0.4) * ph), round(rng.uniform(0.3, 0.8) * pw)
+        by, bx = int(rng.integers(0, max(1, ph - bh))), int(rng.integers(0, max(1, pw - bw)))
+        poster[by : by + bh, bx : bx + bw] = rng.uniform(30, 220, 3)
+    return look * (1.0 + 0.03 * _noise(rng, (h, w), 1.0)[:, :, None])
+
+
+def _boards(
+    rng: np.random.Generator, config: StreetConfig, ground: _Ground, people: list[_Person]
+) -> list[_Drawable]:
+    """One board for each of the first ``config.occluders`` people walking alone."""
+    walkers = [p for p in people if p.info.kind == "walker"][: config.occluders]
+    boards = [_make_board(rng, ground, p, config) for p in walkers]
+    return [b for b in boards if b is not None]
 
 
 def _distractors(
@@ -1545,6 +1620,7 @@ def generate_street(config: StreetConfig, background: np.ndarray | None = None) 
     )
     people = _people(_layout(layout_rng, config, ground), look_rng, config, ground, world)
     distractors = _distractors(distractor_rng, config, ground)
+    distractors += _boards(distractor_rng, config, ground, people)
     N, H, W = config.num_frames, config.height, config.width
     jitter = (
         jitter_rng.integers(-margin, margin + 1, size=(N, 2))
