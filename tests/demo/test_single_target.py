@@ -116,3 +116,20 @@ def test_the_operator_window_follows_the_target_with_a_lag_inside_the_scene():
     assert view[5].shape == (150, 200) and view[5][0, 0] == frames[5, y, x]
     assert path.to_view(5, Rect(float(x) - 5, float(y), 20.0, 30.0)) == Rect(0.0, 0.0, 15.0, 30.0)
     assert CameraPath((10, 10), {0: (0, 0)}).to_view(0, Rect(50.0, 50.0, 5.0, 5.0)) is None
+
+
+def test_the_table_gives_the_mean_and_spread_over_runs_and_pools_the_fixed_camera_scenes():
+    from tracker_ptz_sim.bringup.single_target_benchmark import FIXED_CAMERA, PersonRun, table
+
+    def run(scene: str, k: int, q1: float, kept: tuple[bool, ...] = ()) -> PersonRun:
+        scores = SingleTargetScores(10, q1, q1, q1, 0)
+        return PersonRun(scene, 1, "pf", 5, scores, {}, run=k, kept=kept)
+
+    runs = [run("walkers-1", 0, 0.4), run("walkers-1", 1, 0.6)]
+    runs += [run("occluded-2", 0, 0.2, (True,)), run("occluded-2", 1, 0.2, (False,))]
+    rows = {line.split(" | ")[0][2:]: line.split(" | ") for line in table(runs, ["pf"]).split("\n")}
+    assert rows["walkers"][4:6] == ["0.500", "0.141"]  # mean, sample std of 0.4 and 0.6
+    assert rows["occluded (moving camera)"][4:6] == ["0.200", "0.000"]
+    assert rows["occluded (moving camera)"][-1] == "1/2 |"
+    assert rows[FIXED_CAMERA][4] == "0.500"  # walkers only
+    assert rows["all"][4:6] == ["0.350", "0.071"]  # runs 0: 0.3, 1: 0.4 over both scenes

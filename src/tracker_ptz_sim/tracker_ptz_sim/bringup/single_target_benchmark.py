@@ -165,6 +165,7 @@ SWEEP: dict[str, ParticleVariant] = {
     **{f"best, K = {k}": _best(bins=k) for k in (8, 32)},
 }
 MOVING_CAMERA = {"occluded"}  # presets watched by a camera operator's moving window
+FIXED_CAMERA = "fixed camera"  # the table's rows pooled over the other presets
 WINDOW = (480, 360)  # px, that window
 START_VISIBILITY = 0.9
 START_HEIGHT = 40.0  # px
@@ -290,17 +291,27 @@ def table(runs: list[PersonRun], variants: Sequence[str]) -> str:
         "σ_Q2 | IoU >= 0.5 | missed | kept through occlusion |"
     )
     lines = [header, "|" + "---|" * (header.count("|") - 1)]
-    presets = sorted({r.scene.rsplit("-", 1)[0] for r in runs})
-    for preset in [*presets, "all"]:
+    presets = sorted({preset_of(r) for r in runs})
+    groups = list(presets)
+    if any(p in MOVING_CAMERA for p in presets) and set(presets) - MOVING_CAMERA:
+        groups.append(FIXED_CAMERA)
+    for group in [*groups, "all"]:
         for variant in variants:
-            chosen = [
-                r
-                for r in runs
-                if r.variant == variant and (preset == "all" or r.scene.startswith(preset + "-"))
-            ]
+            chosen = [r for r in runs if r.variant == variant and in_group(r, group)]
             if chosen:
-                lines.append(_row(preset, variant, chosen))
+                lines.append(_row(group, variant, chosen))
     return "\n".join(lines)
+
+
+def in_group(run: PersonRun, group: str) -> bool:
+    preset = preset_of(run)
+    if group == FIXED_CAMERA:
+        return preset not in MOVING_CAMERA
+    return group in ("all", preset)
+
+
+def preset_of(run: PersonRun) -> str:
+    return run.scene.rsplit("-", 1)[0]
 
 
 def _row(preset: str, variant: str, chosen: list[PersonRun]) -> str:
