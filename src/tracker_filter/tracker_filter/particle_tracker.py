@@ -86,6 +86,7 @@ class ColourParticleTracker:
         confirm_hits: int = 3,
         confirm_travel: float = 12.0,
         max_misses: int = 5,
+        max_unsupported: float = 8.0,
         seed: int = 0,
         first_id: int = 1,
     ) -> None:
@@ -96,18 +97,19 @@ class ColourParticleTracker:
             confirm_hits,
             max_misses,
         )
-        self.confirm_travel = confirm_travel
+        self.confirm_travel, self.max_unsupported = confirm_travel, max_unsupported
         self.random_seed = seed
         self.book = TrackBook(first_id)
         self.filters: list[ColourParticleFilter] = []
         self.states = np.zeros((0, LAYOUT.dim))
+        self.supported = np.zeros(0)  # per target: when a detection last overlapped it (s)
 
     @property
     def next_id(self) -> int:
         return self.book.next_id
 
     def reset(self, reset_ids: bool = False) -> int:
-        self.filters, self.states = [], np.zeros((0, LAYOUT.dim))
+        self.filters, self.states, self.supported = [], np.zeros((0, LAYOUT.dim)), np.zeros(0)
         return self.book.reset(reset_ids)
 
     def seed(self, rect: Rect, observation: Observation) -> int | None:
@@ -148,6 +150,7 @@ class ColourParticleTracker:
         boxes = found.bboxes[chosen]
         rows = np.column_stack([found.positions[chosen], np.zeros((len(chosen), 2)), boxes[:, 2:]])
         self.states = np.concatenate([self.states, rows])
+        self.supported = np.concatenate([self.supported, np.full(len(chosen), t)])
         return True
 
     def _covariances(self, interval: float) -> np.ndarray:
@@ -180,6 +183,17 @@ class ColourParticleTracker:
         centres = boxes[:, :2] + boxes[:, 2:] / 2
         return Detections(centres, boxes[:, 2] * boxes[:, 3], boxes, estimates.scores), hits
 
+    def _note_support(self, t: float, estimates: Detections, detections: Detections) -> None:
+        """A target overlapped by a detection (IoU >= new_track_iou) is supported now. One that
+        goes unsupported longer than `max_unsupported` is lost: a filter started on background
+        that matches its own colours would otherwise be followed for ever, while a person who
+        stops is only without detections for the while they stand."""
+        for row in range(len(estimates)):
+            if len(detections) and _iou(estimates.bboxes[row], detections.bboxes).max() >= (
+                self.new_track_iou
+            ):
+                self.supported[row] = t
+
     def step(self, observation: Observation) -> TrackSet:
         t, book = observation.time, self.book
         book.check_time(t)
@@ -198,13 +212,14 @@ class ColourParticleTracker:
             velocity = np.array([e.velocity[:2] for e in found]) / max(interval, 1e-9)
             self.states = np.column_stack([centres, velocity, boxes[:, 2:]])
             measured, hits = self._measurements(estimates, detections)
+            self._note_support(t, estimates, detections)
         rows = np.flatnonzero(hits)
         positions = LAYOUT.positions(self.states)
         updated = book.record_frame(rows, rows, measured, positions)
         book.confirm(
             (book.hits >= self.confirm_hits) & (book.measured_travel() >= self.confirm_travel)
         )
-        lost = book.misses > self.max_misses
+        lost = (book.misses > self.max_misses) | (t - self.supported > self.max_unsupported)
         if view is not None and image is not None:
             new = [
                 i
@@ -223,7 +238,7 @@ class ColourParticleTracker:
         )  # fmt: skip
         if lost.any():
             book.keep(~lost)
-            self.states = self.states[~lost]
+            self.states, self.supported = self.states[~lost], self.supported[~lost]
             self.filters = [f for f, gone in zip(self.filters, lost, strict=True) if not gone]
         book.finish(t)
         return tracks
@@ -274,6 +289,13 @@ PARAMETERS: tuple[ParamSpec, ...] = (
         "confirm_travel", 12.0, "px those detections must have moved to confirm it", 0.0, 1e4
     ),
     ParamSpec("max_misses", 5, "consecutive misses after which a target is lost", 0, 10000),
+    ParamSpec(
+        "max_unsupported",
+        8.0,
+        "s without an overlapping detection after which it is lost",
+        0.0,
+        1e6,
+    ),
     ParamSpec("seed", 0, "random seed (a replay gives the same tracks)", 0, 2**31 - 1),
 )
 
@@ -297,6 +319,7 @@ def build(values: Mapping[str, Any], first_id: int = 1) -> ColourParticleTracker
         confirm_hits=values["confirm_hits"],
         confirm_travel=values["confirm_travel"],
         max_misses=values["max_misses"],
+        max_unsupported=values["max_unsupported"],
         seed=values["seed"],
         first_id=first_id,
     )
