@@ -74,6 +74,16 @@ def test_a_person_who_stops_stays_tracked_without_detections():
     assert iou(last.bboxes[row], truth[0]) > 0.5
 
 
+def test_a_target_without_detections_for_max_unsupported_is_lost():
+    t = tracker(max_unsupported=1.0)
+    frames = scene_frames(50, stop_after=25)  # person 1 stands still from 2.5 s on
+    history = [t.step(obs) for obs, _ in frames]
+    standing = [h.ids.tolist() for h in history[25:]]
+    assert all(1 in ids for ids in standing[:10]), "kept for the first second"
+    assert all(1 not in ids for ids in standing[12:]), "then lost"
+    assert all(2 in ids for ids in standing), "the walker, still detected, is kept"
+
+
 def test_a_drawn_rectangle_starts_a_confirmed_target():
     t = tracker()
     obs, truth = scene_frames(1)[0]
