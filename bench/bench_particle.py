@@ -9,6 +9,8 @@ the filter (750 particles, K = 16, the thesis's final algorithm) follows them. M
   coefficients, correction, estimate, resampling); target <= 8 ms (the thesis's MATLAB: 1-1.5 s);
 - histograms only: the compiled kernel, and the peer in the same run: the same coefficients in
   plain NumPy, one `bincount` per particle (`coefficients_reference`);
+- the step with 100 / 500 / 2000 particles and with K = 8 / 32 (the thesis's t_f beside its
+  particle-count and histogram-size tables);
 - step with Ext 5's region covariance descriptor instead of histograms (the baseline otherwise,
   as the thesis's table); target <= 60 ms (the thesis: 9.5 s);
 - the first call's compile time of the kernel when numba's on-disk cache is cold is printed
@@ -118,6 +120,12 @@ def main() -> int:
         t0 = time.perf_counter()
         g.step(image)
         covariance.append(1e3 * (time.perf_counter() - t0))
+    sweep = {
+        f"filter step, {n} particles, K = {k}": summary(
+            step_times(images[: 2 + len(hidden)], truth, ParticleFilterConfig(particles=n), k)
+        )
+        for n, k in ((100, 16), (500, 16), (2000, 16), (750, 8), (750, 32))
+    }
     rows = {
         "filter step (750 particles, K = 16)": summary(steps)
         | {"meets_target": statistics_median(steps) <= STEP_TARGET_MS},
@@ -128,6 +136,7 @@ def main() -> int:
             "meets_target": statistics_median(covariance) <= COVARIANCE_TARGET_MS,
             "target_ms": COVARIANCE_TARGET_MS,
         },
+        **sweep,
         "histograms + coefficients, compiled kernel": summary(kernel),
         "peer: the same in NumPy (one bincount per particle)": summary(numpy_peer),
     }
@@ -162,6 +171,22 @@ def main() -> int:
     }
     write_results(OUT, results, ROOT)
     return 0
+
+
+def step_times(
+    images: list[np.ndarray], truth: list[np.ndarray], config: ParticleFilterConfig, bins: int
+) -> list[float]:
+    """Milliseconds per step of a filter following the person (its first step not counted)."""
+    f = ColourParticleFilter(
+        images[0], truth[0], HistogramAppearance(bins=bins), config, np.random.default_rng(0)
+    )
+    f.step(images[1])
+    times = []
+    for image in images[2:]:
+        t0 = time.perf_counter()
+        f.step(image)
+        times.append(1e3 * (time.perf_counter() - t0))
+    return times
 
 
 def statistics_median(values: list[float]) -> float:

@@ -344,9 +344,10 @@ def plot_scene(label: str, runs: list[PersonRun], variants: Sequence[str], path:
     fig, axes = plt.subplots(len(variants), 1, figsize=(10, 2.4 * len(variants)), sharex=True)
     for ax, variant in zip(axes, variants, strict=True):
         for r in runs:
-            if r.variant == variant and r.run == 0:
-                frames = sorted(r.iou)
-                ax.plot(frames, [r.iou[k] for k in frames], lw=1, label=f"person {r.person}")
+            if r.variant == variant and r.run == 0 and r.iou:
+                frames = range(min(r.iou), max(r.iou) + 1)  # a gap where the person is hidden
+                iou = [r.iou.get(k, math.nan) for k in frames]
+                ax.plot(frames, iou, lw=1, label=f"person {r.person}")
         ax.axhline(0.5, color="grey", lw=0.8, ls="--")
         ax.set_ylim(0, 1)
         ax.set_ylabel("IoU")
