@@ -166,20 +166,22 @@ class ColourParticleTracker:
     ) -> tuple[Detections, np.ndarray]:
         """Per target, what measured it this frame, and whether anything did. A confirmed target
         is measured by its own estimate when that matches its reference; a tentative one only by a
-        detection overlapping its estimate (IoU >= new_track_iou), whose box it then takes, so
-        that something still in the background (a sign that matches its own colours forever) is
-        never confirmed; `confirm_travel` asks those detections to have moved, as a person does."""
+        detection overlapping its estimate (IoU >= new_track_iou), so that something still in the
+        background (a sign that matches its own colours forever) is never confirmed;
+        `confirm_travel` asks those detections to have moved, as a person does. A target with
+        such a detection reports the detection's box: the filter's box keeps its start size (a
+        colour histogram does not tell a box shrunk inside the person from the right one)."""
         boxes = estimates.bboxes.copy()
         hits = estimates.scores >= self.min_similarity
-        for row in np.flatnonzero(~self.book.confirmed):
-            if not len(detections):
-                hits[row] = False
-                continue
-            overlap = _iou(estimates.bboxes[row], detections.bboxes)
-            best = int(np.argmax(overlap))
-            hits[row] = overlap[best] >= self.new_track_iou
-            if hits[row]:
+        confirmed = self.book.confirmed
+        for row in range(len(boxes)):
+            overlap = _iou(estimates.bboxes[row], detections.bboxes) if len(detections) else []
+            best = int(np.argmax(overlap)) if len(overlap) else -1
+            detected = best >= 0 and overlap[best] >= self.new_track_iou
+            if detected:
                 boxes[row] = detections.bboxes[best]
+            if not confirmed[row]:
+                hits[row] = detected
         centres = boxes[:, :2] + boxes[:, 2:] / 2
         return Detections(centres, boxes[:, 2] * boxes[:, 3], boxes, estimates.scores), hits
 
