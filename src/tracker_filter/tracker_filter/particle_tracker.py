@@ -175,11 +175,13 @@ class ColourParticleTracker:
         hits = estimates.scores >= self.min_similarity
         confirmed = self.book.confirmed
         for row in range(len(boxes)):
-            overlap = _iou(estimates.bboxes[row], detections.bboxes) if len(detections) else []
-            best = int(np.argmax(overlap)) if len(overlap) else -1
-            detected = best >= 0 and overlap[best] >= self.new_track_iou
-            if detected:
-                boxes[row] = detections.bboxes[best]
+            detected = False
+            if len(detections):
+                overlap = _iou(estimates.bboxes[row], detections.bboxes)
+                best = int(np.argmax(overlap))
+                detected = bool(overlap[best] >= self.new_track_iou)
+                if detected:
+                    boxes[row] = detections.bboxes[best]
             if not confirmed[row]:
                 hits[row] = detected
         centres = boxes[:, :2] + boxes[:, 2:] / 2
