@@ -7,8 +7,11 @@ A `tracking.Tracker` that needs the camera image and window. Each frame:
 - a detection that overlaps no target's estimate (IoU < `new_track_iou`) starts a new filter on
   its box (the thesis's future work: start from motion, not by hand); `seed(rect)` starts one on a
   drawn rectangle (the select-target service);
-- a target is confirmed after `confirm_hits` hits, reported LOST after more than `max_misses`
-  consecutive misses; a frame without its image or window is a miss for every target.
+- a target overlapped by a detection reports the detection's box (the filter's box keeps its
+  start size);
+- a target is confirmed after `confirm_hits` hits (detections that moved `confirm_travel` px),
+  reported LOST after more than `max_misses` consecutive misses or `max_unsupported` s without an
+  overlapping detection; a frame without its image or window is a miss for every target.
 
 State layout "x y vx vy w h": the estimate's centre, its velocity (px/s, from the filter's px per
 frame over the frame interval) and size; the covariance is the particles' sample covariance. Each
