@@ -114,10 +114,12 @@ def background_image(kind: str) -> tuple[np.ndarray | None, str]:
 def prepare_scene(
     name: str, config: street.StreetConfig, background: np.ndarray | None, cache: Path
 ) -> Path:
-    """The scene directory for `config` over `background`, rendered once and cached by content."""
+    """The scene directory for `config` over `background`, rendered once and cached by content
+    (the generator's source included: a changed generator renders its scenes anew)."""
     key = hashlib.sha256(
         json.dumps(asdict(config), sort_keys=True).encode()
         + (background.tobytes() if background is not None else b"generated")
+        + Path(street.__file__).read_bytes()
     ).hexdigest()[:12]
     root = cache / f"{name}-{key}"
     if not (root / META_NAME).exists():
