@@ -24,7 +24,6 @@ for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
 
 import argparse  # noqa: E402
-import platform  # noqa: E402
 import statistics  # noqa: E402
 import sys  # noqa: E402
 import time  # noqa: E402
@@ -33,7 +32,7 @@ from pathlib import Path  # noqa: E402
 
 import cv2  # noqa: E402
 import numpy as np  # noqa: E402
-from timing import summary, write_results  # noqa: E402
+from timing import machine, summary, write_results  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 for _pkg in ("tracker_msgs", "tracker_detect", "tracker_filter", "tracker_ptz_sim"):
@@ -210,12 +209,7 @@ def main() -> int:
     per_frame = frame_costs(frames, truth)
     results = {
         "area": "colour",
-        "machine": {
-            "python": platform.python_version(),
-            "processor": platform.processor() or platform.machine(),
-            "cpus": os.cpu_count(),
-            "opencv": cv2.__version__,
-        },
+        "machine": machine(opencv=cv2.__version__),
         "frame_target_ms": FRAME_TARGET_MS,
         "ratio_target": RATIO_TARGET,
         "filter_step": steps,

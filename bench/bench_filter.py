@@ -21,14 +21,13 @@ for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
 
 import argparse  # noqa: E402
-import platform  # noqa: E402
 import statistics  # noqa: E402
 import sys  # noqa: E402
 import time  # noqa: E402
 from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
-from timing import summary, write_results  # noqa: E402
+from timing import machine, summary, write_results  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 for _pkg in ("tracker_msgs", "tracker_filter"):
@@ -172,11 +171,7 @@ def main() -> int:
     multi, outputs = bench_multi(args.quick)
     results = {
         "area": "filter",
-        "machine": {
-            "python": platform.python_version(),
-            "processor": platform.processor() or platform.machine(),
-            "cpus": os.cpu_count(),
-        },
+        "machine": machine(),
         "target_ms": TARGET_MS,
         "multi_50_targets_10_clutter": multi,
         "track_array_message": bench_messages(outputs, args.quick),

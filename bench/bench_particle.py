@@ -25,13 +25,12 @@ for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "NUMB
     os.environ.setdefault(_var, "1")
 
 import argparse  # noqa: E402
-import platform  # noqa: E402
 import sys  # noqa: E402
 import time  # noqa: E402
 from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
-from timing import summary, write_results  # noqa: E402
+from timing import machine, summary, write_results  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 for _pkg in ("tracker_msgs", "tracker_filter"):
@@ -158,11 +157,7 @@ def main() -> int:
     print(f"  mean corner error of the estimate: {np.mean(errors):.2f} px")
     results = {
         "area": "particle",
-        "machine": {
-            "python": platform.python_version(),
-            "processor": platform.processor() or platform.machine(),
-            "cpus": os.cpu_count(),
-        },
+        "machine": machine(),
         "step_target_ms": STEP_TARGET_MS,
         "rows": rows,
         "kernel_speedup_over_numpy": ratio,

@@ -3,8 +3,11 @@
 from __future__ import annotations
 
 import json
+import os
+import platform
 import statistics
 from pathlib import Path
+from typing import Any
 
 
 def summary(times: list[float]) -> dict:
@@ -15,6 +18,15 @@ def summary(times: list[float]) -> dict:
         "p95_ms": ordered[int(0.95 * (len(ordered) - 1))],
         "mean_ms": statistics.fmean(ordered),
     }
+
+
+def machine(**extra: Any) -> dict:
+    """The machine a results file was measured on (plus `extra` library versions)."""
+    return {
+        "python": platform.python_version(),
+        "processor": platform.processor() or platform.machine(),
+        "cpus": os.cpu_count(),
+    } | extra
 
 
 def write_results(path: Path, results: dict, root: Path) -> None:

@@ -349,7 +349,8 @@ class ColourParticleFilter:
         particles = propagate(self.particles, self.noise(), self.rng)
         raw = self.appearance.similarities(image, view.to_image(particles[:, :4]))
         hidden = self._hidden(float(raw.max()))
-        weights = np.zeros(0) if hidden else corrected_weights(raw, self.config)
+        # hidden: the scores say nothing about the target, every particle counts the same
+        weights = np.ones(len(raw)) if hidden else corrected_weights(raw, self.config)
         total = float(weights.sum())
         weights = weights / total if total > 0 else np.full(len(raw), 1.0 / len(raw))
         if self.config.estimate is EstimateRule.MEAN:

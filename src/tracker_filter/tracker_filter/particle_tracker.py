@@ -166,8 +166,9 @@ class ColourParticleTracker:
 
     def _measurements(
         self, estimates: Detections, detections: Detections
-    ) -> tuple[Detections, np.ndarray]:
-        """Per target, what measured it this frame, and whether anything did. A confirmed target
+    ) -> tuple[Detections, np.ndarray, np.ndarray]:
+        """Per target, what measured it this frame, whether anything did, and whether a detection
+        overlapped it (IoU >= new_track_iou). A confirmed target
         is measured by its own estimate when that matches its reference; a tentative one only by a
         detection overlapping its estimate (IoU >= new_track_iou), so that something still in the
         background (a sign that matches its own colours forever) is never confirmed;
@@ -175,31 +176,17 @@ class ColourParticleTracker:
         such a detection reports the detection's box: the filter's box keeps its start size (a
         colour histogram does not tell a box shrunk inside the person from the right one)."""
         boxes = estimates.bboxes.copy()
-        hits = estimates.scores >= self.min_similarity
-        confirmed = self.book.confirmed
-        for row in range(len(boxes)):
-            detected = False
-            if len(detections):
-                overlap = _iou(estimates.bboxes[row], detections.bboxes)
-                best = int(np.argmax(overlap))
-                detected = bool(overlap[best] >= self.new_track_iou)
-                if detected:
-                    boxes[row] = detections.bboxes[best]
-            if not confirmed[row]:
-                hits[row] = detected
+        detected = np.zeros(len(boxes), dtype=bool)
+        for row in range(len(boxes) if len(detections) else 0):
+            overlap = _iou(estimates.bboxes[row], detections.bboxes)
+            best = int(np.argmax(overlap))
+            detected[row] = overlap[best] >= self.new_track_iou
+            if detected[row]:
+                boxes[row] = detections.bboxes[best]
+        hits = np.where(self.book.confirmed, estimates.scores >= self.min_similarity, detected)
         centres = boxes[:, :2] + boxes[:, 2:] / 2
-        return Detections(centres, boxes[:, 2] * boxes[:, 3], boxes, estimates.scores), hits
-
-    def _note_support(self, t: float, estimates: Detections, detections: Detections) -> None:
-        """A target overlapped by a detection (IoU >= new_track_iou) is supported now. One that
-        goes unsupported longer than `max_unsupported` is lost: a filter started on background
-        that matches its own colours would otherwise be followed for ever, while a person who
-        stops is only without detections for the while they stand."""
-        for row in range(len(estimates)):
-            if len(detections) and _iou(estimates.bboxes[row], detections.bboxes).max() >= (
-                self.new_track_iou
-            ):
-                self.supported[row] = t
+        measured = Detections(centres, boxes[:, 2] * boxes[:, 3], boxes, estimates.scores)
+        return measured, hits, detected
 
     def step(self, observation: Observation) -> TrackSet:
         t, book = observation.time, self.book
@@ -218,8 +205,11 @@ class ColourParticleTracker:
             estimates = Detections(centres, boxes[:, 2] * boxes[:, 3], boxes, similarity)
             velocity = np.array([e.velocity[:2] for e in found]) / max(interval, 1e-9)
             self.states = np.column_stack([centres, velocity, boxes[:, 2:]])
-            measured, hits = self._measurements(estimates, detections)
-            self._note_support(t, estimates, detections)
+            measured, hits, detected = self._measurements(estimates, detections)
+            # lost after max_unsupported without one: a filter started on background that
+            # matches its own colours would otherwise be followed for ever, while a person who
+            # stops goes without detections only for the while they stand
+            self.supported[detected] = t
         rows = np.flatnonzero(hits)
         positions = LAYOUT.positions(self.states)
         updated = book.record_frame(rows, rows, measured, positions)
