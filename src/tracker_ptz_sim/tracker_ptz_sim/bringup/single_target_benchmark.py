@@ -229,13 +229,14 @@ def run_scene(
     """Every variant on every person of `scene` (particle filters `runs` times), on the fixed
     whole-scene camera or, `moving`, on a camera operator's window aimed at each person."""
     out = []
-    footage = Footage(scene.frames, scene.stamps_ns(), scene.fps)
+    whole = Footage(scene.frames, scene.stamps_ns(), scene.fps)
     for person, truth in sorted(people(scene).items()):
         start = start_frame(scene, person)
         if start is None or not any(k > start for k in truth):
             continue
+        footage = whole
         if moving:
-            footage, truth = windowed(scene, footage, truth, start)
+            footage, truth = windowed(scene, whole, truth, start)
         scored = {k: box for k, box in truth.items() if k > start}
         if not scored:
             continue
