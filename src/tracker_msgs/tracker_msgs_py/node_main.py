@@ -13,15 +13,15 @@ A shutdown is never a failure: the exit code is 0 unless the node itself reporte
 cannot start, e.g. a bad path or parameter, printed once without a traceback).
 
 The teardown has a deadline (`TEARDOWN_S`): the middleware's own teardown has been seen to block
-(a node's process in Fast DDS's participant deletion, `rcl_node_fini`, while the rest of the graph
-was stopping too: a replay then lost the node to SIGKILL). Past the deadline the process says so
-in one line and exits with its code without waiting longer; by then its workers are joined and
-nothing of the node publishes.
+(rclpy's `Node.destroy_node` waiting in the middleware while the rest of the graph was stopping
+too, holding the interpreter lock: a replay then lost the node to SIGKILL). Past the deadline the
+process writes its threads' stacks to stderr and exits with its code without waiting longer
+(`exit_deadline`: a C-level timer, so it fires even while the interpreter is blocked); by then
+its workers are joined and nothing of the node publishes.
 """
 
 from __future__ import annotations
 
-import os
 import sys
 import threading
 import time
@@ -37,6 +37,7 @@ from rclpy.node import Node
 from rclpy.signals import SignalHandlerOptions
 
 from tracker_msgs_py import stop_signals
+from tracker_msgs_py.exit_deadline import ExitDeadline
 from tracker_msgs_py.params import ParameterError
 from tracker_msgs_py.problems import ProblemLog
 
@@ -170,9 +171,9 @@ def run_node(make_node: Callable[[], SuiteNode], args: Sequence[str] | None = No
         print(f"[FATAL] {error}", file=sys.stderr, flush=True)
         code = 2
     finally:
-        deadline = threading.Timer(TEARDOWN_S, _exit_after_stuck_teardown, args=(code,))
-        deadline.daemon = True
-        deadline.start()
+        sys.stdout.flush()
+        sys.stderr.flush()
+        deadline = ExitDeadline(TEARDOWN_S, code)
         if executor is not None:
             executor.shutdown(timeout_sec=0.0)
         if node is not None:
@@ -180,15 +181,3 @@ def run_node(make_node: Callable[[], SuiteNode], args: Sequence[str] | None = No
         rclpy.try_shutdown()
         deadline.cancel()
     return code
-
-
-def _exit_after_stuck_teardown(code: int) -> None:
-    """The teardown outlived TEARDOWN_S (see the module docstring): exit without it."""
-    print(
-        f"[WARN] the middleware's teardown did not finish within {TEARDOWN_S} s; exiting "
-        f"with {code} without waiting for it",
-        file=sys.stderr,
-        flush=True,
-    )
-    sys.stdout.flush()
-    os._exit(code)
