@@ -215,3 +215,23 @@ def test_zoom_keeps_the_target_within_the_fill_band():
     assert PanTiltController(ControllerConfig()).step(0.0, pose, target).zoom == 0.0  # off
     with pytest.raises(ValueError, match="fill_low"):
         PanTiltController(ControllerConfig(fill_low=0.6, fill_target=0.5))
+
+
+def test_commands_stay_within_the_units_limits():
+    config = ControllerConfig(mode="direct", pan_limits=(-0.3, 0.3), tilt_limits=(-0.1, 0.2))
+    controller = PanTiltController(config)
+    far_left_and_high = TargetEstimate(CX - F * 1.0, CY - F * 0.5, 0.0, 0.0, CX - F, CY - F * 0.5)
+    command = controller.step(0.0, CameraPose(0.0, 0.0, CX, CY, F), far_left_and_high)
+    assert command.mode is CommandMode.POSITION
+    assert (command.pan, command.tilt) == (0.3, -0.1)
+
+
+def test_a_rate_that_would_drive_past_a_limit_is_stopped():
+    config = ControllerConfig(pan_limits=(-0.3, 0.3), tilt_limits=(-0.1, 0.2))
+    controller = PanTiltController(config)
+    at_left_limit = CameraPose(0.3, 0.0, CX - F * 0.3, CY, F)
+    further_left = TargetEstimate(CX - F * 0.6, CY + F * 0.1, 0.0, 0.0, CX - F * 0.6, CY + F * 0.1)
+    command = controller.step(0.0, at_left_limit, further_left)
+    assert command.mode is CommandMode.VELOCITY
+    assert command.pan_rate == 0.0  # pan would leave the range
+    assert command.tilt_rate > 0.0  # tilt is free to follow

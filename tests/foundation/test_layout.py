@@ -31,6 +31,7 @@ ROS_SHELLS = {
     "video_source_node",
     "ptz_camera_node",
     "ptz_controller_node",
+    "ptz_state_bridge_node",
     "demo",
 }
 

@@ -1,9 +1,10 @@
 """ros2 launch tracker_ptz_sim surveillance.launch.py video:=/path/to/video.mp4
-    [graph:=surveillance|colour] [controller_mode:=servo] [respawn:=true]
+    [graph:=surveillance|colour|standard] [controller_mode:=servo] [respawn:=true]
 
 The whole graph, built from the same config/*graph.yaml and parameter files the demo runner
 (make demo) uses, so both run exactly the same nodes with the same parameters. graph:=colour runs
-the colour-following graph (motion hands its target over to CamShift; seed 001).
+the colour-following graph (motion hands its target over to CamShift; seed 001); graph:=standard
+the surveillance graph behind a simulated camera that speaks only sensor_msgs, as real drivers do.
 With respawn:=true a processing node that exits is started again (after 1 s, at most 5 times).
 video_source is not respawned: it exits 0 at the end of the stream, which launch cannot tell from
 a crash (`run_demo --respawn` restarts it where it left off; a source restarted from its first
@@ -27,7 +28,8 @@ def generate_launch_description():
             "graph",
             default_value="surveillance",
             choices=list(GRAPHS),
-            description="which graph: surveillance (motion) or colour (motion hands over to CamShift)",
+            description="which graph: surveillance (motion), colour (motion hands over to "
+            "CamShift) or standard (surveillance behind sensor_msgs-only drivers)",
         ),
         DeclareLaunchArgument(
             "controller_mode",

@@ -20,6 +20,10 @@ def ptz_controller() -> int:
     return guarded_main("tracker_ptz_sim.control.ptz_controller_node")
 
 
+def ptz_state_bridge() -> int:
+    return guarded_main("tracker_ptz_sim.control.ptz_state_bridge_node")
+
+
 def run_demo() -> int:
     return guarded_main("tracker_ptz_sim.bringup.demo")
 

@@ -1,9 +1,10 @@
 """run_demo: the whole surveillance graph as separate processes, recorded and summarised.
 
-    run_demo [--video PATH] [--out out] [--graph surveillance|colour] [--mode servo|direct]
+    run_demo [--video PATH] [--out out] [--graph surveillance|colour|standard] [--mode servo|direct]
              [--set node.param=value ...] [--respawn] [--no-video]
 
-Starts every node of the graph (config/graph.yaml, or with --graph colour config/colour_graph.yaml)
+Starts every node of the graph (config/graph.yaml; --graph colour: config/colour_graph.yaml;
+--graph standard: config/standard_graph.yaml)
 from the install space (exactly as `ros2 run` would) with its parameter files, replays the video
 in lockstep, records every topic into an MCAP bag with `rosbags`, shows progress, and writes to
 the output directory:
@@ -44,11 +45,14 @@ from rclpy.signals import SignalHandlerOptions
 
 from tracker_msgs.msg import ReplayStatus
 from tracker_msgs_py import stop_signals
-from tracker_ptz_sim.bringup.graph import GRAPHS, Graph, load_graph
+from tracker_msgs_py.params import config_from_params
+from tracker_ptz_sim.bringup.graph import GRAPHS, Graph, load_graph, node_parameters
 from tracker_ptz_sim.bringup.processes import GraphProcesses, describe_exit
 from tracker_ptz_sim.evaluation import run_report
 from tracker_ptz_sim.evaluation.contact_sheet import write_contact_sheet
 from tracker_ptz_sim.evaluation.recording import BagWriter
+from tracker_ptz_sim.simulation.camera_model import PtzCameraModel, PtzConfig
+from tracker_ptz_sim.simulation.frame_sources import open_source
 
 STATUS_QUIET_S = 0.3  # no replay status for this long: a killed source's last ones have arrived
 RESPAWN_LIMIT = 5  # --respawn: restarts per node before the run gives up on it
@@ -237,6 +241,45 @@ class Supervisor:
         return overrides
 
 
+def stand_in_scene(
+    graph: Graph, video: Path, overrides: dict[str, dict[str, Any]]
+) -> dict[str, dict[str, Any]]:
+    """For a graph whose ptz_state_bridge listens to the simulated camera standing in for a real
+    unit's drivers: the bridge's scene settings the simulator uses (the replayed scene's size, the
+    camera's focal length in scene px/rad), so the bridge's ptz/state windows are the simulator's
+    and runs score against the scene's ground truth. Values set in the files or overrides win."""
+    if "ptz_state_bridge" not in {node.name for node in graph.nodes}:
+        return {}
+    bridge = {
+        **node_parameters(graph.params_files, "ptz_state_bridge"),
+        **overrides.get("ptz_state_bridge", {}),
+    }
+    if (
+        bridge.get("scene_width")
+        and bridge.get("scene_height")
+        and bridge.get("scene_focal_length")
+    ):
+        return {}
+    first = next(open_source(video).frames(0, 1))
+    height, width = first.image.shape[:2]
+    camera = {
+        **node_parameters(graph.params_files, "ptz_camera"),
+        **overrides.get("ptz_camera", {}),
+    }
+    model = PtzCameraModel(config_from_params(PtzConfig, camera), width, height)
+    derived = {
+        "scene_width": width,
+        "scene_height": height,
+        "scene_focal_length": model.geometry.focal_length,
+    }
+    return {
+        "ptz_state_bridge": {
+            **{k: v for k, v in derived.items() if not bridge.get(k)},
+            **overrides.get("ptz_state_bridge", {}),
+        }
+    }
+
+
 def run_graph(
     graph: Graph,
     video: Path,
@@ -284,6 +327,7 @@ def run_graph(
         "wait_for_subscribers": 2,  # the first frame goes out once ptz_camera and we listen
         **overrides.get("video_source", {}),
     }
+    overrides = {**overrides, **stand_in_scene(graph, video, overrides)}
     supervisor = Supervisor(
         nodes, recorder, result, {**overrides, "video_source": source_overrides}, respawn_limit
     )
@@ -468,8 +512,9 @@ def main(argv: list[str] | None = None) -> int:
         "--graph",
         choices=list(GRAPHS),
         default="surveillance",
-        help="surveillance (motion, the default) or colour (motion hands its target over to "
-        "CamShift, which the camera then follows; seed 001)",
+        help="surveillance (motion, the default); colour (motion hands its target over to "
+        "CamShift, which the camera then follows; seed 001); standard (surveillance behind a "
+        "camera that speaks only sensor_msgs, as a real unit's drivers do)",
     )
     parser.add_argument("--set", action="append", default=[], metavar="NODE.PARAM=VALUE")
     parser.add_argument("--no-video", action="store_true", help="skip the annotated video")

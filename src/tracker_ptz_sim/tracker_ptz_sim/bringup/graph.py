@@ -59,7 +59,11 @@ def config_dir() -> Path:
 
 
 #: Graph name -> its description file in config/.
-GRAPHS = {"surveillance": "graph.yaml", "colour": "colour_graph.yaml"}
+GRAPHS = {
+    "surveillance": "graph.yaml",
+    "colour": "colour_graph.yaml",
+    "standard": "standard_graph.yaml",
+}
 
 
 def load_graph(name: str = "surveillance", directory: Path | None = None) -> Graph:

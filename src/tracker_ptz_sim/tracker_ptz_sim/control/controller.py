@@ -93,7 +93,9 @@ class ControllerConfig:
     aim_at_prediction: bool = True  # aim at the tracker's predicted position (latency compensation)
     search: str = "sweep"  # "sweep", "presets" or "none"
     sweep_rate: float = 0.25  # rad/s
-    pan_limits: tuple[float, float] = (-math.pi, math.pi)  # rad; the sweep also reverses on a stall
+    # rad: the unit's range; no command leaves it, the sweep reverses at it (and on a stall)
+    pan_limits: tuple[float, float] = (-math.pi, math.pi)
+    tilt_limits: tuple[float, float] = (-math.pi / 2, math.pi / 2)
     presets: tuple[tuple[float, float], ...] = ()  # (pan, tilt) rad, for "presets"
     preset_dwell_time: float = 3.0  # s at each search preset
     home: tuple[float, float] = (0.0, 0.0)  # (pan, tilt) rad
@@ -120,6 +122,8 @@ class ControllerConfig:
             found.append("search 'presets' needs at least one preset pose")
         if self.pan_limits[0] >= self.pan_limits[1]:
             found.append(f"pan_limits must be increasing, got {self.pan_limits}")
+        if self.tilt_limits[0] >= self.tilt_limits[1]:
+            found.append(f"tilt_limits must be increasing, got {self.tilt_limits}")
         if not 0.0 <= self.fill_low < self.fill_target < self.fill_high:
             found.append(
                 "need 0 <= fill_low < fill_target < fill_high, got "
@@ -140,13 +144,15 @@ def _pairs(flat: list[float], name: str) -> list[tuple[float, float]]:
 
 def controller_config(values: Mapping[str, Any]) -> ControllerConfig:
     """The controller configuration the ptz_controller parameters describe (raises ValueError
-    when invalid): pan_limits and home are [a, b] lists, presets a flat [pan1, tilt1, ...] list."""
-    if len(values["pan_limits"]) != 2 or len(values["home"]) != 2:
-        raise ValueError("pan_limits and home need exactly two values")
+    when invalid): the limits and home are [a, b] lists, presets a flat [pan1, tilt1, ...] list."""
+    for name in ("pan_limits", "tilt_limits", "home"):
+        if len(values[name]) != 2:
+            raise ValueError(f"{name} needs exactly two values")
     return config_from_params(
         ControllerConfig,
         values,
         pan_limits=(float(values["pan_limits"][0]), float(values["pan_limits"][1])),
+        tilt_limits=(float(values["tilt_limits"][0]), float(values["tilt_limits"][1])),
         home=(float(values["home"][0]), float(values["home"][1])),
         presets=tuple(_pairs(values["presets"], "presets")),
     )
@@ -194,6 +200,22 @@ class PanTiltController:
         self._last_pan = pose.pan
         if self.config.zoom_control:
             command = replace(command, zoom=self._zoom(pose, target))
+        return self._within_limits(command, pose)
+
+    def _within_limits(self, command: Command, pose: CameraPose) -> Command:
+        """Positions clamped into the unit's range; a rate that would drive an axis further past
+        its limit stopped."""
+        pan_range, tilt_range = self.config.pan_limits, self.config.tilt_limits
+        if command.mode is CommandMode.POSITION:
+            return replace(
+                command, pan=_clip(command.pan, *pan_range), tilt=_clip(command.tilt, *tilt_range)
+            )
+        if command.mode is CommandMode.VELOCITY:
+            return replace(
+                command,
+                pan_rate=_stop_at_limit(command.pan_rate, pose.pan, *pan_range),
+                tilt_rate=_stop_at_limit(command.tilt_rate, pose.tilt, *tilt_range),
+            )
         return command
 
     def _zoom(self, pose: CameraPose, target: TargetEstimate | None) -> float:
@@ -311,3 +333,11 @@ class PanTiltController:
 
 def _clamp(value: float, limit: float) -> float:
     return max(-limit, min(limit, value))
+
+
+def _clip(value: float, low: float, high: float) -> float:
+    return max(low, min(high, value))
+
+
+def _stop_at_limit(rate: float, angle: float, low: float, high: float) -> float:
+    return 0.0 if (angle >= high and rate > 0.0) or (angle <= low and rate < 0.0) else rate

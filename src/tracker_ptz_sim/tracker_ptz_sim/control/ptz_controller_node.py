@@ -17,7 +17,7 @@ from rclpy.clock import Clock, ClockType
 from sensor_msgs.msg import JointState
 
 from tracker_msgs.msg import PtzCommand, PtzState, Target
-from tracker_msgs_py.codec import NS_PER_S, msg_to_window, result_qos, stamp_to_ns
+from tracker_msgs_py.codec import NS_PER_S, msg_to_window, ns_to_stamp, result_qos, stamp_to_ns
 from tracker_msgs_py.node_main import SuiteNode, run_node
 from tracker_msgs_py.params import ParamSpec, declare_parameters
 from tracker_msgs_py.stamps import Order, StampOrder
@@ -58,7 +58,12 @@ PARAMS = [
         choices=("sweep", "presets", "none"),
     ),
     ParamSpec("sweep_rate", _DEFAULTS.sweep_rate, "horizontal search sweep rate [rad/s]", 0.0, 5.0),
-    ParamSpec("pan_limits", list(_DEFAULTS.pan_limits), "[min, max] pan of the sweep [rad]"),
+    ParamSpec(
+        "pan_limits",
+        list(_DEFAULTS.pan_limits),
+        "[min, max] pan [rad]: no command leaves it, the sweep reverses at it",
+    ),
+    ParamSpec("tilt_limits", list(_DEFAULTS.tilt_limits), "[min, max] tilt [rad] commanded"),
     ParamSpec("presets", [0.0, 0.0], "search presets as [pan1, tilt1, pan2, tilt2, ...] [rad]"),
     ParamSpec(
         "preset_dwell_time", _DEFAULTS.preset_dwell_time, "time at each preset [s]", 0.1, 600.0
@@ -108,6 +113,11 @@ PARAMS = [
     ),
     ParamSpec("joint_command_topic", "", "also publish commands as JointState here ('' = off)"),
     ParamSpec("joint_names", ["pan_joint", "tilt_joint"], "pan and tilt joint names"),
+    ParamSpec(
+        "zoom_joint",
+        "",
+        "joint commands: the zoom joint, commanded by position when the zoom changes ('' = none)",
+    ),
     ParamSpec("base_frame_id", "ptz_base", "frame_id of the commands"),
 ]
 
@@ -140,6 +150,18 @@ class PtzControllerNode(SuiteNode):
         self.create_subscription(Target, "target", self._on_target, 10)
         self.create_subscription(PtzState, "ptz/state", self._on_state, 10)
         self.create_timer(0.05, self._answer_overdue, clock=Clock(clock_type=ClockType.STEADY_TIME))
+
+    def destroy_node(self) -> None:
+        # A unit turning at the last commanded rate stops now, not at its own watchdog. Stamped
+        # like the last image answered (a command carries the stamp of the image it answers).
+        first_call = not self.stopping.is_set()
+        self.stop_workers()
+        if first_call and self.joint_pub is not None and self.last_target_ns is not None:
+            stop = joint_command(Command(CommandMode.HOLD), None, self.params["joint_names"], "")
+            stop.header.frame_id = self.params["base_frame_id"]
+            stop.header.stamp = ns_to_stamp(self.last_target_ns)
+            self.joint_pub.publish(stop)
+        super().destroy_node()
 
     def _joint_publisher(self):  # noqa: ANN202 - Publisher | None
         topic = self.params["joint_command_topic"]
@@ -279,7 +301,11 @@ class PtzControllerNode(SuiteNode):
         msg.zoom = command.zoom  # 0: keep the current zoom
         self.command_pub.publish(msg)
         if self.joint_pub is not None:
-            self.joint_pub.publish(joint_command(command, msg.header, self.params["joint_names"]))
+            self.joint_pub.publish(
+                joint_command(
+                    command, msg.header, self.params["joint_names"], self.params["zoom_joint"]
+                )
+            )
 
 
 def pose_of(state: PtzState) -> tuple[CameraPose | None, str | None]:
@@ -310,13 +336,24 @@ def estimate_of(target: Target) -> TargetEstimate | None:
     return TargetEstimate(*values, height=float(track.bbox.height))
 
 
-def joint_command(command: Command, header: Any, names: list[str]) -> JointState:
-    """The command as a JointState: positions for POSITION, velocities for VELOCITY and HOLD."""
-    joints = JointState(header=header, name=list(names))
+def joint_command(command: Command, header: Any, names: list[str], zoom_joint: str) -> JointState:
+    """The command as a JointState: positions for POSITION, velocities for VELOCITY and HOLD.
+    A zoom change adds `zoom_joint` with the zoom as its position; NaN marks what is not
+    commanded (the pan and tilt positions of a velocity command, the zoom's velocity)."""
+    joints = JointState(name=list(names))
+    if header is not None:
+        joints.header = header
     if command.mode is CommandMode.POSITION:
         joints.position = [command.pan, command.tilt]
     else:
         joints.velocity = [command.pan_rate, command.tilt_rate]
+    if zoom_joint and command.zoom > 0.0:
+        joints.name.append(zoom_joint)
+        if command.mode is CommandMode.POSITION:
+            joints.position.append(command.zoom)
+        else:
+            joints.position = [math.nan, math.nan, command.zoom]
+            joints.velocity.append(math.nan)
     return joints
 
 

@@ -5,6 +5,11 @@ Subscribes `scene/image_raw` and `ptz/command` (tracker_msgs/PtzCommand: positio
 hold); for every scene image publishes the camera view `camera/image_raw` + `camera/camera_info`
 (the window's intrinsics), `ptz/state` (tracker_msgs/PtzState) and `ptz/joint_states`
 (sensor_msgs/JointState, pan and tilt in radians, REP-103 signs), all stamped with the scene image.
+
+With `interface: standard` it stands in for a real unit's drivers instead: it speaks only
+sensor_msgs (no PtzState; commands as JointState on `ptz/joint_command`, positions or velocities,
+NaN = not commanded, plus the `zoom_joint` when named), the contract in the README's "On a real
+pan-tilt unit".
 In lockstep mode it processes scene image n+1 only once a command stamped >= image n has arrived
 (or after `lockstep_timeout`), because commands and images travel on different topics: this makes
 a lockstep replay deterministic.
@@ -93,6 +98,15 @@ PARAMS = [
     ParamSpec("scene_frame_id", "scene", "frame_id of ptz/state (its window is in scene px)"),
     ParamSpec("joint_names", ["pan_joint", "tilt_joint"], "names of the pan and tilt joints"),
     ParamSpec(
+        "interface",
+        "suite",
+        "suite: PtzCommand in, PtzState out; standard: only sensor_msgs, like a real unit's "
+        "drivers (JointState commands on ptz/joint_command)",
+        choices=("suite", "standard"),
+        read_only=True,
+    ),
+    ParamSpec("zoom_joint", "", "standard interface: the zoom joint's name ('' = no zoom joint)"),
+    ParamSpec(
         "lockstep",
         False,
         "process image n+1 only after a command acknowledging image n",
@@ -140,10 +154,18 @@ class PtzCameraNode(SuiteNode):
         qos = image_qos(self.params["reliable_images"])
         self.view_pub = self.create_publisher(Image, "camera/image_raw", qos)
         self.info_pub = self.create_publisher(CameraInfo, "camera/camera_info", qos)
-        self.state_pub = self.create_publisher(PtzState, "ptz/state", result_qos())
+        self.standard = self.params["interface"] == "standard"
+        self.state_pub = (
+            None if self.standard else self.create_publisher(PtzState, "ptz/state", result_qos())
+        )
         self.joint_pub = self.create_publisher(JointState, "ptz/joint_states", result_qos())
         self.create_subscription(Image, "scene/image_raw", self._on_scene, qos)
-        self.create_subscription(PtzCommandMsg, "ptz/command", self._on_command, 10)
+        if self.standard:
+            self.create_subscription(
+                JointState, "ptz/joint_command", self._on_joint_command, result_qos()
+            )
+        else:
+            self.create_subscription(PtzCommandMsg, "ptz/command", self._on_command, 10)
         if self.params["lockstep"]:
             # Wall time: with use_sim_time the node's clock stands still while the replay waits.
             self.create_timer(
@@ -161,8 +183,21 @@ class PtzCameraNode(SuiteNode):
     # --- commands -------------------------------------------------------------------------------
 
     def _on_command(self, msg: PtzCommandMsg) -> None:
+        self._apply(self._command_from(msg), stamp_to_ns(msg.header.stamp))
+
+    def _on_joint_command(self, msg: JointState) -> None:
+        self._apply(self._joint_command_from(msg), stamp_to_ns(msg.header.stamp))
+
+    def _apply(self, command: PtzCommand | None, stamp: int) -> None:
         self.commands_received += 1
-        command = self._command_from(msg)
+        if command is not None and self.last_image_ns is not None and stamp > self.last_image_ns:
+            self.problems.report(
+                "command from the future",
+                f"ignored a pan-tilt command stamped {stamp / NS_PER_S:.3f} s, after the latest scene "
+                f"image ({self.last_image_ns / NS_PER_S:.3f} s): commands carry the stamp of the image "
+                "they answer",
+            )
+            command = None
         if command is not None:
             if self.model is not None:
                 self.model.command(command)
@@ -170,7 +205,6 @@ class PtzCameraNode(SuiteNode):
                 self.early_commands.append(command)  # before the first image: applied at start
         # Even a rejected command acknowledges its image: the controller did answer it. One
         # stamped after the newest image answers another epoch's image and acknowledges nothing.
-        stamp = stamp_to_ns(msg.header.stamp)
         if self.last_image_ns is None or stamp <= self.last_image_ns:
             self.last_command_ns = max(self.last_command_ns, stamp)
         self._process_pending()
@@ -190,17 +224,44 @@ class PtzCameraNode(SuiteNode):
             self.problems.report(
                 "non-finite command", f"ignored a pan-tilt command with non-finite values {values}"
             )
-        elif self.last_image_ns is not None and stamp > self.last_image_ns:
-            self.problems.report(
-                "command from the future",
-                f"ignored a pan-tilt command stamped {stamp / NS_PER_S:.3f} s, after the latest scene "
-                f"image ({self.last_image_ns / NS_PER_S:.3f} s): commands carry the stamp of the image "
-                "they answer",
-            )
         else:
             return PtzCommand(
                 stamp / NS_PER_S, mode, msg.pan, msg.tilt, msg.pan_rate, msg.tilt_rate, msg.zoom
             )
+        return None
+
+    def _joint_command_from(self, msg: JointState) -> PtzCommand | None:
+        """A JointState command: velocities where given (finite), else positions; or None."""
+        stamp = stamp_to_ns(msg.header.stamp)
+        names = list(msg.name)
+        pan_name, tilt_name = self.params["joint_names"]
+        if pan_name not in names or tilt_name not in names:
+            self.problems.report(
+                "joint command without the joints",
+                f"ignored a JointState command without {pan_name} and {tilt_name} (names {names})",
+            )
+            return None
+        zoom = math.nan
+        zoom_joint = self.params["zoom_joint"]
+        if zoom_joint in names and len(msg.position) == len(names):
+            zoom = float(msg.position[names.index(zoom_joint)])
+
+        def pick(values: Any) -> tuple[float, float] | None:
+            if len(values) != len(names):
+                return None
+            pair = (float(values[names.index(pan_name)]), float(values[names.index(tilt_name)]))
+            return pair if all(math.isfinite(v) for v in pair) else None
+
+        rates, angles = pick(msg.velocity), pick(msg.position)
+        if rates is not None:
+            return PtzCommand(stamp / NS_PER_S, "velocity", 0.0, 0.0, *rates, zoom)
+        if angles is not None:
+            return PtzCommand(stamp / NS_PER_S, "position", *angles, 0.0, 0.0, zoom)
+        self.problems.report(
+            "joint command without values",
+            "ignored a JointState command with neither finite velocities nor positions for the "
+            "pan and tilt joints",
+        )
         return None
 
     # --- images ---------------------------------------------------------------------------------
@@ -320,12 +381,17 @@ class PtzCameraNode(SuiteNode):
         )
         state.header.stamp = stamp
         state.header.frame_id = self.params["scene_frame_id"]
-        self.state_pub.publish(state)
+        if self.state_pub is not None:
+            self.state_pub.publish(state)
         joints = JointState(
             name=list(self.params["joint_names"]),
             position=[snapshot.pan, snapshot.tilt],
             velocity=[snapshot.pan_rate, snapshot.tilt_rate],
         )
+        if self.standard and self.params["zoom_joint"]:
+            joints.name.append(self.params["zoom_joint"])
+            joints.position.append(snapshot.zoom)
+            joints.velocity.append(0.0)
         joints.header.stamp = stamp
         joints.header.frame_id = "ptz_base"
         self.joint_pub.publish(joints)

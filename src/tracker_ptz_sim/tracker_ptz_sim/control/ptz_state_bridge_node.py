@@ -1,0 +1,189 @@
+"""ptz_state_bridge: a real pan-tilt unit's standard messages as the suite's PtzState (thin shell
+over joint_pose.py).
+
+Subscribes `ptz/joint_states` (sensor_msgs/JointState: pan, tilt [rad, REP-103], optionally a zoom
+joint) and `camera/camera_info` (sensor_msgs/CameraInfo, one per image, the image's stamp);
+publishes one `ptz/state` (tracker_msgs/PtzState) per CameraInfo, stamped like it, with the pose
+interpolated at that stamp. With it the detector, tracker and controller run behind any driver that
+publishes what FLIR PTU or Axis drivers do, unchanged.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from typing import Any
+
+from rclpy.clock import Clock, ClockType
+from sensor_msgs.msg import CameraInfo, JointState
+
+from tracker_detect.registration import CameraIntrinsics
+from tracker_msgs.msg import PtzState
+from tracker_msgs_py.codec import (
+    NS_PER_S,
+    image_qos,
+    ns_to_stamp,
+    rect_to_msg,
+    result_qos,
+    stamp_to_ns,
+)
+from tracker_msgs_py.node_main import SuiteNode, run_node
+from tracker_msgs_py.params import ParamSpec, declare_parameters
+from tracker_ptz_sim.control.joint_pose import JointPoseBridge, JointSample, PtzPose, SceneSettings
+
+PARAMS = [
+    ParamSpec(
+        "joint_names",
+        ["pan_joint", "tilt_joint"],
+        "pan and tilt joints of JointState",
+        validator=lambda v: None if len(v) == 2 else "joint_names needs two names (pan, tilt)",
+        read_only=True,
+    ),
+    ParamSpec(
+        "zoom_joint", "", "JointState joint whose position is the zoom ('' = none)", read_only=True
+    ),
+    ParamSpec("scene_width", 0, "scene width [px] (0 = the camera image's)", 0, 1_000_000),
+    ParamSpec("scene_height", 0, "scene height [px] (0 = the camera image's)", 0, 1_000_000),
+    ParamSpec(
+        "scene_focal_length",
+        0.0,
+        "scene px per radian (0 = the first CameraInfo's fx at zoom 1)",
+        0.0,
+        1e9,
+        read_only=True,
+    ),
+    ParamSpec("joint_buffer_size", 64, "joint states kept", 2, 10000, read_only=True),
+    ParamSpec(
+        "max_gap", 0.5, "interpolate between joint states at most this far apart [s]", 0.0, 60.0
+    ),
+    ParamSpec(
+        "pose_wait",
+        0.2,
+        "an image waits this long [s, wall] for a joint state after its stamp, then takes the "
+        "latest one before it",
+        0.0,
+        10.0,
+    ),
+    ParamSpec(
+        "max_pose_age", 0.5, "that earlier joint state may be at most this old [s]", 0.0, 60.0
+    ),
+    ParamSpec("scene_frame_id", "scene", "frame_id of ptz/state (its window is in scene px)"),
+    ParamSpec(
+        "reliable_images", False, "reliable QoS for camera_info (lockstep replays)", read_only=True
+    ),
+]
+
+
+class PtzStateBridgeNode(SuiteNode):
+    def __init__(self, **node_options: Any) -> None:
+        """node_options go to rclpy's Node (parameter_overrides, context...)."""
+        super().__init__("ptz_state_bridge", **node_options)
+        self.params = declare_parameters(self, PARAMS, on_change=self._on_change)
+        self.bridge = JointPoseBridge(
+            self._scene(),
+            self.params["joint_buffer_size"],
+            round(self.params["max_gap"] * NS_PER_S),
+            round(self.params["max_pose_age"] * NS_PER_S),
+        )
+        self.arrivals: dict[int, float] = {}  # waiting image stamps -> wall time they came
+        self.state_pub = self.create_publisher(PtzState, "ptz/state", result_qos())
+        qos = image_qos(self.params["reliable_images"], depth=self.params["joint_buffer_size"])
+        self.create_subscription(JointState, "ptz/joint_states", self._on_joints, qos)
+        self.create_subscription(CameraInfo, "camera/camera_info", self._on_camera_info, qos)
+        self.create_timer(
+            0.02, self._release_overdue, clock=Clock(clock_type=ClockType.STEADY_TIME)
+        )
+        self.get_logger().info("ptz_state_bridge ready")
+
+    def _scene(self) -> SceneSettings:
+        params = self.params
+        return SceneSettings(
+            params["scene_width"], params["scene_height"], params["scene_focal_length"]
+        )
+
+    def _on_change(self, changed: dict[str, Any]) -> None:
+        self.bridge.scene = self._scene()
+        self.bridge.joints.max_gap_ns = round(self.params["max_gap"] * NS_PER_S)
+        self.bridge.max_age_ns = round(self.params["max_pose_age"] * NS_PER_S)
+
+    def _on_joints(self, msg: JointState) -> None:
+        sample = self._sample(msg)
+        if sample is not None:
+            self._publish(self.bridge.add_joints(sample))
+
+    def _sample(self, msg: JointState) -> JointSample | None:
+        names = list(msg.name)
+        wanted = list(self.params["joint_names"])
+        zoom_joint = self.params["zoom_joint"]
+        needed = wanted + [zoom_joint] if zoom_joint else wanted
+        try:
+            pan, tilt = (float(msg.position[names.index(n)]) for n in wanted)
+            zoom = float(msg.position[names.index(zoom_joint)]) if zoom_joint else math.nan
+        except (ValueError, IndexError):
+            self.problems.report(
+                "JointState without the joints",
+                f"ignored a JointState without positions for {needed} (names {names})",
+            )
+            return None
+        if not all(math.isfinite(v) for v in (pan, tilt)) or (zoom_joint and not zoom > 0.0):
+            self.problems.report(
+                "non-finite joint position",
+                f"ignored a JointState with pan/tilt/zoom {pan, tilt, zoom}",
+            )
+            return None
+        pan_rate = tilt_rate = math.nan  # the bridge differentiates positions instead
+        if len(msg.velocity) == len(names):
+            pan_rate, tilt_rate = (float(msg.velocity[names.index(n)]) for n in wanted)
+        return JointSample(stamp_to_ns(msg.header.stamp), pan, tilt, zoom, pan_rate, tilt_rate)
+
+    def _on_camera_info(self, msg: CameraInfo) -> None:
+        try:
+            camera = CameraIntrinsics(
+                int(msg.width), int(msg.height), msg.k[0], msg.k[4], msg.k[2], msg.k[5]
+            )
+        except ValueError as error:
+            self.problems.report("invalid CameraInfo", f"ignored a CameraInfo: {error}")
+            return
+        stamp = stamp_to_ns(msg.header.stamp)
+        self.arrivals[stamp] = time.monotonic()
+        self._publish(self.bridge.add_camera_info(stamp, camera))
+
+    def _release_overdue(self) -> None:
+        waiting = self.bridge.waiting
+        if (
+            waiting
+            and time.monotonic() - self.arrivals.get(waiting[0][0], 0.0) >= self.params["pose_wait"]
+        ):
+            self._publish(self.bridge.give_up())
+
+    def _publish(self, poses: list[PtzPose]) -> None:
+        for stamp, why in self.bridge.dropped:
+            self.arrivals.pop(stamp, None)
+            self.problems.report(why, f"no ptz/state for the image stamped {stamp} ns: {why}")
+        self.bridge.dropped.clear()
+        for pose in poses:
+            self.arrivals.pop(pose.stamp_ns, None)
+            self.state_pub.publish(self._state(pose))
+
+    def _state(self, pose: PtzPose) -> PtzState:
+        state = PtzState(
+            pan=pose.pan,
+            tilt=pose.tilt,
+            pan_rate=pose.pan_rate,
+            tilt_rate=pose.tilt_rate,
+            zoom=pose.zoom,
+            focal_length=pose.focal_length,
+            window=rect_to_msg(pose.window),
+            moving=pose.moving,
+        )
+        state.header.stamp = ns_to_stamp(pose.stamp_ns)
+        state.header.frame_id = self.params["scene_frame_id"]
+        return state
+
+
+def main(args: list[str] | None = None) -> int:
+    return run_node(PtzStateBridgeNode, args)
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

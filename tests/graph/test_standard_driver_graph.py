@@ -1,0 +1,73 @@
+"""The surveillance graph behind a camera that speaks only sensor_msgs, as a real pan-tilt unit's
+drivers do (config/standard_graph.yaml): ptz_camera stands in for the drivers (camera/image_raw,
+camera/camera_info, ptz/joint_states out; JointState commands in), ptz_state_bridge makes the
+suite's ptz/state from them, and the controller steers the unit with JointState commands."""
+
+from __future__ import annotations
+
+import pytest
+from demo_runs import run_demo
+
+pytestmark = [pytest.mark.ros, pytest.mark.slow]
+
+
+@pytest.fixture(scope="module")
+def standard_run(tmp_path_factory):
+    """One person-sized object walking with two turns (the surveillance graph test's scene)."""
+    from tracker_ptz_sim.evaluation import run_report
+    from tracker_ptz_sim.simulation.scenes import SceneConfig, generate_scene, write_scene
+
+    root = tmp_path_factory.mktemp("standard")
+    config = SceneConfig(
+        width=640,
+        height=480,
+        num_frames=150,
+        num_objects=1,
+        object_size_range=(30, 60),
+        speed_range=(25.0, 40.0),
+        turns=2,
+        seed=9,
+    )
+    paths = write_scene(generate_scene(config), root / "scene")
+    out = root / "run"
+    run_demo(paths.video, out, graph="standard")
+    return paths, out, run_report.collect(out / "bag")
+
+
+def test_the_unit_is_steered_onto_the_walker_with_joint_commands(standard_run):
+    from tracker_ptz_sim.evaluation import metrics
+    from tracker_ptz_sim.evaluation.scoring import windows_and_targets
+
+    paths, _, frames = standard_run
+    windows, targets = windows_and_targets(frames)
+    follow = metrics.follow_scores(metrics.load_mot(paths.gt), windows, targets)
+    assert follow.followed_id == 1
+    assert follow.frames_after_lock >= 100
+    assert follow.inside_share >= 0.95, follow
+    assert follow.mean_center_error_share <= 0.10, follow
+
+
+def test_every_image_gets_a_bridged_state_and_a_joint_command(standard_run):
+    from tracker_msgs_py.codec import stamp_to_ns
+    from tracker_ptz_sim.evaluation.recording import read_bag, topic_counts
+
+    _, out, frames = standard_run
+    counts = topic_counts(out / "bag")
+    images = counts["/camera/image_raw"]
+    assert images == len(frames) == 150
+    assert counts["/ptz/state"] == counts["/camera/camera_info"] == images
+    # one command per image, plus the stop the controller sends when it shuts down
+    assert images <= counts["/ptz/joint_command"] <= images + 1
+    joints = {
+        stamp_to_ns(m.header.stamp): m for _, _, m in read_bag(out / "bag", {"/ptz/joint_states"})
+    }
+    for _, _, state in read_bag(out / "bag", {"/ptz/state"}):
+        measured = joints[stamp_to_ns(state.header.stamp)]
+        assert (state.pan, state.tilt) == (measured.position[0], measured.position[1])
+        # the window is centred where the pan-tilt angles point in the scene
+        center_x = state.window.x + state.window.width / 2
+        assert center_x == pytest.approx(320.0 - state.focal_length * state.pan, abs=0.5)
+    commands = [m for _, _, m in read_bag(out / "bag", {"/ptz/joint_command"})]
+    assert all(list(c.name) == ["pan_joint", "tilt_joint"] for c in commands)
+    turning = [c for c in commands if len(c.velocity) and any(v != 0.0 for v in c.velocity)]
+    assert len(turning) >= 50  # it did steer
