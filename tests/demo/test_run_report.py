@@ -201,7 +201,7 @@ def _launch_actions(monkeypatch, **arguments) -> tuple[list, list]:
             return configuration
 
         def perform(self, context):
-            return context[self.name]
+            return context.launch_configurations[self.name]
 
     substitutions = types.ModuleType("launch.substitutions")
     substitutions.LaunchConfiguration = LaunchConfiguration
@@ -222,14 +222,17 @@ def _launch_actions(monkeypatch, **arguments) -> tuple[list, list]:
     entities = module.generate_launch_description()
     defaults = {e[1]: e[2] for e in entities if e[0] == "arg"}
     [(_, function)] = [e for e in entities if e[0] == "opaque"]
-    function({**defaults, **arguments})
+    context = types.SimpleNamespace(launch_configurations={**defaults, **arguments})
+    function(context)
     return entities, created
 
 
 def test_launch_file_builds_the_same_graph(monkeypatch):
-    """The launch file (for real installs) starts exactly the graph's nodes with its parameters."""
-    entities, created = _launch_actions(monkeypatch)
-    assert ("arg", "video", None) in entities
+    """The launch file (for real installs) starts exactly the graph's nodes with its parameters,
+    every node with the namespace given (tests/demo/test_launch_resolution.py: how rcl resolves
+    them)."""
+    entities, created = _launch_actions(monkeypatch, video="/data/v.avi", respawn="true")
+    assert ("arg", "video", "") in entities and ("arg", "camera", "sim") in entities
     assert [n["name"] for n in created] == [
         "video_source",
         "ptz_camera",
@@ -238,14 +241,15 @@ def test_launch_file_builds_the_same_graph(monkeypatch):
         "ptz_controller",
     ]
     source = created[0]
-    assert source["parameters"][1] == {"path": "$(video)"}
-    assert ("arg", "respawn", "false") in entities and "respawn" not in source
-    assert all(n["respawn"] == "$(respawn)" and n["respawn_max_retries"] == 5 for n in created[1:])
     assert source["parameters"][0].endswith("surveillance.yaml")
+    assert source["parameters"][-1]["path"] == "/data/v.avi"
+    assert all(n["namespace"] == "" for n in created)
+    assert ("arg", "respawn", "false") in entities and "respawn" not in source
+    assert all(n["respawn"] is True and n["respawn_max_retries"] == 5 for n in created[1:])
 
 
 def test_launch_file_runs_the_colour_graph_on_request(monkeypatch):
-    _, created = _launch_actions(monkeypatch, graph="colour")
+    _, created = _launch_actions(monkeypatch, video="v.avi", graph="colour")
     names = [n["name"] for n in created]
     assert "colour_detector" in names and "colour_tracker" in names
     detector = created[names.index("colour_detector")]
@@ -254,3 +258,10 @@ def test_launch_file_runs_the_colour_graph_on_request(monkeypatch):
         "colour.yaml",
     ]
     assert ("handover_target", "motion/target") in detector["remappings"]
+
+
+def test_launch_file_runs_behind_a_live_camera_under_a_namespace(monkeypatch):
+    _, created = _launch_actions(monkeypatch, camera="live", namespace="cam1")
+    assert [n["name"] for n in created][0] == "ptz_state_bridge"
+    assert all(n["namespace"] == "cam1" for n in created)
+    assert created[0]["parameters"][-2].endswith("live.yaml")

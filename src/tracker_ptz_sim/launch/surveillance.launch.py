@@ -1,10 +1,15 @@
 """ros2 launch tracker_ptz_sim surveillance.launch.py video:=/path/to/video.mp4
-    [graph:=surveillance|colour|standard] [controller_mode:=servo] [respawn:=true]
+    [graph:=surveillance|colour|standard] [camera:=sim|live] [namespace:=cam1]
+    [use_sim_time:=auto|true|false] [clock:=auto|global|namespaced|off]
+    [controller_mode:=servo|direct] [respawn:=true]
 
 The whole graph, built from the same config/*graph.yaml and parameter files the demo runner
 (make demo) uses, so both run exactly the same nodes with the same parameters. graph:=colour runs
 the colour-following graph (motion hands its target over to CamShift; seed 001); graph:=standard
 the surveillance graph behind a simulated camera that speaks only sensor_msgs, as real drivers do.
+camera:=live runs the graph behind a real unit's drivers instead of the simulator (no video).
+Every argument wins over the parameter files, also under a namespace; two cameras run side by side
+in two namespaces, each on its own clock (`tracker_ptz_sim.bringup.launch_plan` has the rules).
 With respawn:=true a processing node that exits is started again (after 1 s, at most 5 times).
 video_source is not respawned: it exits 0 at the end of the stream, which launch cannot tell from
 a crash (`run_demo --respawn` restarts it where it left off; a source restarted from its first
@@ -19,58 +24,89 @@ from launch.substitutions import LaunchConfiguration
 from launch_ros.actions import Node
 
 from tracker_ptz_sim.bringup.graph import GRAPHS, load_graph
+from tracker_ptz_sim.bringup.launch_plan import (
+    CAMERAS,
+    CLOCKS,
+    SIM_TIMES,
+    LaunchArguments,
+    plan,
+)
+
+ARGUMENTS = [
+    ("video", "", None, "video file, image folder or rosbag2 to replay (camera:=sim)"),
+    (
+        "graph",
+        "surveillance",
+        list(GRAPHS),
+        "surveillance (motion), colour (hands over to "
+        "CamShift) or standard (surveillance behind sensor_msgs-only drivers)",
+    ),
+    (
+        "camera",
+        "sim",
+        list(CAMERAS),
+        "sim: replay video through the simulated unit; live: a "
+        "real unit's drivers publish camera/* and ptz/joint_states",
+    ),
+    ("namespace", "", None, "namespace of every node and topic (two cameras: two namespaces)"),
+    ("use_sim_time", "auto", list(SIM_TIMES), "auto: the replay's clock for sim, wall time live"),
+    (
+        "clock",
+        "auto",
+        list(CLOCKS),
+        "sim: global /clock, namespaced <namespace>/clock, or off; "
+        "auto: namespaced under a namespace",
+    ),
+    ("controller_mode", "servo", ["servo", "direct"], "ptz_controller mode"),
+    (
+        "respawn",
+        "false",
+        ["true", "false"],
+        "restart a processing node that exits (not video_source)",
+    ),
+]
 
 
 def generate_launch_description():
-    arguments = [
-        DeclareLaunchArgument("video", description="video file, image folder or rosbag2 to replay"),
-        DeclareLaunchArgument(
-            "graph",
-            default_value="surveillance",
-            choices=list(GRAPHS),
-            description="which graph: surveillance (motion), colour (motion hands over to "
-            "CamShift) or standard (surveillance behind sensor_msgs-only drivers)",
-        ),
-        DeclareLaunchArgument(
-            "controller_mode",
-            default_value="servo",
-            description="ptz_controller mode: direct or servo",
-        ),
-        DeclareLaunchArgument(
-            "respawn",
-            default_value="false",
-            description="restart a processing node that exits (not video_source)",
-        ),
+    declared = [
+        DeclareLaunchArgument(name, default_value=default, choices=choices, description=text)
+        if choices
+        else DeclareLaunchArgument(name, default_value=default, description=text)
+        for name, default, choices, text in ARGUMENTS
     ]
-    return LaunchDescription(arguments + [OpaqueFunction(function=graph_actions)])
+    return LaunchDescription(declared + [OpaqueFunction(function=graph_actions)])
 
 
 def graph_actions(context):
-    """The chosen graph's nodes (and the shared-memory profile), once `graph` is known."""
-    graph = load_graph(LaunchConfiguration("graph").perform(context))
-    respawn = {
-        "respawn": LaunchConfiguration("respawn"),
-        "respawn_delay": 1.0,
-        "respawn_max_retries": 5,
-    }
-    overrides = {
-        "video_source": {"path": LaunchConfiguration("video")},
-        "ptz_controller": {"mode": LaunchConfiguration("controller_mode")},
-    }
+    """The nodes (and the shared-memory profile) for the arguments' values."""
+    value = {name: LaunchConfiguration(name).perform(context) for name, *_ in ARGUMENTS}
+    arguments = LaunchArguments(
+        video=value["video"],
+        graph=value["graph"],
+        camera=value["camera"],
+        namespace=value["namespace"],
+        use_sim_time=value["use_sim_time"],
+        clock=value["clock"],
+        controller_mode=value["controller_mode"],
+        respawn=value["respawn"] == "true",
+        outer_namespace=context.launch_configurations.get("ros_namespace") or "",
+    )
+    respawn = {"respawn": True, "respawn_delay": 1.0, "respawn_max_retries": 5}
     nodes = [
         Node(
             package=node.package,
             executable=node.executable,
             name=node.name,
-            parameters=[*map(str, graph.params_files), overrides.get(node.name, {})],
-            remappings=list(node.remappings.items()),
+            namespace=node.namespace,  # always given: the argument dict is keyed by the full name
+            parameters=[str(p) if isinstance(p, os.PathLike) else p for p in node.parameters],
+            remappings=node.remappings,
             output="screen",
-            **(respawn if node.name != "video_source" else {}),
+            **(respawn if node.respawn else {}),
         )
-        for node in graph.nodes
+        for node in plan(arguments)
     ]
     # Large images need a shared-memory segment bigger than Fast DDS's default (see the profile).
-    profile = graph.config_dir / "fastdds_shm.xml"
+    profile = load_graph(arguments.graph).config_dir / "fastdds_shm.xml"
     environment = []
     if "FASTRTPS_DEFAULT_PROFILES_FILE" not in os.environ and profile.exists():
         environment.append(SetEnvironmentVariable("FASTRTPS_DEFAULT_PROFILES_FILE", str(profile)))

@@ -10,7 +10,8 @@ motion/* topics hands its target over to CamShift, whose own tracker the camera 
 from __future__ import annotations
 
 import os
-from collections.abc import Sequence
+import re
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -81,14 +82,51 @@ def load_graph(name: str = "surveillance", directory: Path | None = None) -> Gra
 
 
 def node_parameters(params_files: Path | Sequence[Path], node_name: str) -> dict[str, Any]:
-    """The parameters ROS params files give `node_name` (each file's `/**` section, then its
-    own; a later file's values win)."""
+    """The parameters ROS params files give the node `/node_name` (`resolve_parameters`)."""
+    files = [params_files] if isinstance(params_files, Path) else list(params_files)
+    return resolve_parameters(files, "/" + node_name)
+
+
+ParameterSource = Path | Mapping[str, Any]  # a params file, or its content as a dict
+
+
+def resolve_parameters(sources: Sequence[ParameterSource], node_fqn: str) -> dict[str, Any]:
+    """The parameters the node `node_fqn` gets from params files (or dicts of the same shape,
+    `{pattern: {"ros__parameters": {...}}}`), resolved as rcl and rclpy do:
+
+    - each section's key is a node-name pattern: `/**` matches any namespaces, `/*` one, a key
+      without a leading `/` gets one (`ptz_controller` matches only `/ptz_controller`; write
+      `/**/ptz_controller` to match it under any namespace);
+    - sections are kept in the order their key first appears over all sources; a later source's
+      values for the same key overwrite the earlier ones in place;
+    - the node gets every matching section's values, merged in that order (a later section wins).
+    So a `/**` override given after a file whose node-specific section sets the same parameter
+    loses to that section (its key appeared first); a key for the node's own name, appearing
+    later, wins.
+    """
+    sections: dict[str, dict[str, Any]] = {}
+    for source in sources:
+        data = yaml.safe_load(source.read_text()) if isinstance(source, Path) else source
+        for key, body in (data or {}).items():
+            values = _flatten((body or {}).get("ros__parameters", {}))
+            sections.setdefault(str(key), {}).update(values)
     merged: dict[str, Any] = {}
-    for path in [params_files] if isinstance(params_files, Path) else params_files:
-        data = yaml.safe_load(path.read_text()) or {}
-        for key in ("/**", node_name, "/" + node_name):
-            merged.update((data.get(key) or {}).get("ros__parameters", {}))
+    for key, values in sections.items():
+        pattern = key if key.startswith("/") else "/" + key
+        if re.fullmatch(pattern.replace("/*", r"(/\w+)"), node_fqn):
+            merged.update(values)
     return merged
+
+
+def _flatten(values: Mapping[str, Any], prefix: str = "") -> dict[str, Any]:
+    """Nested parameter maps as rcl reads them: {a: {b: 1}} -> {"a.b": 1}."""
+    flat: dict[str, Any] = {}
+    for name, value in values.items():
+        if isinstance(value, Mapping):
+            flat.update(_flatten(value, f"{prefix}{name}."))
+        else:
+            flat[f"{prefix}{name}"] = value
+    return flat
 
 
 def ros_args(

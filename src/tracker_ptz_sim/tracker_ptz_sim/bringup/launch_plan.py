@@ -1,0 +1,132 @@
+"""What surveillance.launch.py starts for its arguments (no rclpy, no launch): one place that turns
+the launch arguments into nodes, so the launch file stays a thin shell and its rules are testable.
+
+- `camera:=sim` runs the graph as the demo does (video_source replays `video`, ptz_camera
+  simulates the unit); `camera:=live` replaces both by `ptz_state_bridge` in front of a real unit's
+  drivers (the README's "On a real pan-tilt unit"), with config/live.yaml (wall time, best-effort
+  images, JointState commands on ptz/joint_command).
+- Every node gets `namespace` (default: none), so two cameras run side by side in two namespaces;
+  the per-node sections of the parameter files are keyed `/**/<name>` and match under any.
+- The arguments always win: each node gets them last, in a dict `launch_ros` writes under the
+  node's fully qualified name (the namespace is always given, so the name is fully specified) --
+  a key that first appears after the files' sections, which rcl then applies last
+  (`graph.resolve_parameters` states the rules).
+- `use_sim_time` (`auto`: on for sim unless the clock is off, off for live) and `clock`: `global`
+  publishes `/clock`; `namespaced` remaps every node's `/clock` to `<namespace>/clock`, so two
+  simulated cameras do not drive each other's time; `off` publishes none. `auto`: namespaced
+  when a namespace is given or pushed by an including launch file, else global.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from tracker_ptz_sim.bringup.graph import Graph, NodeSpec, load_graph
+
+CAMERAS = ("sim", "live")
+CLOCKS = ("auto", "global", "namespaced", "off")
+SIM_TIMES = ("auto", "true", "false")
+SIMULATOR_NODES = ("video_source", "ptz_camera")
+BRIDGE = NodeSpec("tracker_ptz_sim", "ptz_state_bridge", "ptz_state_bridge")
+LIVE_PARAMETERS = "live.yaml"  # in the graph's config directory
+
+
+@dataclass(frozen=True)
+class LaunchArguments:
+    video: str = ""
+    graph: str = "surveillance"
+    camera: str = "sim"
+    namespace: str = ""
+    use_sim_time: str = "auto"
+    clock: str = "auto"
+    controller_mode: str = "servo"
+    respawn: bool = False
+    outer_namespace: str = ""  # pushed by an including launch file (PushRosNamespace)
+
+
+@dataclass(frozen=True)
+class PlannedNode:
+    """A launch_ros Node's arguments."""
+
+    package: str
+    executable: str
+    name: str
+    namespace: str
+    parameters: list[Path | dict[str, Any]]  # files in order, then the arguments' values
+    remappings: list[tuple[str, str]] = field(default_factory=list)
+    respawn: bool = False
+
+
+def plan(arguments: LaunchArguments, graph: Graph | None = None) -> list[PlannedNode]:
+    """The nodes to start; raises ValueError naming a bad argument."""
+    _check(arguments)
+    graph = graph or load_graph(arguments.graph)
+    live = arguments.camera == "live"
+    nodes = _live_nodes(graph) if live else list(graph.nodes)
+    files: list[Path] = list(graph.params_files)
+    if live:
+        files.append(graph.config_dir / LIVE_PARAMETERS)
+    clock = _clock(arguments)
+    sim_time = _sim_time(arguments, clock)
+    planned = []
+    for node in nodes:
+        values: dict[str, Any] = {"use_sim_time": sim_time}
+        if node.name == "video_source":
+            values |= {"path": arguments.video, "publish_clock": clock != "off"}
+        if node.name == "ptz_controller":
+            values["mode"] = arguments.controller_mode
+        remappings = list(node.remappings.items())
+        if clock == "namespaced":
+            remappings.append(("/clock", "clock"))  # relative: <namespace>/clock
+        planned.append(
+            PlannedNode(
+                node.package,
+                node.executable,
+                node.name,
+                arguments.namespace,
+                [*files, values],
+                remappings,
+                respawn=arguments.respawn and node.name != "video_source",
+            )
+        )
+    return planned
+
+
+def _check(arguments: LaunchArguments) -> None:
+    if arguments.camera not in CAMERAS:
+        raise ValueError(f"camera must be one of {', '.join(CAMERAS)}, got '{arguments.camera}'")
+    if arguments.clock not in CLOCKS:
+        raise ValueError(f"clock must be one of {', '.join(CLOCKS)}, got '{arguments.clock}'")
+    if arguments.use_sim_time not in SIM_TIMES:
+        raise ValueError(
+            f"use_sim_time must be one of {', '.join(SIM_TIMES)}, got '{arguments.use_sim_time}'"
+        )
+    if arguments.camera == "sim" and not arguments.video:
+        raise ValueError("camera:=sim replays a recording: give video:=/path/to/video")
+    if arguments.use_sim_time == "true" and _clock(arguments) == "off":
+        raise ValueError("use_sim_time:=true needs a clock: clock:=off (or camera:=live) has none")
+
+
+def _clock(arguments: LaunchArguments) -> str:
+    if arguments.camera == "live":
+        return "off"  # no replay: nothing publishes /clock
+    if arguments.clock == "auto":
+        namespaced = arguments.namespace.strip("/") or arguments.outer_namespace.strip("/")
+        return "namespaced" if namespaced else "global"
+    return arguments.clock
+
+
+def _sim_time(arguments: LaunchArguments, clock: str) -> bool:
+    if arguments.use_sim_time == "auto":
+        return clock != "off"
+    return arguments.use_sim_time == "true"
+
+
+def _live_nodes(graph: Graph) -> list[NodeSpec]:
+    """The graph without the simulator, behind the bridge to a real unit's drivers."""
+    kept = [node for node in graph.nodes if node.name not in SIMULATOR_NODES]
+    if all(node.name != BRIDGE.name for node in kept):
+        kept.insert(0, BRIDGE)
+    return kept

@@ -1,0 +1,156 @@
+"""surveillance.launch.py's parameters as the node really gets them: the launch plan turned into
+the command line launch_ros (Jazzy, launch_ros/actions/node.py) gives a node, resolved by the real
+rcl and rclpy of this environment. Arguments win over the parameter files, per-node sections still
+apply under a namespace, and two cameras in two namespaces keep apart."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+import yaml
+
+rclpy = pytest.importorskip("rclpy")
+pytestmark = pytest.mark.ros
+
+from tracker_ptz_sim.bringup.launch_plan import LaunchArguments, PlannedNode, plan  # noqa: E402
+
+UNSET = "<unset>"
+
+
+def launch_ros_command(node: PlannedNode, tmp_path: Path, pushed: str | None = None) -> list[str]:
+    """The ROS arguments launch_ros builds for a Node with a name and a namespace (so its name is
+    fully specified: a parameter dict goes to a temporary file keyed by the full name), under an
+    optional PushRosNamespace."""
+    namespace = node.namespace
+    if pushed and not namespace.startswith("/"):
+        namespace = f"{pushed}/{namespace}".rstrip("/")
+    namespace = "/" + namespace.lstrip("/") if not namespace.startswith("/") else namespace
+    full_name = namespace.rstrip("/") + "/" + node.name
+    args = ["--ros-args", "-r", f"__node:={node.name}", "-r", f"__ns:={namespace}"]
+    for index, source in enumerate(node.parameters):
+        if isinstance(source, dict):
+            path = tmp_path / f"launch_params_{node.name}_{index}.yaml"
+            path.write_text(yaml.dump({full_name: {"ros__parameters": source}}))
+            source = path
+        args += ["--params-file", str(source)]
+    for source, target in node.remappings:
+        args += ["-r", f"{source}:={target}"]
+    return args
+
+
+class Resolved:
+    """A node started in this process with those arguments: its name, parameters and topics."""
+
+    def __init__(self, args: list[str]) -> None:
+        self.context = rclpy.Context()
+        rclpy.init(args=args, context=self.context)
+        self.node = rclpy.create_node("placeholder", context=self.context)
+
+    def __enter__(self) -> Resolved:
+        return self
+
+    def __exit__(self, *_) -> None:
+        self.node.destroy_node()
+        rclpy.shutdown(context=self.context)
+
+    @property
+    def name(self) -> str:
+        return self.node.get_fully_qualified_name()
+
+    def value(self, name: str):  # noqa: ANN201 - a parameter value
+        """The value the node's overrides (files, -p rules) give `name`, as declaring it would."""
+        if self.node.has_parameter(name):
+            return self.node.get_parameter(name).value
+        override = self.node._parameter_overrides.get(name)
+        return UNSET if override is None else override.value
+
+    def topic(self, name: str) -> str:
+        return self.node.resolve_topic_name(name)
+
+
+def node(planned: list[PlannedNode], name: str) -> PlannedNode:
+    return next(n for n in planned if n.name == name)
+
+
+def test_arguments_win_over_the_nodes_own_sections(tmp_path):
+    planned = plan(LaunchArguments(video="/data/v.avi", controller_mode="direct"))
+    with Resolved(launch_ros_command(node(planned, "ptz_controller"), tmp_path)) as controller:
+        assert controller.name == "/ptz_controller"
+        assert controller.value("mode") == "direct"  # surveillance.yaml's section says servo
+        assert controller.value("zoom_control") is True  # and its own values still apply
+        assert controller.value("use_sim_time") is True
+    with Resolved(launch_ros_command(node(planned, "video_source"), tmp_path)) as source:
+        assert source.value("path") == "/data/v.avi" and source.value("lockstep") is True
+        assert source.value("publish_clock") is True
+        assert source.topic("/clock") == "/clock"
+
+
+@pytest.mark.parametrize("namespace, pushed", [("cam1", None), ("", "cam1"), ("/cam1", None)])
+def test_under_a_namespace_the_sections_still_match_and_the_clock_is_the_namespaces(
+    tmp_path, namespace, pushed
+):
+    arguments = LaunchArguments(video="v.avi", namespace=namespace or "", controller_mode="direct")
+    if pushed:  # an including launch file's PushRosNamespace, our namespace argument left empty
+        arguments = LaunchArguments(video="v.avi", controller_mode="direct", outer_namespace=pushed)
+    planned = plan(arguments)
+    with Resolved(launch_ros_command(node(planned, "tracker"), tmp_path, pushed)) as tracker:
+        assert tracker.name == "/cam1/tracker"
+        assert tracker.value("selection_policy") == "farthest_travelled"  # its section applies
+        assert tracker.topic("detections") == "/cam1/detections"
+        assert tracker.topic("/clock") == "/cam1/clock"
+    with Resolved(launch_ros_command(node(planned, "ptz_controller"), tmp_path, pushed)) as ctl:
+        assert ctl.value("mode") == "direct"
+
+
+def test_two_cameras_in_two_namespaces_keep_their_own_time_and_topics(tmp_path):
+    names = set()
+    clocks = set()
+    for namespace in ("cam1", "cam2"):
+        planned = plan(LaunchArguments(video=f"{namespace}.avi", namespace=namespace))
+        with Resolved(launch_ros_command(node(planned, "video_source"), tmp_path)) as source:
+            names.add(source.name)
+            clocks.add(source.topic("/clock"))
+            assert source.value("path") == f"{namespace}.avi"
+    assert names == {"/cam1/video_source", "/cam2/video_source"}
+    assert clocks == {"/cam1/clock", "/cam2/clock"}
+
+
+def test_a_live_camera_runs_the_graph_behind_the_bridge_on_wall_time(tmp_path):
+    planned = plan(LaunchArguments(camera="live"))
+    assert [n.name for n in planned] == [
+        "ptz_state_bridge",
+        "ssim_detector",
+        "tracker",
+        "ptz_controller",
+    ]
+    with Resolved(launch_ros_command(node(planned, "ssim_detector"), tmp_path)) as detector:
+        assert detector.value("use_sim_time") is False
+        assert detector.value("reliable_images") is False  # live cameras publish best effort
+        assert detector.value("method") == "ssim_background"
+    with Resolved(launch_ros_command(node(planned, "ptz_controller"), tmp_path)) as controller:
+        assert controller.value("joint_command_topic") == "ptz/joint_command"
+
+
+def test_a_wildcard_override_after_a_files_node_section_loses_to_it(tmp_path):
+    """Why the plan keys its values by the node's full name: rcl applies sections in the order
+    their keys first appear, so a `/**` dict (launch_ros's key when no namespace is given) loses
+    to the file's node section, as the launch file of before did with controller_mode."""
+    planned = node(plan(LaunchArguments(video="v.avi", controller_mode="direct")), "ptz_controller")
+    files = [p for p in planned.parameters if isinstance(p, Path)]
+    wildcard = tmp_path / "wildcard.yaml"
+    wildcard.write_text(yaml.dump({"/**": {"ros__parameters": {"mode": "direct"}}}))
+    args = ["--ros-args", "-r", "__node:=ptz_controller"]
+    for path in [*files, wildcard]:
+        args += ["--params-file", str(path)]
+    with Resolved(args) as controller:
+        assert controller.value("mode") == "servo"
+
+
+def test_bad_arguments_are_named():
+    with pytest.raises(ValueError, match="video:="):
+        plan(LaunchArguments())
+    with pytest.raises(ValueError, match="camera must be one of sim, live"):
+        plan(LaunchArguments(camera="usb"))
+    with pytest.raises(ValueError, match="needs a clock"):
+        plan(LaunchArguments(video="v.avi", clock="off", use_sim_time="true"))
