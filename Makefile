@@ -11,7 +11,7 @@ BENCHMARK_ARGS ?=
 SCENE ?=
 GT ?=
 
-.PHONY: help setup build test lint format shell sample demo bench benchmark stress evaluate clean freeze
+.PHONY: help setup build test lint format shell sample demo bench benchmark stress evaluate clean freeze check-apt-pins
 
 help:  ## List the targets
 	@grep -E '^[a-z]+:.*## ' $(MAKEFILE_LIST) | awk -F':.*## ' '{printf "  make %-10s %s\n", $$1, $$2}'
@@ -57,6 +57,9 @@ stress: setup  ## Shutdown stress: 50 SIGINT/SIGTERM per node at random moments,
 
 clean:  ## Remove build products (keeps .venv and the sample cache)
 	rm -rf build install log out
+
+check-apt-pins:  ## The no-ROS tests on the libraries an apt ROS 2 Jazzy gets (NumPy 1.26, constraints-apt.txt)
+	@bash scripts/check_apt_pins.sh
 
 freeze: setup  ## Rewrite constraints.txt from the current .venv
 	@$(ENV) pip freeze --exclude-editable | grep -vE '^[A-Za-z0-9]+(_[A-Za-z0-9]+)+==|^(rclpy|rcutils|pip|setuptools|wheel)==' | sort -f > constraints.tmp && \

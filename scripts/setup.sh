@@ -48,8 +48,10 @@ check_python() {
 ros_mode() { if [ -f "$APT_ROS/setup.bash" ] && [ -z "${TRACKER_FORCE_WHEELS:-}" ]; then echo apt; else echo wheels; fi; }
 
 install_python_packages() {
-  local mode="$1" want have=""
-  want="$(cat "$ROOT/requirements.txt" "$ROOT/constraints.txt" | sha256sum | cut -c1-16)-$mode"
+  local mode="$1" want have="" constraints
+  constraints="$VENV/constraints-$mode.txt"
+  bash "$ROOT/scripts/constraints.sh" "$mode" "$constraints"
+  want="$(cat "$ROOT/requirements.txt" "$constraints" | sha256sum | cut -c1-16)-$mode"
   [ -f "$VENV/.setup-stamp" ] && have="$(cat "$VENV/.setup-stamp")"
   if [ "$want" = "$have" ]; then say "Python packages up to date"; return; fi
   local reqs
@@ -61,13 +63,13 @@ install_python_packages() {
   fi
   local nodeps
   nodeps="$(sed -n '/^# --- no-deps ---/,$p' "$ROOT/requirements.txt" | grep -v '^#')"
-  say "installing Python packages ($mode mode, pinned by constraints.txt)"
+  say "installing Python packages ($mode mode, pinned by $(basename "$constraints"))"
   # shellcheck disable=SC2086
-  "$VENV/bin/pip" install -q --disable-pip-version-check -c "$ROOT/constraints.txt" $reqs \
+  "$VENV/bin/pip" install -q --disable-pip-version-check -c "$constraints" $reqs \
     2> >(grep -v "is ignored: it is neither a file nor a directory" >&2)
   if [ -n "$nodeps" ]; then
     # shellcheck disable=SC2086
-    "$VENV/bin/pip" install -q --disable-pip-version-check --no-deps -c "$ROOT/constraints.txt" $nodeps
+    "$VENV/bin/pip" install -q --disable-pip-version-check --no-deps -c "$constraints" $nodeps
   fi
   echo "$want" > "$VENV/.setup-stamp"
 }
@@ -114,7 +116,12 @@ main() {
   check_python
   if [ ! -x "$VENV/bin/python" ]; then
     say "creating $VENV"
-    "$PYTHON" -m venv "$VENV"
+    if [ "$mode" = apt ]; then
+      # The apt ROS's Python packages (and the system's NumPy 1 they are built for) stay visible.
+      "$PYTHON" -m venv --system-site-packages "$VENV"
+    else
+      "$PYTHON" -m venv "$VENV"
+    fi
   fi
   install_python_packages "$mode"
   if [ "$mode" = wheels ]; then

@@ -8,15 +8,17 @@ import time
 import cv2
 import numpy as np
 import pytest
-import rclpy
-from rclpy.executors import SingleThreadedExecutor
-from rclpy.parameter import Parameter
-from sensor_msgs.msg import CameraInfo, Image, JointState
 
-from tracker_detect.detector_node import DetectorNode
-from tracker_msgs.msg import BlobArray, PtzState
-from tracker_msgs_py.codec import array_to_image, camera_info, ns_to_stamp
-from tracker_msgs_py.params import ParameterError
+rclpy = pytest.importorskip("rclpy")
+
+from rclpy.executors import SingleThreadedExecutor  # noqa: E402
+from rclpy.parameter import Parameter  # noqa: E402
+from sensor_msgs.msg import CameraInfo, Image, JointState  # noqa: E402
+
+from tracker_detect.detector_node import DetectorNode  # noqa: E402
+from tracker_msgs.msg import BlobArray, PtzState  # noqa: E402
+from tracker_msgs_py.codec import array_to_image, camera_info, ns_to_stamp  # noqa: E402
+from tracker_msgs_py.params import ParameterError  # noqa: E402
 
 pytestmark = pytest.mark.ros
 

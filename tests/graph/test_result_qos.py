@@ -13,6 +13,7 @@ import pytest
 
 rclpy = pytest.importorskip("rclpy")
 
+from rclpy.parameter import Parameter  # noqa: E402
 from rclpy.qos import ReliabilityPolicy  # noqa: E402
 
 from tracker_detect.detector_node import DetectorNode  # noqa: E402
@@ -20,19 +21,32 @@ from tracker_filter.tracker_node import TrackerNode  # noqa: E402
 from tracker_msgs_py.codec import RESULT_DEPTH  # noqa: E402
 from tracker_ptz_sim.bringup.graph import GRAPHS, load_graph  # noqa: E402
 from tracker_ptz_sim.control.ptz_controller_node import PtzControllerNode  # noqa: E402
+from tracker_ptz_sim.control.ptz_state_bridge_node import PtzStateBridgeNode  # noqa: E402
 from tracker_ptz_sim.simulation.ptz_camera_node import PtzCameraNode  # noqa: E402
 
 pytestmark = pytest.mark.ros
 # Published by the video source (images, camera info, clock, status) or not per-frame results.
 NOT_RESULTS = {"/clock", "/replay/status", "/scene/image_raw", "/scene/camera_info"}
-NODES = [PtzCameraNode, DetectorNode, TrackerNode, PtzControllerNode]
+# The controller as the standard graph runs it: also JointState commands for a real unit's driver.
+NODES = [
+    (PtzCameraNode, {}),
+    (DetectorNode, {}),
+    (TrackerNode, {}),
+    (PtzControllerNode, {"joint_command_topic": "ptz/joint_command"}),
+    (PtzStateBridgeNode, {}),
+]
 
 
 @pytest.fixture
 def running_nodes():
     context = rclpy.Context()
     rclpy.init(context=context)
-    nodes = [make(context=context) for make in NODES]
+    nodes = [
+        make(
+            context=context, parameter_overrides=[Parameter(k, value=v) for k, v in params.items()]
+        )
+        for make, params in NODES
+    ]
     yield nodes
     for node in nodes:
         node.destroy_node()

@@ -32,9 +32,13 @@ from typing import Any
 import rclpy
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rclpy.clock import Clock, ClockType
+from rclpy.event_handler import PublisherEventCallbacks, SubscriptionEventCallbacks
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
+from rclpy.publisher import Publisher
+from rclpy.qos import QoSPolicyKind, QoSProfile, ReliabilityPolicy
 from rclpy.signals import SignalHandlerOptions
+from rclpy.subscription import Subscription
 
 from tracker_msgs_py import stop_signals
 from tracker_msgs_py.exit_deadline import ExitDeadline
@@ -129,6 +133,50 @@ class SuiteNode(Node):
         if self.problems.total:
             self.get_logger().info(f"dropped input: {self.problems.summary()}")
         super().destroy_node()
+
+    # --- QoS ------------------------------------------------------------------------------------
+
+    def create_subscription(
+        self,
+        msg_type: Any,
+        topic: str,
+        callback: Callable[[Any], None],
+        qos_profile: QoSProfile | int,
+        **kwargs: Any,
+    ) -> Subscription:
+        """rclpy's, plus a warning naming the cause when a publisher's QoS cannot match."""
+        if kwargs.get("event_callbacks") is None:
+            kwargs["event_callbacks"] = SubscriptionEventCallbacks(
+                incompatible_qos=lambda event: self._incompatible_qos(topic, qos_profile, event)
+            )
+        return super().create_subscription(msg_type, topic, callback, qos_profile, **kwargs)
+
+    def create_publisher(
+        self, msg_type: Any, topic: str, qos_profile: QoSProfile | int, **kwargs: Any
+    ) -> Publisher:
+        """rclpy's, plus a warning naming the cause when a subscriber's QoS cannot match."""
+        if kwargs.get("event_callbacks") is None:
+            kwargs["event_callbacks"] = PublisherEventCallbacks(
+                incompatible_qos=lambda event: self._incompatible_qos(topic, qos_profile, event)
+            )
+        return super().create_publisher(msg_type, topic, qos_profile, **kwargs)
+
+    def _incompatible_qos(self, topic: str, qos: QoSProfile | int, event: Any) -> None:
+        policy = QoSPolicyKind(event.last_policy_kind)
+        cause = f"incompatible QoS on {topic}"
+        detail = (
+            f"{self.resolve_topic_name(topic)}: a peer's QoS cannot match this node's "
+            f"({policy.name.lower()}): no messages pass between them"
+        )
+        if policy is QoSPolicyKind.RELIABILITY:
+            reliable = getattr(qos, "reliability", None) == ReliabilityPolicy.RELIABLE
+            detail += (
+                ". This node asks for reliable delivery and the publisher is best effort (camera "
+                "drivers publish images with sensor-data QoS): set reliable_images:=false"
+                if reliable
+                else ". A best-effort publisher here cannot serve a reliable subscriber"
+            )
+        self.problems.report(cause, detail)
 
     # --- diagnostics ----------------------------------------------------------------------------
 
