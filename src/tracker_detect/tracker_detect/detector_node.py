@@ -260,6 +260,15 @@ class DetectorNode(SuiteNode):
             self.gate.wait_guide = self.params["guide_from_target"]
             self.gate.timeout = self.params["target_timeout"]
 
+    def diagnostic_state(self) -> tuple[str, dict[str, str]]:
+        if self.pairing.waiting_for_camera_info:
+            state = "waiting for camera_info (pose_source joint_states)"
+        elif len(self.pairing):
+            state = f"{len(self.pairing)} image(s) waiting for their pose"
+        else:
+            state = "detecting"
+        return state, {"method": self.method.name, "pose source": self.params["pose_source"]}
+
     # --- inputs -------------------------------------------------------------------------------
 
     def _on_image(self, msg: Image) -> None:

@@ -170,6 +170,7 @@ class TrackerNode(SuiteNode):
         self._selector = TargetSelector(*self._selection_settings())
         self._epoch_ns: int | None = None  # stamp of the first frame: keeps float seconds exact
         self._view_centre: tuple[float, float] | None = None
+        self._last_frame: tuple[int, int | None] = (0, None)  # tracks, followed track id
         self._order = StampOrder()
         needs = self._tracker.needs
         self._frames = FrameAssembler(
@@ -330,10 +331,16 @@ class TrackerNode(SuiteNode):
         selection = self._selector.update(tracks, self._view_centre)  # None: nothing to follow
         self._tracks_pub.publish(tracks_to_msg(tracks, header))
         track_id = selection.track_id if selection is not None else None
+        self._last_frame = (len(tracks), track_id)
         mode = selection.mode if selection is not None else self._selector.mode
         self._target_pub.publish(
             target_to_msg(header, mode, tracks, track_id, self._params["lead_time"])
         )
+
+    def diagnostic_state(self) -> tuple[str, dict[str, str]]:
+        tracks, followed = self._last_frame
+        state = "searching" if followed is None else f"tracking track {followed}"
+        return state, {"method": self._method.name, "tracks": str(tracks)}
 
     # --- services -----------------------------------------------------------------------------
 

@@ -42,6 +42,7 @@ from rclpy.subscription import Subscription
 
 from tracker_msgs_py import stop_signals
 from tracker_msgs_py.exit_deadline import ExitDeadline
+from tracker_msgs_py.node_stats import InputStats
 from tracker_msgs_py.params import ParameterError
 from tracker_msgs_py.problems import ProblemLog
 
@@ -63,7 +64,11 @@ class SuiteNode(Node):
     `self.stopping` before it publishes, and must return soon after `stopping` is set.
     `finish(code)` ends the node from inside (a replay that reached its end).
     `problems.report(cause, detail)` logs the first of each cause of dropped input and counts the
-    rest; the counts go to `/diagnostics` (diagnostic_msgs/DiagnosticArray, once a second).
+    rest. Once a second the node publishes on `/diagnostics` (diagnostic_msgs/DiagnosticArray) a
+    status "<node>: state" (`diagnostic_state()`, which nodes override: what it is doing) and a
+    status "<node>: input": the dropped input by cause, and per subscribed topic the message rate,
+    the time its callback took (mean/max) and the data's age on arrival (the node's clock minus
+    the header stamp: on a live camera how old the image is; in a replay, on the replay's clock).
     """
 
     def __init__(self, node_name: str, **node_options: Any) -> None:
@@ -74,8 +79,10 @@ class SuiteNode(Node):
         self.problems = ProblemLog(self.get_logger().warning)
         self._workers: list[threading.Thread] = []
         self._wakers: list[Callable[[], None]] = []
+        self._inputs: dict[str, InputStats] = {}
         self._diagnostics_pub = self.create_publisher(DiagnosticArray, "/diagnostics", 10)
         self._diagnostics_seen = 0
+        self._diagnostics_at = time.monotonic()
         self.create_timer(
             DIAGNOSTICS_PERIOD_S,
             self._publish_diagnostics,
@@ -149,7 +156,23 @@ class SuiteNode(Node):
             kwargs["event_callbacks"] = SubscriptionEventCallbacks(
                 incompatible_qos=lambda event: self._incompatible_qos(topic, qos_profile, event)
             )
-        return super().create_subscription(msg_type, topic, callback, qos_profile, **kwargs)
+        stats = self._inputs.setdefault(topic, InputStats())
+
+        def measured(msg: Any) -> None:
+            started = time.perf_counter()
+            try:
+                callback(msg)
+            finally:
+                stats.record(time.perf_counter() - started, self._age_s(msg))
+
+        return super().create_subscription(msg_type, topic, measured, qos_profile, **kwargs)
+
+    def _age_s(self, msg: Any) -> float | None:
+        header = getattr(msg, "header", None)
+        if header is None:
+            return None
+        stamp = header.stamp
+        return (self.get_clock().now().nanoseconds - (stamp.sec * 10**9 + stamp.nanosec)) / 1e9
 
     def create_publisher(
         self, msg_type: Any, topic: str, qos_profile: QoSProfile | int, **kwargs: Any
@@ -180,17 +203,37 @@ class SuiteNode(Node):
 
     # --- diagnostics ----------------------------------------------------------------------------
 
+    def diagnostic_state(self) -> tuple[str, dict[str, str]]:
+        """What the node is doing (e.g. "tracking track 3", "search"), and figures about it."""
+        return "running", {}
+
     def _publish_diagnostics(self) -> None:
         revision = self.problems.revision
         recent = revision != self._diagnostics_seen
         self._diagnostics_seen = revision
-        status = DiagnosticStatus(
-            level=DiagnosticStatus.WARN if recent else DiagnosticStatus.OK,
-            name=f"{self.get_fully_qualified_name()}: input",
-            message=self.problems.summary() or "no input dropped",
-            values=[KeyValue(key=c, value=str(n)) for c, n in sorted(self.problems.counts.items())],
+        now = time.monotonic()
+        period, self._diagnostics_at = now - self._diagnostics_at, now
+        figures = [(c, str(n)) for c, n in sorted(self.problems.counts.items())]
+        for topic, stats in self._inputs.items():
+            figures += stats.report(self.resolve_topic_name(topic), period)
+        name = self.get_fully_qualified_name()
+        state, details = self.diagnostic_state()
+        array = DiagnosticArray(
+            status=[
+                DiagnosticStatus(
+                    level=DiagnosticStatus.OK,
+                    name=f"{name}: state",
+                    message=state,
+                    values=[KeyValue(key=k, value=v) for k, v in details.items()],
+                ),
+                DiagnosticStatus(
+                    level=DiagnosticStatus.WARN if recent else DiagnosticStatus.OK,
+                    name=f"{name}: input",
+                    message=self.problems.summary() or "no input dropped",
+                    values=[KeyValue(key=k, value=v) for k, v in figures],
+                ),
+            ]
         )
-        array = DiagnosticArray(status=[status])
         array.header.stamp = self.get_clock().now().to_msg()
         self._diagnostics_pub.publish(array)
 

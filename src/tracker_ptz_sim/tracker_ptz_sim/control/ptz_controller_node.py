@@ -145,6 +145,7 @@ class PtzControllerNode(SuiteNode):
         self.waiting: dict[int, tuple[Target, float]] = {}
         self.target_order = StampOrder()
         self.last_target_ns: int | None = None
+        self.last_mode = CommandMode.HOLD
         self.command_pub = self.create_publisher(PtzCommand, "ptz/command", result_qos())
         self.joint_pub = self._joint_publisher()
         self.create_subscription(Target, "target", self._on_target, 10)
@@ -287,7 +288,13 @@ class PtzControllerNode(SuiteNode):
                 f"{self.params['state_timeout']} s; answered with HOLD",
             )
 
+    def diagnostic_state(self) -> tuple[str, dict[str, str]]:
+        """The control state (track / scan / home / search), or holding the camera still."""
+        state = "holding" if self.last_mode is CommandMode.HOLD else self.controller.state.value
+        return state, {"mode": self.params["mode"], "last command": self.last_mode.value}
+
     def _publish(self, command: Command, stamp: Any) -> None:
+        self.last_mode = command.mode
         msg = PtzCommand()
         msg.header.stamp = stamp
         msg.header.frame_id = self.params["base_frame_id"]

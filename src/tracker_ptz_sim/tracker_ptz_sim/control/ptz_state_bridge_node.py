@@ -101,6 +101,13 @@ class PtzStateBridgeNode(SuiteNode):
             params["scene_width"], params["scene_height"], params["scene_focal_length"]
         )
 
+    def diagnostic_state(self) -> tuple[str, dict[str, str]]:
+        if self.bridge.joints.newest_stamp is None:
+            return "waiting for ptz/joint_states", {}
+        waiting = len(self.bridge.waiting)
+        state = f"{waiting} image(s) waiting for a joint state" if waiting else "bridging"
+        return state, {"scene focal length [px/rad]": f"{self.bridge.focal_length or 0.0:.1f}"}
+
     def _on_change(self, changed: dict[str, Any]) -> None:
         self.bridge.scene = self._scene()
         self.bridge.joints.max_gap_ns = round(self.params["max_gap"] * NS_PER_S)

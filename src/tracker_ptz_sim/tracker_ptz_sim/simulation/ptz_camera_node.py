@@ -151,6 +151,7 @@ class PtzCameraNode(SuiteNode):
         self.pending: Image | None = None
         self.pending_since = 0.0
         self.early_commands: list[PtzCommand] = []
+        self.last_snapshot: PtzSnapshot | None = None
         qos = image_qos(self.params["reliable_images"])
         self.view_pub = self.create_publisher(Image, "camera/image_raw", qos)
         self.info_pub = self.create_publisher(CameraInfo, "camera/camera_info", qos)
@@ -181,6 +182,17 @@ class PtzCameraNode(SuiteNode):
             self.model.reconfigure(config_from_params(PtzConfig, self.params))
 
     # --- commands -------------------------------------------------------------------------------
+
+    def diagnostic_state(self) -> tuple[str, dict[str, str]]:
+        if self.model is None:
+            return "waiting for the first scene image", {}
+        state = "waiting for a command (lockstep)" if self.pending is not None else "streaming"
+        details = {"interface": self.params["interface"]}
+        if self.last_snapshot is not None:
+            shot = self.last_snapshot
+            details |= {"pan [rad]": f"{shot.pan:.4f}", "tilt [rad]": f"{shot.tilt:.4f}"}
+            details["zoom"] = f"{shot.zoom:.3f}"
+        return state, details
 
     def _on_command(self, msg: PtzCommandMsg) -> None:
         self._apply(self._command_from(msg), stamp_to_ns(msg.header.stamp))
@@ -361,6 +373,7 @@ class PtzCameraNode(SuiteNode):
         return True
 
     def _publish(self, scene_msg: Image, view: Any, snapshot: PtzSnapshot) -> None:
+        self.last_snapshot = snapshot
         stamp = scene_msg.header.stamp
         camera_frame = self.params["camera_frame_id"]
         model = self.model

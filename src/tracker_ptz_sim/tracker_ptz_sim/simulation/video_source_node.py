@@ -145,6 +145,20 @@ class VideoSourceNode(SuiteNode):
         self.add_waker(self.pace_event.set)
         self.start_worker(self._replay, "replay")
 
+    def diagnostic_state(self) -> tuple[str, dict[str, str]]:
+        names = {
+            ReplayStatus.STATE_PLAYING: "replaying",
+            ReplayStatus.STATE_ENDED: "ended",
+            ReplayStatus.STATE_FAILED: "failed",
+        }
+        status = self.status
+        details = {
+            "source": status.source,
+            "frame index": str(status.frame_index),
+            "frames published": str(status.frames_published),
+        }
+        return names.get(status.state, str(status.state)), details
+
     def _on_ack(self, msg: PtzCommand) -> None:
         stamp = stamp_to_ns(msg.header.stamp)
         # An acknowledgement stamped after every frame published answers another replay (the one

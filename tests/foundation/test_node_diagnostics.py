@@ -1,0 +1,76 @@
+"""/diagnostics from a node: its state and, per input topic, the message rate, the callback's time
+and the data's age on arrival, besides the dropped input."""
+
+from __future__ import annotations
+
+import pytest
+
+from tracker_msgs_py.node_stats import InputStats
+
+
+def test_input_stats_report_a_period_and_start_the_next():
+    stats = InputStats()
+    for processing_s, age_s in [(0.002, 0.010), (0.004, None), (0.003, 0.030)]:
+        stats.record(processing_s, age_s)
+    assert dict(stats.report("/camera/image_raw", period_s=0.5)) == {
+        "/camera/image_raw rate [Hz]": "6.00",
+        "/camera/image_raw received": "3",
+        "/camera/image_raw processing mean/max [ms]": "3.00/4.00",
+        "/camera/image_raw age on arrival mean [ms]": "20.0",
+    }
+    assert dict(stats.report("/camera/image_raw", period_s=1.0)) == {
+        "/camera/image_raw rate [Hz]": "0.00",
+        "/camera/image_raw received": "3",
+    }
+
+
+def test_the_controller_reports_its_state_and_its_inputs():
+    pytest.importorskip("rclpy")
+    from diagnostic_msgs.msg import DiagnosticArray
+    from node_harness import NodeHarness
+
+    from tracker_msgs.msg import PtzState, Target
+    from tracker_msgs_py.codec import ns_to_stamp
+    from tracker_ptz_sim.control.ptz_controller_node import PtzControllerNode
+
+    h = NodeHarness(
+        PtzControllerNode,
+        inputs={"ptz/state": (PtzState, 50), "target": (Target, 50)},
+        outputs={"/diagnostics": (DiagnosticArray, 10)},
+    )
+    try:
+        for frame in range(5):
+            stamp = ns_to_stamp(frame * 100_000_000)
+            state = PtzState(zoom=1.0, focal_length=440.0)
+            state.window.x, state.window.y, state.window.width, state.window.height = (
+                252.0,
+                156.0,
+                264.0,
+                264.0,
+            )
+            state.header.stamp = stamp
+            target = Target(locked=True, predicted_x=430.0, predicted_y=300.0)
+            target.track.x, target.track.y = 430.0, 300.0
+            target.header.stamp = stamp
+            h.publish("ptz/state", state)
+            h.publish("target", target)
+            h.spin_for(0.02)
+
+        def report():
+            for array in h.received["/diagnostics"]:
+                statuses = {s.name: s for s in array.status}
+                inputs = statuses.get("/ptz_controller: input")
+                if inputs and any(
+                    v.key == "/target received" and v.value == "5" for v in inputs.values
+                ):
+                    return statuses
+            return None
+
+        h.spin_until(lambda: report() is not None, timeout=5.0)
+        statuses = report()
+        assert statuses["/ptz_controller: state"].message == "track"
+        values = {v.key: v.value for v in statuses["/ptz_controller: input"].values}
+        assert {"/target rate [Hz]", "/ptz/state processing mean/max [ms]"} <= values.keys()
+        assert "/target age on arrival mean [ms]" in values
+    finally:
+        h.close()
