@@ -37,8 +37,8 @@ shell: setup  ## A bash shell with ROS 2, the venv and this workspace sourced
 sample: setup  ## Fetch and verify the sample clip vtest.avi (cached outside the repository)
 	@$(ENV) $(SIM)/fetch_sample
 
-demo: setup  ## Run the surveillance demo (VIDEO=path/to/video to use your own)
-	@$(ENV) $(SIM)/run_demo $(if $(VIDEO),--video "$(VIDEO)") $(DEMO_ARGS)
+demo: setup  ## Run the surveillance demo (VIDEO=path/to/video to use your own; LIVE=1: Foxglove live view)
+	@$(ENV) $(SIM)/run_demo $(if $(VIDEO),--video "$(VIDEO)") $(if $(LIVE),--live) $(DEMO_ARGS)
 
 bench: setup  ## Benchmarks: prints tables, writes out/bench/*.json
 	@$(ENV) for b in bench/bench_*.py; do echo "== $$b"; python "$$b" || exit 1; done

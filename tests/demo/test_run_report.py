@@ -260,6 +260,11 @@ def test_launch_file_runs_the_colour_graph_on_request(monkeypatch):
     assert ("handover_target", "motion/target") in detector["remappings"]
 
 
+def test_launch_file_adds_the_live_view_on_request(monkeypatch):
+    _, created = _launch_actions(monkeypatch, video="v.avi", live_view="true")
+    assert created[-1]["name"] == "live_view" and created[-1]["executable"] == "live_view"
+
+
 def test_launch_file_runs_behind_a_live_camera_under_a_namespace(monkeypatch):
     _, created = _launch_actions(monkeypatch, camera="live", namespace="cam1")
     assert [n["name"] for n in created][0] == "ptz_state_bridge"

@@ -32,6 +32,7 @@ ROS_SHELLS = {
     "ptz_camera_node",
     "ptz_controller_node",
     "ptz_state_bridge_node",
+    "live_view_node",
     "demo",
 }
 

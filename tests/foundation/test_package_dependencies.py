@@ -26,6 +26,7 @@ PYTHON_KEYS = {
     "rosbags": "python3-rosbags-pip",
     "motmetrics": "python3-motmetrics-pip",
     "trackeval": "python3-trackeval-pip",
+    "foxglove": "python3-foxglove-sdk-pip",
 }
 # Keys in rosdistro's rosdep/python.yaml, looked up by hand in ros/rosdistro on 2026-11-25
 # (python3-filterpy and python3-rosbags are not keys there; their -pip forms are).

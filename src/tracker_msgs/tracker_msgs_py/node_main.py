@@ -72,6 +72,8 @@ class SuiteNode(Node):
     """
 
     def __init__(self, node_name: str, **node_options: Any) -> None:
+        # Before Node's own __init__: with use_sim_time it already subscribes to /clock.
+        self._inputs: dict[str, InputStats] = {}
         super().__init__(node_name, **node_options)
         self.stopping = threading.Event()
         self.finished = threading.Event()
@@ -79,7 +81,6 @@ class SuiteNode(Node):
         self.problems = ProblemLog(self.get_logger().warning)
         self._workers: list[threading.Thread] = []
         self._wakers: list[Callable[[], None]] = []
-        self._inputs: dict[str, InputStats] = {}
         self._diagnostics_pub = self.create_publisher(DiagnosticArray, "/diagnostics", 10)
         self._diagnostics_seen = 0
         self._diagnostics_at = time.monotonic()

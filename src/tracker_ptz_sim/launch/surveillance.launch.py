@@ -1,7 +1,7 @@
 """ros2 launch tracker_ptz_sim surveillance.launch.py video:=/path/to/video.mp4
     [graph:=surveillance|colour|standard] [camera:=sim|live] [namespace:=cam1]
     [use_sim_time:=auto|true|false] [clock:=auto|global|namespaced|off]
-    [controller_mode:=servo|direct] [respawn:=true]
+    [controller_mode:=servo|direct] [respawn:=true] [live_view:=true]
 
 The whole graph, built from the same config/*graph.yaml and parameter files the demo runner
 (make demo) uses, so both run exactly the same nodes with the same parameters. graph:=colour runs
@@ -64,6 +64,12 @@ ARGUMENTS = [
         ["true", "false"],
         "restart a processing node that exits (not video_source)",
     ),
+    (
+        "live_view",
+        "false",
+        ["true", "false"],
+        "serve the graph to the Foxglove app (live_view node, ws://127.0.0.1:8765)",
+    ),
 ]
 
 
@@ -90,6 +96,7 @@ def graph_actions(context):
         controller_mode=value["controller_mode"],
         respawn=value["respawn"] == "true",
         outer_namespace=context.launch_configurations.get("ros_namespace") or "",
+        live_view=value["live_view"] == "true",
     )
     respawn = {"respawn": True, "respawn_delay": 1.0, "respawn_max_retries": 5}
     nodes = [

@@ -1,7 +1,7 @@
 """run_demo: the whole surveillance graph as separate processes, recorded and summarised.
 
     run_demo [--video PATH] [--out out] [--graph surveillance|colour|standard] [--mode servo|direct]
-             [--set node.param=value ...] [--respawn] [--no-video]
+             [--set node.param=value ...] [--respawn] [--no-video] [--live]
 
 Starts every node of the graph (config/graph.yaml; --graph colour: config/colour_graph.yaml;
 --graph standard: config/standard_graph.yaml)
@@ -46,7 +46,13 @@ from rclpy.signals import SignalHandlerOptions
 from tracker_msgs.msg import ReplayStatus
 from tracker_msgs_py import stop_signals
 from tracker_msgs_py.params import config_from_params
-from tracker_ptz_sim.bringup.graph import GRAPHS, Graph, load_graph, node_parameters
+from tracker_ptz_sim.bringup.graph import (
+    GRAPHS,
+    Graph,
+    load_graph,
+    node_parameters,
+    with_live_view,
+)
 from tracker_ptz_sim.bringup.processes import GraphProcesses, describe_exit
 from tracker_ptz_sim.evaluation import run_report
 from tracker_ptz_sim.evaluation.contact_sheet import write_contact_sheet
@@ -519,6 +525,12 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--set", action="append", default=[], metavar="NODE.PARAM=VALUE")
     parser.add_argument("--no-video", action="store_true", help="skip the annotated video")
     parser.add_argument(
+        "--live",
+        action="store_true",
+        help="also serve the run to the Foxglove app (live_view node, ws://127.0.0.1:8765; "
+        "--set live_view.port=N for another port)",
+    )
+    parser.add_argument(
         "--respawn",
         action="store_true",
         help=f"restart a node that dies (up to {RESPAWN_LIMIT} times each; video_source resumes "
@@ -537,6 +549,10 @@ def main(argv: list[str] | None = None) -> int:
         overrides.setdefault("ptz_controller", {})["mode"] = args.mode
     args.out.mkdir(parents=True, exist_ok=True)
     graph = load_graph(args.graph)
+    if args.live:
+        graph = with_live_view(graph)
+        port = overrides.get("live_view", {}).get("port", 8765)
+        print(f"live view: open ws://127.0.0.1:{port} in Foxglove (Open connection)", flush=True)
     run = run_graph(
         graph,
         video,

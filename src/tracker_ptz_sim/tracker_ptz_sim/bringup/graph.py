@@ -12,7 +12,7 @@ from __future__ import annotations
 import os
 import re
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -57,6 +57,17 @@ class Graph:
 def config_dir() -> Path:
     """The package's config/ directory."""
     return package_data("tracker_ptz_sim", "config")
+
+
+#: The Foxglove live view (bringup/live_view_node.py), added to any graph on request.
+LIVE_VIEW = NodeSpec("tracker_ptz_sim", "live_view", "live_view")
+
+
+def with_live_view(graph: Graph) -> Graph:
+    """The graph plus the live view node (run_demo --live, surveillance.launch.py live_view:=true)."""
+    if any(node.name == LIVE_VIEW.name for node in graph.nodes):
+        return graph
+    return replace(graph, nodes=[*graph.nodes, LIVE_VIEW])
 
 
 #: Graph name -> its description file in config/.

@@ -15,6 +15,7 @@ the launch arguments into nodes, so the launch file stays a thin shell and its r
   publishes `/clock`; `namespaced` remaps every node's `/clock` to `<namespace>/clock`, so two
   simulated cameras do not drive each other's time; `off` publishes none. `auto`: namespaced
   when a namespace is given or pushed by an including launch file, else global.
+- `live_view:=true` adds the Foxglove live view (`live_view` node, ws://127.0.0.1:8765).
 """
 
 from __future__ import annotations
@@ -23,7 +24,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from tracker_ptz_sim.bringup.graph import Graph, NodeSpec, load_graph
+from tracker_ptz_sim.bringup.graph import Graph, NodeSpec, load_graph, with_live_view
 
 CAMERAS = ("sim", "live")
 CLOCKS = ("auto", "global", "namespaced", "off")
@@ -44,6 +45,7 @@ class LaunchArguments:
     controller_mode: str = "servo"
     respawn: bool = False
     outer_namespace: str = ""  # pushed by an including launch file (PushRosNamespace)
+    live_view: bool = False  # serve the graph to the Foxglove app
 
 
 @dataclass(frozen=True)
@@ -63,6 +65,8 @@ def plan(arguments: LaunchArguments, graph: Graph | None = None) -> list[Planned
     """The nodes to start; raises ValueError naming a bad argument."""
     _check(arguments)
     graph = graph or load_graph(arguments.graph)
+    if arguments.live_view:
+        graph = with_live_view(graph)
     live = arguments.camera == "live"
     nodes = _live_nodes(graph) if live else list(graph.nodes)
     files: list[Path] = list(graph.params_files)
