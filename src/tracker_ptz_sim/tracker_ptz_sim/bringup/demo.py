@@ -52,6 +52,7 @@ from tracker_ptz_sim.bringup.graph import (
     load_graph,
     node_parameters,
     with_live_view,
+    without_nodes,
 )
 from tracker_ptz_sim.bringup.processes import GraphProcesses, describe_exit
 from tracker_ptz_sim.evaluation import run_report
@@ -525,6 +526,14 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--set", action="append", default=[], metavar="NODE.PARAM=VALUE")
     parser.add_argument("--no-video", action="store_true", help="skip the annotated video")
     parser.add_argument(
+        "--external",
+        action="append",
+        default=[],
+        metavar="NODE",
+        help="a node of the graph that runs elsewhere (another host): not started or watched "
+        "here, but still waited for before the replay starts",
+    )
+    parser.add_argument(
         "--live",
         action="store_true",
         help="also serve the run to the Foxglove app (live_view node, ws://127.0.0.1:8765; "
@@ -549,6 +558,10 @@ def main(argv: list[str] | None = None) -> int:
         overrides.setdefault("ptz_controller", {})["mode"] = args.mode
     args.out.mkdir(parents=True, exist_ok=True)
     graph = load_graph(args.graph)
+    unknown = set(args.external) - {node.name for node in graph.nodes}
+    if unknown:
+        parser.error(f"--external: no node {sorted(unknown)} in the {graph.name} graph")
+    graph = without_nodes(graph, set(args.external))
     if args.live:
         graph = with_live_view(graph)
         port = overrides.get("live_view", {}).get("port", 8765)

@@ -70,6 +70,12 @@ def with_live_view(graph: Graph) -> Graph:
     return replace(graph, nodes=[*graph.nodes, LIVE_VIEW])
 
 
+def without_nodes(graph: Graph, names: set[str]) -> Graph:
+    """The graph without the named nodes (they run elsewhere); its topics and readiness counts
+    stay, so a runner still waits for them to be discovered."""
+    return replace(graph, nodes=[node for node in graph.nodes if node.name not in names])
+
+
 #: Graph name -> its description file in config/.
 GRAPHS = {
     "surveillance": "graph.yaml",
