@@ -139,15 +139,15 @@ def main(argv: list[str] | None = None) -> int:
         "hop_added_ms_p50": split["latency_ms"][HOP]["p50"] - single["latency_ms"][HOP]["p50"],
     }
     (args.out / "two_hosts.json").write_text(json.dumps(report, indent=2))
-    print(f"{'':32}{'two hosts':>12}{'one host':>12}")
+    print(f"{'':40}{'two hosts':>12}{'one host':>12}")
     for hop in split["latency_ms"]:
         a, b = (
             split["latency_ms"][hop]["p50"],
             single["latency_ms"].get(hop, {}).get("p50", float("nan")),
         )
-        print(f"{hop + ' p50 [ms]':32}{a:12.2f}{b:12.2f}")
+        print(f"{hop + ' p50 [ms]':40}{a:12.2f}{b:12.2f}")
     print(
-        f"{'throughput [frames/s]':32}{split['throughput_fps']:12.1f}{single['throughput_fps']:12.1f}"
+        f"{'throughput [frames/s]':40}{split['throughput_fps']:12.1f}{single['throughput_fps']:12.1f}"
     )
     print(
         f"identical tracks: {same}; the hop ({HOP}: out to host B and back) adds "
