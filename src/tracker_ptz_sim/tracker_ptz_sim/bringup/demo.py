@@ -409,6 +409,7 @@ def _replay(
         if during is not None:
             during(recorder.status, nodes)
         watch = supervisor.check()
+        nodes.cpu_seconds()  # keeps each node's CPU time up to date, also for one about to exit
     result.wall_seconds = time.monotonic() - started
     if watch is Watch.ENDED:
         stop_signals.wait(1.0)  # the last frame's messages

@@ -42,6 +42,7 @@ class GraphProcesses:
         self.install_dir = install_dir
         self.log_dir = log_dir
         self.processes: dict[str, subprocess.Popen] = {}
+        self._cpu: dict[str, float] = {}  # last CPU time seen per node (kept after it exits)
         log_dir.mkdir(parents=True, exist_ok=True)
 
     def log_path(self, name: str) -> Path:
@@ -95,16 +96,17 @@ class GraphProcesses:
         }
 
     def cpu_seconds(self) -> dict[str, float]:
-        """CPU time (user + system) each running node has used so far, from /proc."""
+        """CPU time (user + system) each node has used, from /proc: now for a running node, at
+        the last call before it exited for one that did (call often to miss little of it)."""
         ticks = os.sysconf("SC_CLK_TCK")
-        used = {}
         for name, process in self.processes.items():
             try:
                 fields = Path(f"/proc/{process.pid}/stat").read_text().rsplit(")", 1)[1].split()
             except OSError:
                 continue
-            used[name] = (int(fields[11]) + int(fields[12])) / ticks  # utime, stime
-        return used
+            # An exited, not yet reaped process still has its final times here.
+            self._cpu[name] = (int(fields[11]) + int(fields[12])) / ticks  # utime, stime
+        return dict(self._cpu)
 
     def last_log_lines(self, name: str, count: int = LOG_TAIL_LINES) -> list[str]:
         try:
