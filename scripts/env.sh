@@ -17,6 +17,9 @@ else
 fi
 # Images travel through Fast DDS shared memory only with a segment larger than the default 0.5 MB.
 export FASTRTPS_DEFAULT_PROFILES_FILE="${FASTRTPS_DEFAULT_PROFILES_FILE:-$_tracker_root/src/tracker_ptz_sim/config/fastdds_shm.xml}"
+# Multi-megabyte images from the heap instead of a fresh mmap each (page faults on every image):
+# the same value as tracker_ptz_sim.bringup.graph.MALLOC_TUNABLES (tested equal).
+export GLIBC_TUNABLES="${GLIBC_TUNABLES:-glibc.malloc.mmap_threshold=4194304:glibc.malloc.trim_threshold=134217728}"
 if [ "${1:-}" != "--no-workspace" ] && [ -f "$_tracker_root/install/setup.bash" ]; then
   # shellcheck disable=SC1091
   source "$_tracker_root/install/setup.bash"

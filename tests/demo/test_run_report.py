@@ -223,8 +223,7 @@ def _launch_actions(monkeypatch, **arguments) -> tuple[list, list]:
     defaults = {e[1]: e[2] for e in entities if e[0] == "arg"}
     [(_, function)] = [e for e in entities if e[0] == "opaque"]
     context = types.SimpleNamespace(launch_configurations={**defaults, **arguments})
-    function(context)
-    return entities, created
+    return entities + function(context), created
 
 
 def test_launch_file_builds_the_same_graph(monkeypatch):
@@ -270,3 +269,15 @@ def test_launch_file_runs_behind_a_live_camera_under_a_namespace(monkeypatch):
     assert [n["name"] for n in created][0] == "ptz_state_bridge"
     assert all(n["namespace"] == "cam1" for n in created)
     assert created[0]["parameters"][-2].endswith("live.yaml")
+
+
+def test_the_malloc_setting_is_the_same_for_shells_runner_and_launch(monkeypatch):
+    from pathlib import Path
+
+    from tracker_ptz_sim.bringup.graph import MALLOC_TUNABLES
+
+    env_sh = (Path(__file__).resolve().parents[2] / "scripts/env.sh").read_text()
+    assert f'GLIBC_TUNABLES="${{GLIBC_TUNABLES:-{MALLOC_TUNABLES}}}"' in env_sh
+    monkeypatch.delenv("GLIBC_TUNABLES", raising=False)
+    entities, _ = _launch_actions(monkeypatch, video="v.avi")
+    assert ("env", "GLIBC_TUNABLES", MALLOC_TUNABLES) in entities

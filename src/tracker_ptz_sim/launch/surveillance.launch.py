@@ -23,7 +23,7 @@ from launch.actions import DeclareLaunchArgument, OpaqueFunction, SetEnvironment
 from launch.substitutions import LaunchConfiguration
 from launch_ros.actions import Node
 
-from tracker_ptz_sim.bringup.graph import GRAPHS, load_graph
+from tracker_ptz_sim.bringup.graph import GRAPHS, MALLOC_TUNABLES, load_graph
 from tracker_ptz_sim.bringup.launch_plan import (
     CAMERAS,
     CLOCKS,
@@ -117,4 +117,6 @@ def graph_actions(context):
     environment = []
     if "FASTRTPS_DEFAULT_PROFILES_FILE" not in os.environ and profile.exists():
         environment.append(SetEnvironmentVariable("FASTRTPS_DEFAULT_PROFILES_FILE", str(profile)))
+    if "GLIBC_TUNABLES" not in os.environ:  # images from the heap, not an mmap each (graph.py)
+        environment.append(SetEnvironmentVariable("GLIBC_TUNABLES", MALLOC_TUNABLES))
     return environment + nodes

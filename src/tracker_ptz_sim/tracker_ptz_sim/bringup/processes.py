@@ -12,7 +12,7 @@ from pathlib import Path
 from typing import Any
 
 from tracker_msgs_py import stop_signals
-from tracker_ptz_sim.bringup.graph import Graph, executable_path, ros_args
+from tracker_ptz_sim.bringup.graph import MALLOC_TUNABLES, Graph, executable_path, ros_args
 
 LOG_TAIL_LINES = 8
 UDP_PROFILE = "fastdds_udp.xml"  # in the graph's config directory
@@ -57,7 +57,7 @@ class GraphProcesses:
                 command,
                 stdout=log,
                 stderr=subprocess.STDOUT,
-                env={**os.environ, **self.environment},
+                env={"GLIBC_TUNABLES": MALLOC_TUNABLES, **os.environ, **self.environment},
                 start_new_session=True,
             )
         return self.processes[name]
