@@ -87,6 +87,33 @@ def test_bag_round_trips_every_type(bag):
     assert targets[3].track.id == 7 and targets[3].predicted_x == 39.0
 
 
+def test_images_recorded_as_jpeg_are_read_under_their_raw_names(tmp_path):
+    """The recorder's default: Image topics go into the bag as JPEG CompressedImages on
+    `<topic>/compressed`; readers asking for the raw name get them, decoded to the same picture."""
+    from rclpy.serialization import serialize_message
+
+    from tracker_msgs_py.codec import decode_image
+    from tracker_ptz_sim.bringup.graph import load_graph
+    from tracker_ptz_sim.evaluation.recording import BagWriter, jpeg_cdr, read_bag, recorded_topics
+
+    topics = recorded_topics({t.name: t.type for t in load_graph().topics})
+    assert topics["/scene/image_raw/compressed"] == "sensor_msgs/msg/CompressedImage"
+    assert "/scene/image_raw" not in topics and topics["/target"] == "tracker_msgs/msg/Target"
+    writer = BagWriter(tmp_path / "bag", topics)
+    _, messages = _messages(3)
+    (_, _, scene), (_, _, view) = messages[:2]
+    writer.write("/scene/image_raw/compressed", 1, jpeg_cdr(serialize_message(scene)))
+    writer.write("/camera/image_raw/compressed", 2, jpeg_cdr(serialize_message(view)))
+    writer.close()
+    read = {topic: msg for topic, _, msg in read_bag(tmp_path / "bag", {"/scene/image_raw"})}
+    assert set(read) == {"/scene/image_raw"}  # the camera's were not asked for
+    pixels = decode_image(read["/scene/image_raw"])
+    assert pixels.shape == (scene.height, scene.width, 3)
+    assert read["/scene/image_raw"].header.stamp.nanosec == scene.header.stamp.nanosec
+    original = decode_image(scene).astype(int)
+    assert abs(pixels.astype(int) - original).mean() < 4  # JPEG, close to the original
+
+
 def test_summary_figures(bag):
     from tracker_ptz_sim.evaluation import run_report
 

@@ -53,7 +53,7 @@ def test_every_image_gets_a_bridged_state_and_a_joint_command(standard_run):
 
     _, out, frames = standard_run
     counts = topic_counts(out / "bag")
-    images = counts["/camera/image_raw"]
+    images = counts["/camera/image_raw/compressed"]
     assert images == len(frames) == 150
     assert counts["/ptz/state"] == counts["/camera/camera_info"] == images
     # one command per image, plus the stop the controller sends when it shuts down

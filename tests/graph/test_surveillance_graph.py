@@ -136,18 +136,19 @@ def test_demo_outputs_bag_mot_and_video(one_walker, servo_run):
     from tracker_msgs_py.codec import stamp_to_ns
     from tracker_ptz_sim.bringup.graph import load_graph
     from tracker_ptz_sim.evaluation import metrics, run_report
-    from tracker_ptz_sim.evaluation.recording import read_bag, topic_counts
+    from tracker_ptz_sim.evaluation.recording import read_bag, recorded_topics, topic_counts
 
     scene, paths, root = one_walker
     out = root / "demo"
     stdout = run_demo(paths.video, out, render=True)
     assert "throughput" in stdout and "camera image -> command" in stdout
     counts = topic_counts(out / "bag")
-    assert set(counts) == {t.name for t in load_graph().topics}
+    graph_topics = {t.name: t.type for t in load_graph().topics}
+    assert set(counts) == set(recorded_topics(graph_topics))  # images as JPEG
     frames = scene.num_frames
     for topic in [
-        "/scene/image_raw",
-        "/camera/image_raw",
+        "/scene/image_raw/compressed",
+        "/camera/image_raw/compressed",
         "/camera/camera_info",
         "/ptz/state",
         "/ptz/joint_states",

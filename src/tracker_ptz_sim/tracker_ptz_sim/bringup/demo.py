@@ -8,7 +8,8 @@ Starts every node of the graph (config/graph.yaml; --graph colour: config/colour
 from the install space (exactly as `ros2 run` would) with its parameter files, replays the video
 in lockstep, records every topic into an MCAP bag with `rosbags`, shows progress, and writes to
 the output directory:
-    bag/            rosbag2 (MCAP) of every topic
+    bag/            rosbag2 (MCAP) of every topic, images as JPEG on <topic>/compressed
+                    (--raw-images: as they travel)
     annotated.mp4   scene with camera window, blobs, tracks, target; camera view beside it
     contact_sheet.png  the followed target every 2 s, cropped from the scene
     tracks.txt      confirmed tracks, MOTChallenge format
@@ -57,7 +58,13 @@ from tracker_ptz_sim.bringup.graph import (
 from tracker_ptz_sim.bringup.processes import GraphProcesses, describe_exit
 from tracker_ptz_sim.evaluation import run_report
 from tracker_ptz_sim.evaluation.contact_sheet import write_contact_sheet
-from tracker_ptz_sim.evaluation.recording import BagWriter
+from tracker_ptz_sim.evaluation.recording import (
+    COMPRESSED,
+    RAW_IMAGE,
+    BagWriter,
+    jpeg_cdr,
+    recorded_topics,
+)
 from tracker_ptz_sim.simulation.camera_model import PtzCameraModel, PtzConfig
 from tracker_ptz_sim.simulation.frame_sources import open_source
 
@@ -82,9 +89,10 @@ STATUS_QOS = QoSProfile(
 
 
 class Recorder(Node):
-    """Records the graph's topics (serialized, as received) and follows the replay's progress."""
+    """Records the graph's topics (serialized, as received; images as JPEG on `<topic>/compressed`
+    unless `raw_images`) and follows the replay's progress."""
 
-    def __init__(self, graph: Graph, bag: BagWriter) -> None:
+    def __init__(self, graph: Graph, bag: BagWriter, raw_images: bool = False) -> None:
         super().__init__("run_recorder")
         self.bag = bag
         self.status: ReplayStatus | None = None
@@ -97,7 +105,9 @@ class Recorder(Node):
                 self.create_subscription(
                     msg_type,
                     topic.name,
-                    partial(self._record, topic.name),
+                    partial(self._record_jpeg, topic.name + COMPRESSED)
+                    if topic.type == RAW_IMAGE and not raw_images
+                    else partial(self._record, topic.name),
                     qos,
                     raw=True,
                 )
@@ -106,6 +116,10 @@ class Recorder(Node):
 
     def _record(self, topic: str, data: bytes) -> None:
         self.bag.write(topic, time.time_ns(), data)
+
+    def _record_jpeg(self, topic: str, data: bytes) -> None:
+        received = time.time_ns()  # the receive time, before the encoding
+        self.bag.write(topic, received, jpeg_cdr(data))
 
     def _on_status(self, status: ReplayStatus) -> None:
         self.status = status
@@ -298,6 +312,7 @@ def run_graph(
     during: Callable[[ReplayStatus | None, GraphProcesses], None] | None = None,
     respawn_limit: int = 0,
     shared_memory: bool | None = None,
+    raw_images: bool = False,
 ) -> RunResult:
     """Replay `video` through the graph, recording every topic into out/bag.
 
@@ -307,18 +322,20 @@ def run_graph(
     nodes); `respawn_limit` restarts per node (0: a node that dies ends the run).
     `shared_memory` (default: unless nodes are restarted) lets images travel through Fast DDS
     shared memory; a killed node can starve the other readers of it (config/fastdds_udp.xml).
+    `raw_images` records the images as they travel instead of as JPEG (a bag ~25x larger).
     """
     bag_path = out / "bag"
     if bag_path.exists():
         shutil.rmtree(bag_path)
-    bag = BagWriter(bag_path, {t.name: t.type for t in graph.topics}, storage)
+    topics = recorded_topics({t.name: t.type for t in graph.topics}, raw_images)
+    bag = BagWriter(bag_path, topics, storage)
     result = RunResult(bag_path)
     # Our stop signals, not rclpy's: the graph is stopped and the bag closed on Ctrl-C.
     rclpy.init(
         args=["--ros-args", "--disable-rosout-logs"],
         signal_handler_options=SignalHandlerOptions.NO,
     )
-    recorder = Recorder(graph, bag)
+    recorder = Recorder(graph, bag, raw_images)
     # The recorder spins in its own thread: one executor for the whole run is far cheaper per
     # message than spin_once from the supervising loop below.
     executor = SingleThreadedExecutor()
@@ -527,6 +544,12 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--set", action="append", default=[], metavar="NODE.PARAM=VALUE")
     parser.add_argument("--no-video", action="store_true", help="skip the annotated video")
     parser.add_argument(
+        "--raw-images",
+        action="store_true",
+        help="record the scene and camera images raw (sensor_msgs/Image, ~1.2 GB for vtest.avi) "
+        "instead of as JPEG on <topic>/compressed",
+    )
+    parser.add_argument(
         "--external",
         action="append",
         default=[],
@@ -576,6 +599,7 @@ def main(argv: list[str] | None = None) -> int:
         args.timeout,
         args.storage,
         respawn_limit=RESPAWN_LIMIT if args.respawn else 0,
+        raw_images=args.raw_images,
     )
     try:
         summary = report(run.bag, args.out, render=not args.no_video, run=run)
