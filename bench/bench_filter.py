@@ -9,6 +9,11 @@ out/bench/filter.json. NumPy's BLAS is limited to one thread.
   The same step with one filterpy object per track (ObjectBank, the plug-in path for filters
   without a vectorised bank) shows why the vectorised bank exists.
 - messages: converting that frame's TrackSet to a tracker_msgs/TrackArray (node side).
+- scaling: the multi tracker (kalman_cv) beside a SORT-like loop (one filterpy KalmanFilter per
+  track, Euclidean cost, scipy's Hungarian with a distance gate: the usual Python baseline) at 1
+  target and at 200 targets + 40 clutter, and the multi tracker with 50 targets and 0-450 clutter
+  detections (time per detection should not grow). Targets (issue 16): <= 1x the SORT-like loop
+  at 1 target, >= 8x faster at 200 + 40.
 - single: the seed's single-target mode (preset seed000 / seed000_kalman, largest of 3 blobs) per
   frame, and one filter's predict + update alone.
 """
@@ -96,6 +101,95 @@ def bench_multi(quick: bool) -> tuple[dict, list]:
     return rows, last_outputs
 
 
+class SortLike:
+    """The SORT-like peer: per-track filterpy Kalman filters (constant velocity), nearest
+    assignment by Euclidean distance within `gate_px`, new tracks from unmatched detections,
+    deletion after `max_misses`. Timed only; not part of the suite."""
+
+    def __init__(self, gate_px: float = 60.0, max_misses: int = 12) -> None:
+        from filterpy.kalman import KalmanFilter
+        from scipy.optimize import linear_sum_assignment
+        from scipy.spatial.distance import cdist
+
+        self._kalman, self._assign, self._distances = KalmanFilter, linear_sum_assignment, cdist
+        self.gate, self.max_misses = gate_px, max_misses
+        self.tracks: list = []  # [filter, misses]
+        self.time: float | None = None
+
+    def _new(self, position: np.ndarray):  # noqa: ANN202 - a filterpy KalmanFilter
+        kf = self._kalman(dim_x=4, dim_z=2)
+        kf.x = np.array([position[0], position[1], 0.0, 0.0])
+        kf.H = np.array([[1.0, 0, 0, 0], [0, 1.0, 0, 0]])
+        kf.P *= 100.0
+        kf.R *= 4.0
+        return kf
+
+    def step(self, t: float, positions: np.ndarray) -> int:
+        dt = 0.0 if self.time is None else t - self.time
+        self.time = t
+        for kf, _ in self.tracks:
+            kf.F = np.array([[1.0, 0, dt, 0], [0, 1.0, 0, dt], [0, 0, 1.0, 0], [0, 0, 0, 1.0]])
+            kf.Q = np.eye(4) * 10.0 * max(dt, 1e-3)
+            kf.predict()
+        matched_tracks: set[int] = set()
+        matched_detections: set[int] = set()
+        if self.tracks and len(positions):
+            predicted = np.array([kf.x[:2] for kf, _ in self.tracks])
+            cost = self._distances(predicted, positions)
+            rows, cols = self._assign(np.where(cost > self.gate, 1e6, cost))
+            for r, c in zip(rows, cols, strict=True):
+                if cost[r, c] <= self.gate:
+                    self.tracks[r][0].update(positions[c])
+                    matched_tracks.add(int(r))
+                    matched_detections.add(int(c))
+        for k, track in enumerate(self.tracks):
+            track[1] = 0 if k in matched_tracks else track[1] + 1
+        self.tracks = [track for track in self.tracks if track[1] <= self.max_misses]
+        for c in range(len(positions)):
+            if c not in matched_detections:
+                self.tracks.append([self._new(positions[c]), 0])
+        return len(self.tracks)
+
+
+def bench_scaling(quick: bool) -> dict:
+    warmup, measured = 20, (30 if quick else 150)
+    rows = {}
+    for targets, clutter in ((1, 0), (200, 40)):
+        frames = bouncing_scene(
+            np.random.default_rng(2), targets=targets, clutter=clutter, frames=warmup + measured
+        )
+        # room for every target and the clutter's tentative tracks (the preset keeps 100)
+        ours = TrackerConfig.preset("multi", filter="kalman_cv", max_tracks=2000).build_tracker()
+        times, outputs = timed_steps(ours, frames, warmup)
+        peer = SortLike()
+        peer_times = []
+        for k, frame in enumerate(frames):
+            start = time.perf_counter()
+            peer.step(frame.time, frame.detections.positions)
+            if k >= warmup:
+                peer_times.append(1e3 * (time.perf_counter() - start))
+        label = f"{targets}_targets_{clutter}_clutter"
+        rows[f"multi_{label}"] = summary(times) | {
+            "tracks_per_frame": statistics.fmean(len(o) for o in outputs)
+        }
+        rows[f"sort_like_{label}"] = summary(peer_times) | {"tracks_per_frame": len(peer.tracks)}
+        rows[f"speedup_{label}"] = {
+            "sort_like_over_multi": statistics.median(peer_times) / statistics.median(times)
+        }
+    for clutter in (0, 50, 150, 300, 450):
+        frames = bouncing_scene(
+            np.random.default_rng(3), targets=50, clutter=clutter, frames=warmup + measured
+        )
+        ours = TrackerConfig.preset("multi", filter="kalman_cv").build_tracker()
+        times, outputs = timed_steps(ours, frames, warmup)
+        detections = 50 + clutter
+        rows[f"multi_50_targets_{clutter}_clutter"] = summary(times) | {
+            "tracks_per_frame": statistics.fmean(len(o) for o in outputs),
+            "us_per_detection": 1e3 * statistics.median(times) / detections,
+        }
+    return rows
+
+
 def bench_messages(outputs: list, quick: bool) -> dict:
     try:
         from std_msgs.msg import Header
@@ -155,6 +249,8 @@ def print_table(title: str, rows: dict) -> None:
         if "median_ms" not in row:
             print(f"  {name:40s} {row}")
             continue
+        if "us_per_detection" in row:
+            name = f"{name} ({row['us_per_detection']:.1f} us/det)"
         tracks = f"{row['tracks_per_frame']:.1f}" if "tracks_per_frame" in row else ""
         flag = (
             ""
@@ -176,6 +272,7 @@ def main() -> int:
         "multi_50_targets_10_clutter": multi,
         "track_array_message": bench_messages(outputs, args.quick),
         "single_target": bench_single(args.quick),
+        "scaling": bench_scaling(args.quick),
     }
     print_table(
         f"multi-target step, 50 targets + 10 clutter per frame (target <= {TARGET_MS} ms)", multi
@@ -185,6 +282,7 @@ def main() -> int:
         {"tracks_to_msg": results["track_array_message"]},
     )
     print_table("single target", results["single_target"])
+    print_table("scaling: multi tracker vs a SORT-like loop; clutter", results["scaling"])
     write_results(OUT, results, ROOT)
     return 0
 

@@ -75,3 +75,21 @@ def test_without_gate_everything_pairs_and_empty_inputs_work():
     assert result.tracks.tolist() == [0] and result.measurements.tolist() == [0]
     empty = associator.associate(np.zeros((0, 2)), np.zeros((0, 2, 2)), np.array([[1.0, 1.0]]))
     assert empty.tracks.size == 0 and empty.unassigned_measurements(1).tolist() == [0]
+
+
+def test_gated_pairs_are_exactly_the_dense_matrix_inside_the_gate():
+    from tracker_filter.association import gated_pairs
+
+    rng = np.random.default_rng(5)
+    gate = gate_threshold(0.99)
+    for tracks, count in ((60, 90), (1, 1), (5, 0), (40, 3)):
+        z_pred = rng.uniform(0, 400, size=(tracks, 2))
+        S = random_covariances(rng, tracks) * rng.uniform(1, 30, size=(tracks, 1, 1))
+        z = np.vstack([z_pred[: count // 2] + rng.normal(size=(min(count // 2, tracks), 2))])
+        z = np.vstack([z, rng.uniform(0, 400, size=(count - len(z), 2))])
+        rows, cols, d2 = gated_pairs(z_pred, S, z, gate)
+        dense = mahalanobis_squared(z_pred, S, z)
+        expected = {(r, c) for r, c in zip(*np.nonzero(dense <= gate), strict=True)}
+        assert set(zip(rows.tolist(), cols.tolist(), strict=True)) == expected
+        assert np.allclose(d2, dense[rows, cols])
+        assert list(rows) == sorted(rows)

@@ -25,10 +25,17 @@ def gate_threshold(probability: float, dof: int = AXES) -> float:
 def mahalanobis_squared(
     z_predicted: np.ndarray, innovation_covariances: np.ndarray, z: np.ndarray
 ) -> np.ndarray:
-    """d^2[i, j] = (z_j - zp_i)^T S_i^-1 (z_j - zp_i), shape (tracks, measurements)."""
-    residual = z[None, :, :] - z_predicted[:, None, :]
+    """d^2[i, j] = (z_j - zp_i)^T S_i^-1 (z_j - zp_i), shape (tracks, measurements).
+
+    In closed form for 2-D measurements, with S^-1 = [[a, b], [b, d]]:
+    d^2 = a dx^2 + 2 b dx dy + d dy^2 (a quarter of the time of the general einsum)."""
     s_inverse = inverse_2x2(innovation_covariances)
-    return np.einsum("tmi,tij,tmj->tm", residual, s_inverse, residual)
+    a = s_inverse[:, 0, 0, None]
+    b = s_inverse[:, 0, 1, None] + s_inverse[:, 1, 0, None]  # 2b, symmetric or not
+    d = s_inverse[:, 1, 1, None]
+    dx = z[None, :, 0] - z_predicted[:, 0, None]
+    dy = z[None, :, 1] - z_predicted[:, 1, None]
+    return a * dx * dx + b * dx * dy + d * dy * dy
 
 
 @dataclass(frozen=True)
@@ -50,6 +57,45 @@ class Associator(Protocol):
     ) -> Association: ...
 
 
+def gated_pairs(
+    z_predicted: np.ndarray, innovation_covariances: np.ndarray, z: np.ndarray, gate: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The (track, measurement) pairs with d^2 <= gate and their d^2, tracks ascending.
+
+    Without forming the tracks x measurements matrix: d^2 <= g bounds |dx| by sqrt(g S_xx) and
+    |dy| by sqrt(g S_yy), so each track looks only at the measurements whose x falls in its
+    window (a binary search in the measurements sorted by x), then at dy, then at d^2. The cost
+    grows with the tracks, the measurements and the candidate pairs, not their product.
+    """
+    tracks, count = len(z_predicted), len(z)
+    if not math.isfinite(gate):  # no gate: every pair
+        d2 = mahalanobis_squared(z_predicted, innovation_covariances, z)
+        rows, cols = np.divmod(np.arange(tracks * count), count)
+        return rows, cols, d2.reshape(-1)
+    order = np.argsort(z[:, 0], kind="stable")
+    xs = z[order, 0]
+    reach_x = np.sqrt(gate * innovation_covariances[:, 0, 0])
+    low = np.searchsorted(xs, z_predicted[:, 0] - reach_x, side="left")
+    high = np.searchsorted(xs, z_predicted[:, 0] + reach_x, side="right")
+    widths = high - low
+    rows = np.repeat(np.arange(tracks), widths)
+    starts = np.repeat(low - (np.cumsum(widths) - widths), widths)
+    cols = order[starts + np.arange(len(rows))]
+    reach_y = np.sqrt(gate * innovation_covariances[rows, 1, 1])
+    near = np.abs(z[cols, 1] - z_predicted[rows, 1]) <= reach_y
+    rows, cols = rows[near], cols[near]
+    s_inverse = inverse_2x2(innovation_covariances)[rows]
+    dx = z[cols, 0] - z_predicted[rows, 0]
+    dy = z[cols, 1] - z_predicted[rows, 1]
+    d2 = (
+        s_inverse[:, 0, 0] * dx * dx
+        + (s_inverse[:, 0, 1] + s_inverse[:, 1, 0]) * dx * dy
+        + s_inverse[:, 1, 1] * dy * dy
+    )
+    inside = d2 <= gate
+    return rows[inside], cols[inside], d2[inside]
+
+
 class GatedHungarianAssociator:
     """Global nearest neighbour: the assignment minimising the total negative log-likelihood
     d^2 + ln det S (scipy's linear_sum_assignment) among pairs inside the chi-square gate.
@@ -67,19 +113,42 @@ class GatedHungarianAssociator:
         empty = np.zeros(0, dtype=np.int64)
         if len(z_predicted) == 0 or len(z) == 0:
             return Association(empty, empty)
-        d2 = mahalanobis_squared(z_predicted, innovation_covariances, z)
+        rows, cols, d2 = gated_pairs(z_predicted, innovation_covariances, z, self.gate)
+        if len(rows) == 0:
+            return Association(empty, empty)
         det = (
             innovation_covariances[:, 0, 0] * innovation_covariances[:, 1, 1]
             - innovation_covariances[:, 0, 1] * innovation_covariances[:, 1, 0]
         )
-        cost = d2 + np.log(det)[:, None]
-        inside = d2 <= self.gate
-        if not inside.any():
-            return Association(empty, empty)
+        cost = d2 + np.log(det)[rows]
+        # A track whose only candidate has no other candidate track is in every optimum: pair it
+        # directly; only the contested pairs go to the assignment.
+        alone = (np.bincount(rows)[rows] == 1) & (np.bincount(cols)[cols] == 1)
+        paired_tracks, paired_measurements = [rows[alone]], [cols[alone]]
+        if not alone.all():
+            contested = ~alone
+            tracks, measurements = self._assign(rows[contested], cols[contested], cost[contested])
+            paired_tracks.append(tracks)
+            paired_measurements.append(measurements)
+        tracks = np.concatenate(paired_tracks).astype(np.int64)
+        measurements = np.concatenate(paired_measurements).astype(np.int64)
+        order = np.argsort(tracks, kind="stable")
+        return Association(tracks[order], measurements[order])
+
+    @staticmethod
+    def _assign(
+        rows: np.ndarray, cols: np.ndarray, cost: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """The most gated pairs at the least total cost among the given ones (Hungarian)."""
+        tracks, row_at = np.unique(rows, return_inverse=True)
+        measurements, col_at = np.unique(cols, return_inverse=True)
+        inside = np.zeros((len(tracks), len(measurements)), dtype=bool)
+        inside[row_at, col_at] = True
+        matrix = np.zeros(inside.shape)
+        matrix[row_at, col_at] = cost - cost.min()
         # Pairs outside the gate get a cost larger than any sum of gated pairs, so the optimum
         # assigns as many gated pairs as possible; they are dropped afterwards.
-        cost = cost - cost[inside].min()
-        forbidden = (cost[inside].max() + 1.0) * (min(cost.shape) + 1)
-        rows, cols = linear_sum_assignment(np.where(inside, cost, forbidden))
-        kept = inside[rows, cols]
-        return Association(rows[kept].astype(np.int64), cols[kept].astype(np.int64))
+        forbidden = (matrix[inside].max() + 1.0) * (min(matrix.shape) + 1)
+        chosen_rows, chosen_cols = linear_sum_assignment(np.where(inside, matrix, forbidden))
+        kept = inside[chosen_rows, chosen_cols]
+        return tracks[chosen_rows[kept]], measurements[chosen_cols[kept]]
