@@ -11,7 +11,14 @@ SWEEP_RATE = 0.6  # rad/s: 170 px/s, the search crosses the scene in about 3 s
 
 
 def run_demo(
-    video, out, *settings, mode="servo", render=False, small_view=True, graph="surveillance"
+    video,
+    out,
+    *settings,
+    mode="servo",
+    render=False,
+    small_view=True,
+    graph="surveillance",
+    flags=(),
 ):
     """run_demo on `video` with `graph`; `settings` are node.param=value; `small_view`: the
     tests' 168 px view and fast sweep (else the graph's own)."""
@@ -30,6 +37,7 @@ def run_demo(
         command += ["--set", setting]
     if not render:
         command.append("--no-video")
+    command += list(flags)
     result = subprocess.run(command, capture_output=True, text=True, timeout=300)
     assert result.returncode == 0, result.stdout + result.stderr
     return result.stdout

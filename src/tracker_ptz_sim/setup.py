@@ -31,6 +31,7 @@ setup(
             "ptz_controller = tracker_ptz_sim.entry_points:ptz_controller",
             "ptz_state_bridge = tracker_ptz_sim.entry_points:ptz_state_bridge",
             "live_view = tracker_ptz_sim.entry_points:live_view",
+            "graph_host = tracker_ptz_sim.entry_points:graph_host",
             "run_demo = tracker_ptz_sim.entry_points:run_demo",
             "fetch_sample = tracker_ptz_sim.bringup.sample:main",
             "make_scene = tracker_ptz_sim.simulation.scene_cli:main",

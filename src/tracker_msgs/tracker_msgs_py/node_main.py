@@ -239,26 +239,48 @@ class SuiteNode(Node):
         self._diagnostics_pub.publish(array)
 
 
-def run_node(make_node: Callable[[], SuiteNode], args: Sequence[str] | None = None) -> int:
-    """Create the node, spin it until a stop signal or until it finishes, tear it down in order,
-    and return the process exit code (see the module docstring)."""
+class NodeGroup:
+    """The nodes of one process, spun by one executor (`run_nodes`)."""
+
+    def __init__(self) -> None:
+        self.executor = SingleThreadedExecutor()
+        self.nodes: list[SuiteNode] = []
+
+    def add(self, node: SuiteNode) -> SuiteNode:
+        self.nodes.append(node)
+        self.executor.add_node(node)
+        return node
+
+    def spin_once(self) -> None:
+        self.executor.spin_once(timeout_sec=SIGNAL_POLL_S)
+
+    @property
+    def finished(self) -> bool:
+        return any(node.finished.is_set() for node in self.nodes)
+
+    @property
+    def exit_code(self) -> int:
+        return next((node.exit_code for node in self.nodes if node.exit_code), 0)
+
+
+def run_nodes(start: Callable[[NodeGroup], object], args: Sequence[str] | None = None) -> int:
+    """`start(group)` creates the process's nodes (adding them to the group, and spinning it if
+    it must wait for something); then spin them until a stop signal or until one finishes, tear
+    them all down in order, and return the process exit code (see the module docstring)."""
     stop_signals.install()
     rclpy.init(
         args=None if args is None else list(args),
         signal_handler_options=SignalHandlerOptions.NO,
     )
-    node = None
-    executor = None
+    group = NodeGroup()
     code = 0
     try:
         if stop_signals.requested():
             return 0
-        node = make_node()
-        executor = SingleThreadedExecutor()
-        executor.add_node(node)
-        while not stop_signals.requested() and not node.finished.is_set():
-            executor.spin_once(timeout_sec=SIGNAL_POLL_S)
-        code = node.exit_code
+        start(group)
+        while not stop_signals.requested() and not group.finished:
+            group.spin_once()
+        code = group.exit_code
     except (StartupError, ParameterError) as error:
         print(f"[FATAL] {error}", file=sys.stderr, flush=True)
         code = 2
@@ -266,10 +288,15 @@ def run_node(make_node: Callable[[], SuiteNode], args: Sequence[str] | None = No
         sys.stdout.flush()
         sys.stderr.flush()
         deadline = ExitDeadline(TEARDOWN_S, code)
-        if executor is not None:
-            executor.shutdown(timeout_sec=0.0)
-        if node is not None:
+        group.executor.shutdown(timeout_sec=0.0)
+        for node in reversed(group.nodes):
             node.destroy_node()
         rclpy.try_shutdown()
         deadline.cancel()
     return code
+
+
+def run_node(make_node: Callable[[], SuiteNode], args: Sequence[str] | None = None) -> int:
+    """Create the node, spin it until a stop signal or until it finishes, tear it down in order,
+    and return the process exit code (see the module docstring)."""
+    return run_nodes(lambda group: group.add(make_node()), args)

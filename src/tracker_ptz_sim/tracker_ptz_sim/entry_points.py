@@ -28,6 +28,10 @@ def live_view() -> int:
     return guarded_main("tracker_ptz_sim.bringup.live_view_node")
 
 
+def graph_host() -> int:
+    return guarded_main("tracker_ptz_sim.bringup.graph_host")
+
+
 def run_demo() -> int:
     return guarded_main("tracker_ptz_sim.bringup.demo")
 

@@ -49,13 +49,15 @@ from tracker_msgs_py import stop_signals
 from tracker_msgs_py.params import config_from_params
 from tracker_ptz_sim.bringup.graph import (
     GRAPHS,
+    LIVE_VIEW,
     Graph,
     load_graph,
     node_parameters,
+    parse_overrides,
     with_live_view,
     without_nodes,
 )
-from tracker_ptz_sim.bringup.processes import GraphProcesses, describe_exit
+from tracker_ptz_sim.bringup.processes import HOST, GraphProcesses, describe_exit
 from tracker_ptz_sim.evaluation import run_report
 from tracker_ptz_sim.evaluation.contact_sheet import write_contact_sheet
 from tracker_ptz_sim.evaluation.recording import (
@@ -222,7 +224,7 @@ class Supervisor:
 
     def check(self) -> Watch:
         for name, code in self.nodes.exited().items():
-            if name == "video_source" and code == 0 and self._stream_ended():
+            if name in ("video_source", HOST) and code == 0 and self._stream_ended():
                 return Watch.ENDED
             status = self.recorder.status
             frame = status.frames_published if status is not None else 0
@@ -313,6 +315,7 @@ def run_graph(
     respawn_limit: int = 0,
     shared_memory: bool | None = None,
     raw_images: bool = False,
+    single_process: bool = False,
 ) -> RunResult:
     """Replay `video` through the graph, recording every topic into out/bag.
 
@@ -323,6 +326,8 @@ def run_graph(
     `shared_memory` (default: unless nodes are restarted) lets images travel through Fast DDS
     shared memory; a killed node can starve the other readers of it (config/fastdds_udp.xml).
     `raw_images` records the images as they travel instead of as JPEG (a bag ~25x larger).
+    `single_process` runs every node in one process on one executor (graph_host), which waits
+    for the graph itself and ends at the end of the stream; no restarts.
     """
     bag_path = out / "bag"
     if bag_path.exists():
@@ -356,6 +361,11 @@ def run_graph(
         nodes, recorder, result, {**overrides, "video_source": source_overrides}, respawn_limit
     )
     try:
+        if single_process:
+            live = any(node.name == LIVE_VIEW.name for node in graph.nodes)
+            nodes.start_host({**overrides, "video_source": source_overrides}, live)
+            _supervise(recorder, supervisor, timeout, during, nodes, video.name)
+            return result
         for node in graph.nodes:
             if node.name != "video_source":
                 nodes.start(node.name, overrides.get(node.name))
@@ -409,9 +419,21 @@ def _replay(
     during: Callable[[ReplayStatus | None, GraphProcesses], None] | None,
 ) -> None:
     """Start video_source and supervise the graph until the stream ends or the run must stop."""
-    result = supervisor.result
-    progress = Progress(f"replaying {Path(source_overrides['path']).name}")
     nodes.start("video_source", source_overrides)
+    _supervise(recorder, supervisor, timeout, during, nodes, Path(source_overrides["path"]).name)
+
+
+def _supervise(
+    recorder: Recorder,
+    supervisor: Supervisor,
+    timeout: float,
+    during: Callable[[ReplayStatus | None, GraphProcesses], None] | None,
+    nodes: GraphProcesses,
+    source: str,
+) -> None:
+    """Watch the replay until the stream ends or the run must stop; progress on the terminal."""
+    result = supervisor.result
+    progress = Progress(f"replaying {source}")
     started = time.monotonic()
     recorder_cpu = time.process_time()
     deadline = started + timeout
@@ -508,20 +530,6 @@ class RenderingInterruptedError(Exception):
     """A stop signal arrived while the annotated video was being rendered."""
 
 
-def parse_overrides(items: list[str]) -> dict[str, dict[str, Any]]:
-    """--set node.param=value (values parsed as YAML: 0.5, true, [1, 2], text)."""
-    import yaml
-
-    overrides: dict[str, dict[str, Any]] = {}
-    for item in items:
-        key, sep, value = item.partition("=")
-        node, dot, param = key.partition(".")
-        if not sep or not dot:
-            raise SystemExit(f"--set expects node.param=value, got '{item}'")
-        overrides.setdefault(node, {})[param] = yaml.safe_load(value)
-    return overrides
-
-
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
@@ -558,6 +566,12 @@ def main(argv: list[str] | None = None) -> int:
         "here, but still waited for before the replay starts",
     )
     parser.add_argument(
+        "--single-process",
+        action="store_true",
+        help="every node in one process on one executor (graph_host): the same tracks, less "
+        "inter-process traffic; no --respawn or --external",
+    )
+    parser.add_argument(
         "--live",
         action="store_true",
         help="also serve the run to the Foxglove app (live_view node, ws://127.0.0.1:8765; "
@@ -585,6 +599,8 @@ def main(argv: list[str] | None = None) -> int:
     unknown = set(args.external) - {node.name for node in graph.nodes}
     if unknown:
         parser.error(f"--external: no node {sorted(unknown)} in the {graph.name} graph")
+    if args.single_process and (args.external or args.respawn):
+        parser.error("--single-process runs every node itself: no --external or --respawn")
     graph = without_nodes(graph, set(args.external))
     if args.live:
         graph = with_live_view(graph)
@@ -600,6 +616,7 @@ def main(argv: list[str] | None = None) -> int:
         args.storage,
         respawn_limit=RESPAWN_LIMIT if args.respawn else 0,
         raw_images=args.raw_images,
+        single_process=args.single_process,
     )
     try:
         summary = report(run.bag, args.out, render=not args.no_video, run=run)

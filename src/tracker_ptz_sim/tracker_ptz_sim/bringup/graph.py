@@ -185,3 +185,24 @@ def executable_path(install_dir: Path, node: NodeSpec) -> Path:
     if not os.access(path, os.X_OK):
         raise FileNotFoundError(f"{path} is missing: build the workspace first (make setup)")
     return path
+
+
+def parse_overrides(items: Sequence[str]) -> dict[str, dict[str, Any]]:
+    """--set node.param=value (values parsed as YAML: 0.5, true, [1, 2], text)."""
+    overrides: dict[str, dict[str, Any]] = {}
+    for item in items:
+        key, sep, value = item.partition("=")
+        node, dot, param = key.partition(".")
+        if not sep or not dot:
+            raise SystemExit(f"--set expects node.param=value, got '{item}'")
+        overrides.setdefault(node, {})[param] = yaml.safe_load(value)
+    return overrides
+
+
+def override_arguments(overrides: dict[str, dict[str, Any]]) -> list[str]:
+    """The --set arguments that `parse_overrides` reads back as `overrides`."""
+    return [
+        f"--set={node}.{name}={format_value(value)}"
+        for node, values in overrides.items()
+        for name, value in values.items()
+    ]

@@ -12,10 +12,18 @@ from pathlib import Path
 from typing import Any
 
 from tracker_msgs_py import stop_signals
-from tracker_ptz_sim.bringup.graph import MALLOC_TUNABLES, Graph, executable_path, ros_args
+from tracker_ptz_sim.bringup.graph import (
+    MALLOC_TUNABLES,
+    Graph,
+    NodeSpec,
+    executable_path,
+    override_arguments,
+    ros_args,
+)
 
 LOG_TAIL_LINES = 8
 UDP_PROFILE = "fastdds_udp.xml"  # in the graph's config directory
+HOST = "graph_host"  # the one process of a single-process run
 STACK_DUMP_WAIT_S = 0.5  # for a node that does not stop to write its threads' stacks to its log
 
 
@@ -52,6 +60,18 @@ class GraphProcesses:
         node = self.graph.node(name)
         command = [str(executable_path(self.install_dir, node))]
         command += ros_args(node, self.graph.params_files, overrides)
+        return self._spawn(name, command)
+
+    def start_host(
+        self, overrides: dict[str, dict[str, Any]], live: bool = False
+    ) -> subprocess.Popen:
+        """Every node of the graph in one process (graph_host), watched as `graph_host`."""
+        host = NodeSpec("tracker_ptz_sim", "graph_host", HOST)
+        command = [str(executable_path(self.install_dir, host)), "--graph", self.graph.name]
+        command += override_arguments(overrides) + (["--live"] if live else [])
+        return self._spawn(HOST, command)
+
+    def _spawn(self, name: str, command: list[str]) -> subprocess.Popen:
         with self.log_path(name).open("a") as log:
             self.processes[name] = subprocess.Popen(
                 command,
