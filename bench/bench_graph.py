@@ -6,7 +6,9 @@ start-up is left out in both modes), the frames video_source published and the r
 per-hop latency (p50/p95), CPU time per process (every node, video_source included, and the
 recorder), and the in-process ceiling: the same components stepped in one plain
 loop (`bringup/pipeline.py`, tested equal to the graph) on the same frames, decoding included.
-Then the same replay with every node in one process (`run_demo --single-process`). Writes
+Then the same replay with every node in one process (`run_demo --single-process`) under each of
+rclpy's executors (single-threaded, multi-threaded, the experimental events one), each checked
+for the same tracks as the separate processes. Writes
 out/bench/graph.json. Targets (issue 16): >= 0.6 x the ceiling and >= 130 frames/s,
 camera-to-command p95 <= 10 ms.
 """
@@ -43,18 +45,11 @@ def main() -> int:
     summary = run_report.summarize(frames, run_report.message_counts(frames))
     published = int(run.replay.get("frames_published", 0))
     graph_fps = summary.throughput_fps  # first to last scene image at the recorder
-    single = demo.run_graph(
-        graph,
-        video,
-        OUT / "graph_run_single",
-        {},
-        demo.install_space(),
-        timeout=1800.0,
-        single_process=True,
-    )
-    single_frames = run_report.collect(single.bag)
-    single_summary = run_report.summarize(single_frames, run_report.message_counts(single_frames))
-    single_fps = single_summary.throughput_fps
+    reference = mot_text(frames, run_dir / "tracks.txt")
+    one_process = {
+        executor: single_process_run(graph, video, executor, reference)
+        for executor in ("single", "multi", "events")
+    }
     ceiling_fps = in_process_frames_per_second(graph, video)
     print(f"\nFull graph on {video.name} (lockstep, reliable images, recorder on):")
     print(run_report.format_summary(summary))
@@ -62,12 +57,13 @@ def main() -> int:
     print(f"  graph throughput                     {graph_fps:.1f} frames/s")
     print(f"  in-process ceiling (same run)        {ceiling_fps:.1f} frames/s")
     print(f"  graph / ceiling                      {graph_fps / ceiling_fps:.2f}")
-    command = single_summary.latency_ms["camera image -> command"]
-    print(
-        f"  single process (graph_host)          {single_fps:.1f} frames/s, "
-        f"{single_fps / ceiling_fps:.2f} x the ceiling, camera image -> command "
-        f"p50 {command['p50']:.1f} / p95 {command['p95']:.1f} ms"
-    )
+    for executor, row in one_process.items():
+        print(
+            f"  one process, {executor:<6} executor       {row['fps']:.1f} frames/s, "
+            f"{row['fps'] / ceiling_fps:.2f} x the ceiling, camera image -> command p95 "
+            f"{row['command_p95_ms']:.1f} ms, results of {row['frames_with_results']} frames, "
+            f"{'the same' if row['same_tracks'] else 'OTHER'} tracks"
+        )
     total_cpu = sum(run.cpu_seconds.values())
     print("\n  CPU time per node (where the time goes):")
     for name, seconds in sorted(run.cpu_seconds.items(), key=lambda kv: -kv[1]):
@@ -84,13 +80,40 @@ def main() -> int:
         "graph_fps": graph_fps,
         "in_process_fps": ceiling_fps,
         "graph_over_ceiling": graph_fps / ceiling_fps,
-        "single_process_fps": single_fps,
-        "single_process_over_ceiling": single_fps / ceiling_fps,
-        "single_process_latency_ms": single_summary.latency_ms,
+        "one_process": one_process,
     }
     OUT.mkdir(parents=True, exist_ok=True)
     (OUT / "graph.json").write_text(json.dumps(result, indent=2) + "\n")
     return 0
+
+
+def mot_text(frames: dict, path: Path) -> str:
+    run_report.write_mot(frames, path)
+    return path.read_text()
+
+
+def single_process_run(graph: Graph, video: Path, executor: str, reference: str) -> dict:
+    """`run_demo --single-process` with one of rclpy's executors, against the reference tracks."""
+    out = OUT / f"graph_run_single_{executor}"
+    run = demo.run_graph(
+        graph,
+        video,
+        out,
+        {},
+        demo.install_space(),
+        timeout=1800.0,
+        single_process=True,
+        host_executor=executor,
+    )
+    frames = run_report.collect(run.bag)
+    summary = run_report.summarize(frames, run_report.message_counts(frames))
+    return {
+        "fps": summary.throughput_fps,
+        "command_p95_ms": summary.latency_ms["camera image -> command"]["p95"],
+        "frames_with_results": min(summary.messages.values()),
+        "same_tracks": mot_text(frames, out / "tracks.txt") == reference,
+        "complete": run.complete,
+    }
 
 
 def in_process_frames_per_second(graph: Graph, video: Path) -> float:

@@ -33,7 +33,7 @@ import rclpy
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rclpy.clock import Clock, ClockType
 from rclpy.event_handler import PublisherEventCallbacks, SubscriptionEventCallbacks
-from rclpy.executors import SingleThreadedExecutor
+from rclpy.executors import Executor, MultiThreadedExecutor, SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.publisher import Publisher
 from rclpy.qos import QoSPolicyKind, QoSProfile, ReliabilityPolicy
@@ -239,11 +239,25 @@ class SuiteNode(Node):
         self._diagnostics_pub.publish(array)
 
 
+def _events_executor() -> Executor:
+    from rclpy.experimental import EventsExecutor
+
+    return EventsExecutor()
+
+
+#: rclpy's executors by name: the default one thread, a thread pool, the experimental events one.
+EXECUTORS: dict[str, Callable[[], Executor]] = {
+    "single": SingleThreadedExecutor,
+    "multi": MultiThreadedExecutor,
+    "events": _events_executor,
+}
+
+
 class NodeGroup:
     """The nodes of one process, spun by one executor (`run_nodes`)."""
 
-    def __init__(self) -> None:
-        self.executor = SingleThreadedExecutor()
+    def __init__(self, executor: str = "single") -> None:
+        self.executor = EXECUTORS[executor]()
         self.nodes: list[SuiteNode] = []
 
     def add(self, node: SuiteNode) -> SuiteNode:
@@ -263,7 +277,11 @@ class NodeGroup:
         return next((node.exit_code for node in self.nodes if node.exit_code), 0)
 
 
-def run_nodes(start: Callable[[NodeGroup], object], args: Sequence[str] | None = None) -> int:
+def run_nodes(
+    start: Callable[[NodeGroup], object],
+    args: Sequence[str] | None = None,
+    executor: str = "single",
+) -> int:
     """`start(group)` creates the process's nodes (adding them to the group, and spinning it if
     it must wait for something); then spin them until a stop signal or until one finishes, tear
     them all down in order, and return the process exit code (see the module docstring)."""
@@ -272,7 +290,7 @@ def run_nodes(start: Callable[[NodeGroup], object], args: Sequence[str] | None =
         args=None if args is None else list(args),
         signal_handler_options=SignalHandlerOptions.NO,
     )
-    group = NodeGroup()
+    group = NodeGroup(executor)
     code = 0
     try:
         if stop_signals.requested():

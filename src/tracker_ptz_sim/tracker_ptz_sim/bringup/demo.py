@@ -316,6 +316,7 @@ def run_graph(
     shared_memory: bool | None = None,
     raw_images: bool = False,
     single_process: bool = False,
+    host_executor: str = "single",
 ) -> RunResult:
     """Replay `video` through the graph, recording every topic into out/bag.
 
@@ -327,7 +328,8 @@ def run_graph(
     shared memory; a killed node can starve the other readers of it (config/fastdds_udp.xml).
     `raw_images` records the images as they travel instead of as JPEG (a bag ~25x larger).
     `single_process` runs every node in one process on one executor (graph_host), which waits
-    for the graph itself and ends at the end of the stream; no restarts.
+    for the graph itself and ends at the end of the stream; no restarts. `host_executor` names its
+    rclpy executor (`node_main.EXECUTORS`).
     """
     bag_path = out / "bag"
     if bag_path.exists():
@@ -363,7 +365,7 @@ def run_graph(
     try:
         if single_process:
             live = any(node.name == LIVE_VIEW.name for node in graph.nodes)
-            nodes.start_host({**overrides, "video_source": source_overrides}, live)
+            nodes.start_host({**overrides, "video_source": source_overrides}, live, host_executor)
             _supervise(recorder, supervisor, timeout, during, nodes, video.name)
             return result
         for node in graph.nodes:
@@ -572,6 +574,13 @@ def main(argv: list[str] | None = None) -> int:
         "inter-process traffic; no --respawn or --external",
     )
     parser.add_argument(
+        "--executor",
+        choices=["single", "multi", "events"],
+        default="single",
+        help="--single-process: rclpy's SingleThreadedExecutor, MultiThreadedExecutor or the "
+        "experimental EventsExecutor",
+    )
+    parser.add_argument(
         "--live",
         action="store_true",
         help="also serve the run to the Foxglove app (live_view node, ws://127.0.0.1:8765; "
@@ -617,6 +626,7 @@ def main(argv: list[str] | None = None) -> int:
         respawn_limit=RESPAWN_LIMIT if args.respawn else 0,
         raw_images=args.raw_images,
         single_process=args.single_process,
+        host_executor=args.executor,
     )
     try:
         summary = report(run.bag, args.out, render=not args.no_video, run=run)

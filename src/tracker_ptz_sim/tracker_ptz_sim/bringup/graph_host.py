@@ -17,7 +17,7 @@ import time
 from collections.abc import Callable, Sequence
 
 from tracker_msgs_py import stop_signals
-from tracker_msgs_py.node_main import NodeGroup, StartupError, SuiteNode, run_nodes
+from tracker_msgs_py.node_main import EXECUTORS, NodeGroup, StartupError, SuiteNode, run_nodes
 from tracker_ptz_sim.bringup.graph import (
     GRAPHS,
     Graph,
@@ -95,12 +95,15 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--graph", choices=list(GRAPHS), default="surveillance")
     parser.add_argument("--set", action="append", default=[], metavar="NODE.PARAM=VALUE")
     parser.add_argument("--live", action="store_true", help="with the live_view node")
+    parser.add_argument(
+        "--executor", choices=list(EXECUTORS), default="single", help="rclpy executor"
+    )
     args, ros = parser.parse_known_args(argv)
     graph = load_graph(args.graph)
     if args.live:
         graph = with_live_view(graph)
     overrides = parse_overrides(args.set)
-    return run_nodes(lambda group: start_graph(group, graph, overrides), ros or None)
+    return run_nodes(lambda group: start_graph(group, graph, overrides), ros or None, args.executor)
 
 
 if __name__ == "__main__":

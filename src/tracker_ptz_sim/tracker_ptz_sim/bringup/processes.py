@@ -63,12 +63,13 @@ class GraphProcesses:
         return self._spawn(name, command)
 
     def start_host(
-        self, overrides: dict[str, dict[str, Any]], live: bool = False
+        self, overrides: dict[str, dict[str, Any]], live: bool = False, executor: str = "single"
     ) -> subprocess.Popen:
         """Every node of the graph in one process (graph_host), watched as `graph_host`."""
         host = NodeSpec("tracker_ptz_sim", "graph_host", HOST)
         command = [str(executable_path(self.install_dir, host)), "--graph", self.graph.name]
         command += override_arguments(overrides) + (["--live"] if live else [])
+        command += ["--executor", executor]
         return self._spawn(HOST, command)
 
     def _spawn(self, name: str, command: list[str]) -> subprocess.Popen:
