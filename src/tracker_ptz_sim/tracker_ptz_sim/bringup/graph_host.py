@@ -79,7 +79,7 @@ def start_graph(group: NodeGroup, graph: Graph, overrides: dict[str, dict]) -> N
     settle = time.monotonic() + SETTLE_S
     while not stop_signals.requested() and time.monotonic() < settle:
         group.spin_once()
-    if any(node.name == SOURCE for node in graph.nodes):
+    if not stop_signals.requested() and any(node.name == SOURCE for node in graph.nodes):
         start(graph.node(SOURCE))
 
 
