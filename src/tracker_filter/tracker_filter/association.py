@@ -57,6 +57,9 @@ class Associator(Protocol):
     ) -> Association: ...
 
 
+DENSE_PAIRS = 256  # up to this many track-measurement pairs, gate on the full matrix
+
+
 def gated_pairs(
     z_predicted: np.ndarray, innovation_covariances: np.ndarray, z: np.ndarray, gate: float
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -68,10 +71,11 @@ def gated_pairs(
     grows with the tracks, the measurements and the candidate pairs, not their product.
     """
     tracks, count = len(z_predicted), len(z)
-    if not math.isfinite(gate):  # no gate: every pair
+    if tracks * count <= DENSE_PAIRS or not math.isfinite(gate):
+        # few pairs (or no gate): the whole matrix costs less than the search
         d2 = mahalanobis_squared(z_predicted, innovation_covariances, z)
-        rows, cols = np.divmod(np.arange(tracks * count), count)
-        return rows, cols, d2.reshape(-1)
+        rows, cols = np.nonzero(d2 <= gate)
+        return rows, cols, d2[rows, cols]
     order = np.argsort(z[:, 0], kind="stable")
     xs = z[order, 0]
     reach_x = np.sqrt(gate * innovation_covariances[:, 0, 0])
