@@ -59,6 +59,7 @@ from tracker_msgs_py.codec import (
     image_qos,
     image_to_array,
     image_to_bgr,
+    joint_values,
     msg_to_rect,
     msg_to_window,
     rect_to_msg,
@@ -323,14 +324,14 @@ class DetectorNode(SuiteNode):
     def _on_joint_state(self, msg: JointState) -> None:
         names = list(msg.name)
         wanted = self.params["joint_names"]
-        try:
-            pan, tilt = (float(msg.position[names.index(n)]) for n in wanted)
-        except (ValueError, IndexError):
+        positions = joint_values(names, msg.position, wanted)
+        if positions is None:
             self.problems.report(
                 "JointState without the pan/tilt joints",
                 f"ignored a JointState without positions for {wanted} (names {names})",
             )
             return
+        pan, tilt = positions
         if not (math.isfinite(pan) and math.isfinite(tilt)):
             self.problems.report(
                 "non-finite joint position",
@@ -341,14 +342,7 @@ class DetectorNode(SuiteNode):
 
     def _on_camera_info(self, msg: CameraInfo) -> None:
         try:
-            camera = CameraIntrinsics(
-                int(msg.width),
-                int(msg.height),
-                float(msg.k[0]),
-                float(msg.k[4]),
-                float(msg.k[2]),
-                float(msg.k[5]),
-            )
+            camera = CameraIntrinsics.of_camera_info(msg)
         except ValueError as error:
             self.problems.report("invalid CameraInfo", f"ignored a CameraInfo: {error}")
             return

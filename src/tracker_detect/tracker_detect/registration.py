@@ -19,6 +19,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, replace
 from functools import lru_cache
+from typing import Any
 
 import cv2
 import numpy as np
@@ -119,6 +120,14 @@ class CameraIntrinsics:
     fy: float
     cx: float
     cy: float
+
+    @classmethod
+    def of_camera_info(cls, info: Any) -> CameraIntrinsics:
+        """From a sensor_msgs/CameraInfo (its size and K); ValueError when unusable."""
+        k = info.k
+        return cls(
+            int(info.width), int(info.height), float(k[0]), float(k[4]), float(k[2]), float(k[5])
+        )
 
     def __post_init__(self) -> None:
         values = (self.fx, self.fy, self.cx, self.cy)

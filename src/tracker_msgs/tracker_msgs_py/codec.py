@@ -14,6 +14,7 @@ Message classes and rclpy are imported where a function builds them, so the func
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from functools import cache
 from typing import TYPE_CHECKING, Any
 
@@ -78,6 +79,18 @@ def _keep_last(depth: int, reliable: bool) -> QoSProfile:
 def stamp_to_ns(stamp: Time) -> int:
     """Nanoseconds of a builtin_interfaces/Time (rclpy or rosbags message)."""
     return int(stamp.sec) * NS_PER_S + int(stamp.nanosec)
+
+
+def joint_values(
+    names: Sequence[str], values: Sequence[float], wanted: Sequence[str]
+) -> tuple[float, ...] | None:
+    """The `wanted` joints' entries of a JointState array (position, velocity...) by name; None
+    when a joint is not named or the array has no entry for it."""
+    names = list(names)
+    try:
+        return tuple(float(values[names.index(joint)]) for joint in wanted)
+    except (ValueError, IndexError):
+        return None
 
 
 def ns_to_stamp(ns: int) -> Time:

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import ctypes
 import faulthandler
+import functools
 import os
 import sys
 import threading
@@ -72,12 +73,11 @@ class ExitDeadline:
             self._fallback.cancel()
 
 
+@functools.cache
 def _libc() -> ctypes.CDLL:
-    return ctypes.CDLL(None, use_errno=True)
-
-
-def _start_native_exit_timer(seconds: float, code: int) -> ctypes.c_void_p:
-    libc = _libc()
+    """The C library with the POSIX timer functions' signatures declared (AttributeError when
+    it has none)."""
+    libc = ctypes.CDLL(None, use_errno=True)
     libc.timer_create.argtypes = [ctypes.c_int, ctypes.POINTER(_SigEvent), ctypes.c_void_p]
     libc.timer_settime.argtypes = [
         ctypes.c_void_p,
@@ -86,6 +86,11 @@ def _start_native_exit_timer(seconds: float, code: int) -> ctypes.c_void_p:
         ctypes.c_void_p,
     ]
     libc.timer_delete.argtypes = [ctypes.c_void_p]
+    return libc
+
+
+def _start_native_exit_timer(seconds: float, code: int) -> ctypes.c_void_p:
+    libc = _libc()
     event = _SigEvent(
         # _exit(int) reads the low 32 bits of the first integer argument, which is where the
         # union sigval is passed on Linux's 64-bit ABIs (x86-64, AArch64).

@@ -41,6 +41,7 @@ from rclpy.signals import SignalHandlerOptions
 from rclpy.subscription import Subscription
 
 from tracker_msgs_py import stop_signals
+from tracker_msgs_py.codec import stamp_to_ns
 from tracker_msgs_py.exit_deadline import ExitDeadline
 from tracker_msgs_py.node_stats import InputStats
 from tracker_msgs_py.params import ParameterError
@@ -172,8 +173,7 @@ class SuiteNode(Node):
         header = getattr(msg, "header", None)
         if header is None:
             return None
-        stamp = header.stamp
-        return (self.get_clock().now().nanoseconds - (stamp.sec * 10**9 + stamp.nanosec)) / 1e9
+        return (self.get_clock().now().nanoseconds - stamp_to_ns(header.stamp)) / 1e9
 
     def create_publisher(
         self, msg_type: Any, topic: str, qos_profile: QoSProfile | int, **kwargs: Any

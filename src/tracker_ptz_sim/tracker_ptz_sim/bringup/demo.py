@@ -52,6 +52,7 @@ from tracker_ptz_sim.bringup.graph import (
     LIVE_VIEW,
     Graph,
     load_graph,
+    missing_topics,
     node_parameters,
     parse_overrides,
     with_live_view,
@@ -489,11 +490,7 @@ def _wait_for_graph(
         stop_signals.wait(0.1)
         if supervisor.check() is Watch.STOP:
             return False
-        missing = {
-            topic: wanted
-            for topic, wanted in graph.ready.items()
-            if recorder.count_publishers(topic) == 0 or recorder.count_subscribers(topic) < wanted
-        }
+        missing = missing_topics(graph, recorder)
         if not missing:
             return True
         if time.monotonic() > deadline:

@@ -105,6 +105,16 @@ def load_graph(name: str = "surveillance", directory: Path | None = None) -> Gra
     return Graph(name, nodes, topics, files, {k: int(v) for k, v in data["ready"].items()})
 
 
+def missing_topics(graph: Graph, node: Any) -> dict[str, int]:
+    """The topics of `graph.ready` that `node` (any rclpy node) does not yet see with a publisher
+    and the subscribers they need, with the subscribers needed."""
+    return {
+        topic: wanted
+        for topic, wanted in graph.ready.items()
+        if node.count_publishers(topic) == 0 or node.count_subscribers(topic) < wanted
+    }
+
+
 def node_parameters(params_files: Path | Sequence[Path], node_name: str) -> dict[str, Any]:
     """The parameters ROS params files give the node `/node_name` (`resolve_parameters`)."""
     files = [params_files] if isinstance(params_files, Path) else list(params_files)

@@ -23,6 +23,7 @@ from tracker_ptz_sim.bringup.graph import (
     Graph,
     NodeSpec,
     load_graph,
+    missing_topics,
     parse_overrides,
     ros_args,
     with_live_view,
@@ -72,7 +73,7 @@ def start_graph(group: NodeGroup, graph: Graph, overrides: dict[str, dict]) -> N
             start(node)
     probe = group.nodes[0]
     deadline = time.monotonic() + READY_TIMEOUT_S
-    while not stop_signals.requested() and not _ready(probe, graph):
+    while not stop_signals.requested() and missing_topics(graph, probe):
         if time.monotonic() > deadline:
             raise StartupError(f"the graph's topics did not match within {READY_TIMEOUT_S:.0f} s")
         group.spin_once()
@@ -81,13 +82,6 @@ def start_graph(group: NodeGroup, graph: Graph, overrides: dict[str, dict]) -> N
         group.spin_once()
     if not stop_signals.requested() and any(node.name == SOURCE for node in graph.nodes):
         start(graph.node(SOURCE))
-
-
-def _ready(probe: SuiteNode, graph: Graph) -> bool:
-    return all(
-        probe.count_publishers(topic) > 0 and probe.count_subscribers(topic) >= wanted
-        for topic, wanted in graph.ready.items()
-    )
 
 
 def main(argv: Sequence[str] | None = None) -> int:

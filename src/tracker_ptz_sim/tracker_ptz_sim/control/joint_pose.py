@@ -22,20 +22,12 @@ import math
 from collections import deque
 from dataclasses import dataclass
 
+from tracker_detect.image_pose_pairing import SceneSettings
 from tracker_detect.pose_buffer import PoseBuffer, PoseLookup, PoseStatus
 from tracker_detect.registration import CameraIntrinsics, view_from_pan_tilt
 from tracker_msgs_py.geometry import Rect, SceneGeometry
 
 MOVING_RATE = 1e-3  # rad/s: slower joints count as still
-
-
-@dataclass(frozen=True)
-class SceneSettings:
-    """Scene size [px] (0 = the camera image's) and scene px per radian (0 = from the camera)."""
-
-    width: int = 0
-    height: int = 0
-    focal_length: float = 0.0
 
 
 @dataclass(frozen=True)

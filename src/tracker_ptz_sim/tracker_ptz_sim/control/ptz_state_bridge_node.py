@@ -17,11 +17,13 @@ from typing import Any
 from rclpy.clock import Clock, ClockType
 from sensor_msgs.msg import CameraInfo, JointState
 
+from tracker_detect.image_pose_pairing import SceneSettings
 from tracker_detect.registration import CameraIntrinsics
 from tracker_msgs.msg import PtzState
 from tracker_msgs_py.codec import (
     NS_PER_S,
     image_qos,
+    joint_values,
     ns_to_stamp,
     rect_to_msg,
     result_qos,
@@ -29,7 +31,7 @@ from tracker_msgs_py.codec import (
 )
 from tracker_msgs_py.node_main import SuiteNode, run_node
 from tracker_msgs_py.params import ParamSpec, declare_parameters
-from tracker_ptz_sim.control.joint_pose import JointPoseBridge, JointSample, PtzPose, SceneSettings
+from tracker_ptz_sim.control.joint_pose import JointPoseBridge, JointSample, PtzPose
 
 PARAMS = [
     ParamSpec(
@@ -123,15 +125,15 @@ class PtzStateBridgeNode(SuiteNode):
         wanted = list(self.params["joint_names"])
         zoom_joint = self.params["zoom_joint"]
         needed = wanted + [zoom_joint] if zoom_joint else wanted
-        try:
-            pan, tilt = (float(msg.position[names.index(n)]) for n in wanted)
-            zoom = float(msg.position[names.index(zoom_joint)]) if zoom_joint else math.nan
-        except (ValueError, IndexError):
+        positions = joint_values(names, msg.position, needed)
+        if positions is None:
             self.problems.report(
                 "JointState without the joints",
                 f"ignored a JointState without positions for {needed} (names {names})",
             )
             return None
+        pan, tilt = positions[:2]
+        zoom = positions[2] if zoom_joint else math.nan
         if not all(math.isfinite(v) for v in (pan, tilt)) or (zoom_joint and not zoom > 0.0):
             self.problems.report(
                 "non-finite joint position",
@@ -140,14 +142,12 @@ class PtzStateBridgeNode(SuiteNode):
             return None
         pan_rate = tilt_rate = math.nan  # the bridge differentiates positions instead
         if len(msg.velocity) == len(names):
-            pan_rate, tilt_rate = (float(msg.velocity[names.index(n)]) for n in wanted)
+            pan_rate, tilt_rate = joint_values(names, msg.velocity, wanted) or (math.nan, math.nan)
         return JointSample(stamp_to_ns(msg.header.stamp), pan, tilt, zoom, pan_rate, tilt_rate)
 
     def _on_camera_info(self, msg: CameraInfo) -> None:
         try:
-            camera = CameraIntrinsics(
-                int(msg.width), int(msg.height), msg.k[0], msg.k[4], msg.k[2], msg.k[5]
-            )
+            camera = CameraIntrinsics.of_camera_info(msg)
         except ValueError as error:
             self.problems.report("invalid CameraInfo", f"ignored a CameraInfo: {error}")
             return
