@@ -6,6 +6,17 @@ import subprocess
 
 from ros_process import executable
 
+# One person-sized object walking with two turns, never closer than 80 px to a border (SceneConfig).
+ONE_WALKER = dict(
+    width=640,
+    height=480,
+    num_frames=150,
+    num_objects=1,
+    object_size_range=(30, 60),
+    speed_range=(25.0, 40.0),
+    turns=2,
+    seed=9,
+)
 VIEW_FRACTION = 0.35  # a 168 px view on a 640x480 scene
 SWEEP_RATE = 0.6  # rad/s: 170 px/s, the search crosses the scene in about 3 s
 

@@ -10,10 +10,11 @@ import pytest
 rclpy = pytest.importorskip("rclpy")
 
 from node_harness import NodeHarness  # noqa: E402
+from ptz_messages import state_msg, target_msg  # noqa: E402
 from sensor_msgs.msg import JointState  # noqa: E402
 
 from tracker_msgs.msg import PtzState, Target  # noqa: E402
-from tracker_msgs_py.codec import ns_to_stamp, result_qos  # noqa: E402
+from tracker_msgs_py.codec import result_qos  # noqa: E402
 from tracker_ptz_sim.control.controller import Command, CommandMode  # noqa: E402
 from tracker_ptz_sim.control.ptz_controller_node import (  # noqa: E402
     PtzControllerNode,
@@ -22,25 +23,6 @@ from tracker_ptz_sim.control.ptz_controller_node import (  # noqa: E402
 
 pytestmark = pytest.mark.ros
 NAMES = ["pan_joint", "tilt_joint"]
-
-
-def state_msg(stamp_ns: int) -> PtzState:
-    state = PtzState(zoom=1.0, focal_length=440.0)
-    state.window.x, state.window.y, state.window.width, state.window.height = (
-        252.0,
-        156.0,
-        264.0,
-        264.0,
-    )
-    state.header.stamp = ns_to_stamp(stamp_ns)
-    return state
-
-
-def target_msg(stamp_ns: int, x: float) -> Target:
-    target = Target(locked=True, predicted_x=x, predicted_y=288.0)
-    target.track.x, target.track.y = x, 288.0
-    target.header.stamp = ns_to_stamp(stamp_ns)
-    return target
 
 
 def test_a_position_command_with_a_zoom_change_names_the_zoom_joint():

@@ -45,7 +45,8 @@ class Resolved:
     def __init__(self, args: list[str]) -> None:
         self.context = rclpy.Context()
         rclpy.init(args=args, context=self.context)
-        self.node = rclpy.create_node("placeholder", context=self.context)
+        # The name is the command line's: its `-r __node:=<name>` renames this node.
+        self.node = rclpy.create_node("renamed_by_the_arguments", context=self.context)
 
     def __enter__(self) -> Resolved:
         return self

@@ -28,9 +28,9 @@ def test_the_controller_reports_its_state_and_its_inputs():
     pytest.importorskip("rclpy")
     from diagnostic_msgs.msg import DiagnosticArray
     from node_harness import NodeHarness
+    from ptz_messages import state_msg, target_msg
 
     from tracker_msgs.msg import PtzState, Target
-    from tracker_msgs_py.codec import ns_to_stamp
     from tracker_ptz_sim.control.ptz_controller_node import PtzControllerNode
 
     h = NodeHarness(
@@ -40,20 +40,8 @@ def test_the_controller_reports_its_state_and_its_inputs():
     )
     try:
         for frame in range(5):
-            stamp = ns_to_stamp(frame * 100_000_000)
-            state = PtzState(zoom=1.0, focal_length=440.0)
-            state.window.x, state.window.y, state.window.width, state.window.height = (
-                252.0,
-                156.0,
-                264.0,
-                264.0,
-            )
-            state.header.stamp = stamp
-            target = Target(locked=True, predicted_x=430.0, predicted_y=300.0)
-            target.track.x, target.track.y = 430.0, 300.0
-            target.header.stamp = stamp
-            h.publish("ptz/state", state)
-            h.publish("target", target)
+            h.publish("ptz/state", state_msg(frame * 100_000_000))
+            h.publish("target", target_msg(frame * 100_000_000))
             h.spin_for(0.02)
 
         def report():

@@ -6,7 +6,7 @@ suite's ptz/state from them, and the controller steers the unit with JointState 
 from __future__ import annotations
 
 import pytest
-from demo_runs import run_demo
+from demo_runs import ONE_WALKER, run_demo
 
 pytestmark = [pytest.mark.ros, pytest.mark.slow]
 
@@ -18,17 +18,7 @@ def standard_run(tmp_path_factory):
     from tracker_ptz_sim.simulation.scenes import SceneConfig, generate_scene, write_scene
 
     root = tmp_path_factory.mktemp("standard")
-    config = SceneConfig(
-        width=640,
-        height=480,
-        num_frames=150,
-        num_objects=1,
-        object_size_range=(30, 60),
-        speed_range=(25.0, 40.0),
-        turns=2,
-        seed=9,
-    )
-    paths = write_scene(generate_scene(config), root / "scene")
+    paths = write_scene(generate_scene(SceneConfig(**ONE_WALKER)), root / "scene")
     out = root / "run"
     run_demo(paths.video, out, graph="standard")
     return paths, out, run_report.collect(out / "bag")

@@ -8,7 +8,7 @@ import subprocess
 
 import numpy as np
 import pytest
-from demo_runs import SWEEP_RATE, VIEW_FRACTION, run_demo
+from demo_runs import ONE_WALKER, SWEEP_RATE, VIEW_FRACTION, run_demo
 from ros_process import executable
 
 pytestmark = [pytest.mark.ros, pytest.mark.slow]
@@ -25,17 +25,7 @@ def _scene(root, **config):
 def one_walker(tmp_path_factory):
     """One person-sized object walking with two turns, never closer than 80 px to a border."""
     root = tmp_path_factory.mktemp("one_walker")
-    scene, paths = _scene(
-        root / "scene",
-        width=640,
-        height=480,
-        num_frames=150,
-        num_objects=1,
-        object_size_range=(30, 60),
-        speed_range=(25.0, 40.0),
-        turns=2,
-        seed=9,
-    )
+    scene, paths = _scene(root / "scene", **ONE_WALKER)
     return scene, paths, root
 
 
