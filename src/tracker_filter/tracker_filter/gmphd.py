@@ -1,0 +1,432 @@
+"""The Gaussian-mixture PHD filter of Vo & Ma (2006), vectorised (seed 004; no rclpy).
+
+The PHD (intensity) of the multi-target state is a Gaussian mixture ``sum_j w_j N(x; m_j, P_j)``
+whose total weight is the expected number of targets. State ``x y vx vy`` (scene px, px/s), the
+constant-velocity model of `models.CONSTANT_VELOCITY` (the digest's F and Q, not the thesis's
+inconsistent matrices), measurement H = [I 0], R = sigma_r^2 I, Poisson clutter of intensity
+kappa = clutter_rate / area.
+
+One `GmPhdFilter.step` is the recursion of Vo & Ma, Table I and II:
+
+predict   survivors   w <- p_S w,  m <- F m,  P <- F P F^T + Q
+          spawns      (optional) w_s w, F m, F P F^T + Q_s
+          births      measurement-driven (pairs of unexplained measurements of the last two
+                      scans within `max_birth_speed`: m = [z_k, (z_k - z_{k-1}) / dt]) and a
+                      static birth mixture, both predicted like survivors
+update    missed      (1 - p_D) w, m, P                    (or `miss_factor` w, see below)
+          detected    eta = H m, S = R + H P H^T, K = P H^T S^-1,
+                      m' = m + K (z - eta), P' = (I - K H) P,
+                      w' = p_D w N(z; eta, S) / (kappa + p_D sum_l w_l N(z; eta_l, S_l))
+reduce    prune w < T; merge, heaviest first, every component i with
+          (m_i - m_j)^T P_i^-1 (m_i - m_j) <= U into the heaviest j:
+          w~ = sum w,  m~ = sum w m / w~,  P~ = sum w [P + (m~ - m)(m~ - m)^T] / w~
+          (weights summed, never capped at 1); keep the J_max heaviest
+extract   every component with w > 0.5, round(w) copies
+
+Two additions for occlusion handling (`phd_occlusion`), both neutral when unused:
+- every component carries a `tag` (0: none); only components with equal tags merge, so an
+  occluded target's Gaussian is not swallowed by the one of the target that hides it;
+- `update(..., miss_factor=...)` replaces (1 - p_D) per component: the digest's persistence
+  factor P_d^occl on the missed-detection term of an occluded target's components.
+
+Every detected component remembers the measurement that made it (`sources`, -1 for missed terms
+and merges keep the heaviest member's), so a tracker can tell a hit from a coast.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numba
+import numpy as np
+
+from tracker_filter.models import CONSTANT_VELOCITY
+
+DIM = 4  # x y vx vy
+AXES = 2
+
+
+@dataclass(frozen=True, eq=False)
+class Mixture:
+    """Gaussian components: weights (J,), means (J, 4), covariances (J, 4, 4), tags (J,) and the
+    measurement index that made each (J,), -1 for none."""
+
+    weights: np.ndarray
+    means: np.ndarray
+    covariances: np.ndarray
+    tags: np.ndarray
+    sources: np.ndarray
+
+    @classmethod
+    def empty(cls) -> Mixture:
+        return cls(
+            np.zeros(0),
+            np.zeros((0, DIM)),
+            np.zeros((0, DIM, DIM)),
+            np.zeros(0, np.int64),
+            np.zeros(0, np.int64),
+        )
+
+    @classmethod
+    def of(
+        cls,
+        weights: np.ndarray,
+        means: np.ndarray,
+        covariances: np.ndarray,
+        tags: np.ndarray | None = None,
+    ) -> Mixture:
+        """Components with no tags and no source measurement unless given."""
+        weights = np.asarray(weights, dtype=float).reshape(-1)
+        count = len(weights)
+        return cls(
+            weights,
+            np.asarray(means, dtype=float).reshape(count, DIM),
+            np.asarray(covariances, dtype=float).reshape(count, DIM, DIM),
+            np.zeros(count, np.int64) if tags is None else np.asarray(tags, np.int64),
+            np.full(count, -1, np.int64),
+        )
+
+    def __len__(self) -> int:
+        return len(self.weights)
+
+    @property
+    def expected_count(self) -> float:
+        """Total weight: the expected number of targets."""
+        return float(self.weights.sum())
+
+    def subset(self, index: np.ndarray) -> Mixture:
+        return Mixture(
+            self.weights[index],
+            self.means[index],
+            self.covariances[index],
+            self.tags[index],
+            self.sources[index],
+        )
+
+    @staticmethod
+    def concatenate(parts: list[Mixture]) -> Mixture:
+        parts = [p for p in parts if len(p)]
+        if not parts:
+            return Mixture.empty()
+        return Mixture(
+            *(
+                np.concatenate([getattr(p, name) for p in parts])
+                for name in ("weights", "means", "covariances", "tags", "sources")
+            )
+        )
+
+
+@dataclass(frozen=True)
+class GmPhdConfig:
+    """Parameters of `GmPhdFilter` (defaults: the digest's, Vo & Ma's base code where it is
+    silent). Units: px, s; the thesis steps one frame per unit of time."""
+
+    survival: float = 0.99  # p_S
+    detection: float = 0.98  # p_D
+    clutter_rate: float = 25.0  # lambda_c, false measurements per scan
+    area: float = 2000.0 * 1000.0  # V, px^2 of the surveillance region (kappa = lambda_c / V)
+    process_noise: float = 5.0  # sigma_v, px/s^2
+    measurement_noise: float = 10.0  # sigma_r, px
+    prune_threshold: float = 1e-5  # T
+    merge_threshold: float = 4.0  # U (squared Mahalanobis distance)
+    max_components: int = 100  # J_max
+    extract_threshold: float = 0.5
+    birth_weight: float = 0.03  # total weight of the births one measurement makes
+    max_birth_speed: float = 100.0  # px/s between the two measurements of a birth
+    birth_gate: float = 0.5  # a measurement this well explained by targets makes no birth
+    spawn_weight: float = 0.0  # w_s: spawns per target (0: none)
+    spawn_noise: float = 20.0  # sigma of the spawn's extra velocity, px/s
+
+    @property
+    def clutter_density(self) -> float:
+        """kappa, false measurements per px^2 per scan."""
+        return self.clutter_rate / self.area
+
+    def problems(self) -> list[str]:
+        found = []
+        for name in ("survival", "detection", "extract_threshold", "birth_gate"):
+            value = getattr(self, name)
+            if not 0.0 < value <= 1.0:
+                found.append(f"{name} must be in (0, 1], got {value}")
+        for name in ("area", "process_noise", "measurement_noise", "merge_threshold"):
+            if not getattr(self, name) > 0.0:
+                found.append(f"{name} must be > 0, got {getattr(self, name)}")
+        for name in ("clutter_rate", "prune_threshold", "birth_weight", "spawn_weight"):
+            if not getattr(self, name) >= 0.0:
+                found.append(f"{name} must be >= 0, got {getattr(self, name)}")
+        if self.max_components < 1:
+            found.append(f"max_components must be >= 1, got {self.max_components}")
+        if not self.max_birth_speed > 0.0:
+            found.append(f"max_birth_speed must be > 0, got {self.max_birth_speed}")
+        return found
+
+
+def gaussian_likelihoods(
+    means: np.ndarray, innovation_covariances: np.ndarray, measurements: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """N(z; H m_j, S_j) for every component j and measurement z: (J, M), and the innovations
+    (J, M, 2). Closed-form 2x2 inverses: no per-component matrix call."""
+    a = innovation_covariances[:, 0, 0]
+    b = innovation_covariances[:, 0, 1]
+    d = innovation_covariances[:, 1, 1]
+    det = a * d - b * b
+    innovations = measurements[None, :, :] - means[:, None, :AXES]
+    nx, ny = innovations[..., 0], innovations[..., 1]
+    squared = (d[:, None] * nx * nx - 2.0 * b[:, None] * nx * ny + a[:, None] * ny * ny) / det[
+        :, None
+    ]
+    likelihood = np.exp(-0.5 * squared) / (2.0 * math.pi * np.sqrt(det))[:, None]
+    return likelihood, innovations
+
+
+@numba.njit(cache=True, nogil=True)
+def _merge_groups(  # pragma: no cover (compiled; tested through merge())
+    weights: np.ndarray,
+    means: np.ndarray,
+    inverses: np.ndarray,
+    tags: np.ndarray,
+    threshold: float,
+) -> np.ndarray:
+    """Group of every component: heaviest first, each takes the ungrouped components of its tag
+    within `threshold` (their own inverse covariances, as Vo & Ma)."""
+    count = weights.shape[0]
+    order = np.argsort(-weights, kind="mergesort")
+    group = np.full(count, -1, np.int64)
+    groups = 0
+    for a in range(count):
+        lead = order[a]
+        if group[lead] >= 0:
+            continue
+        group[lead] = groups
+        for b in range(a + 1, count):
+            other = order[b]
+            if group[other] >= 0 or tags[other] != tags[lead]:
+                continue
+            distance = 0.0
+            for r in range(DIM):
+                dr = means[other, r] - means[lead, r]
+                for c in range(DIM):
+                    distance += dr * inverses[other, r, c] * (means[other, c] - means[lead, c])
+            if distance <= threshold:
+                group[other] = groups
+        groups += 1
+    return group
+
+
+def merge(mixture: Mixture, threshold: float) -> Mixture:
+    """Vo & Ma's merging: weights summed, moment-matched means and covariances; a merged
+    component keeps the tag of its members and the source of its heaviest."""
+    if len(mixture) < 2:
+        return mixture
+    group = _merge_groups(
+        mixture.weights, mixture.means, np.linalg.inv(mixture.covariances), mixture.tags, threshold
+    )
+    count = int(group.max()) + 1
+    if count == len(mixture):
+        return mixture
+    w = mixture.weights
+    weights = np.bincount(group, weights=w, minlength=count)
+    means = np.zeros((count, DIM))
+    np.add.at(means, group, w[:, None] * mixture.means)
+    means /= weights[:, None]
+    spread = mixture.means - means[group]
+    weighted = mixture.covariances + spread[:, :, None] * spread[:, None, :]
+    covariances = np.zeros((count, DIM, DIM))
+    np.add.at(covariances, group, w[:, None, None] * weighted)
+    covariances /= weights[:, None, None]
+    # the heaviest member of each group decides its tag and source
+    order = np.lexsort((-w, group))
+    heads = order[np.r_[0, np.flatnonzero(np.diff(group[order])) + 1]]
+    return Mixture(weights, means, covariances, mixture.tags[heads], mixture.sources[heads])
+
+
+def prune(mixture: Mixture, threshold: float, max_components: int) -> Mixture:
+    """Drop components lighter than `threshold`; keep at most the `max_components` heaviest."""
+    keep = np.flatnonzero(mixture.weights >= threshold)
+    if len(keep) > max_components:
+        keep = keep[np.argsort(-mixture.weights[keep], kind="stable")[:max_components]]
+        keep.sort()
+    return mixture if len(keep) == len(mixture) else mixture.subset(keep)
+
+
+@dataclass(frozen=True, eq=False)
+class Estimates:
+    """Extracted target states: means (N, 4), covariances (N, 4, 4), the weight of the component
+    each came from (N,), its tag and its source measurement (-1: none)."""
+
+    means: np.ndarray
+    covariances: np.ndarray
+    weights: np.ndarray
+    tags: np.ndarray
+    sources: np.ndarray
+
+    def __len__(self) -> int:
+        return len(self.means)
+
+
+def extract(mixture: Mixture, threshold: float = 0.5) -> Estimates:
+    """Vo & Ma's state extraction: round(w) copies of every component with w > threshold."""
+    chosen = np.flatnonzero(mixture.weights > threshold)
+    copies = np.maximum(np.round(mixture.weights[chosen]).astype(np.int64), 1)
+    index = np.repeat(chosen, copies)
+    return Estimates(
+        mixture.means[index],
+        mixture.covariances[index],
+        mixture.weights[index],
+        mixture.tags[index],
+        mixture.sources[index],
+    )
+
+
+@dataclass(frozen=True, eq=False)
+class UpdateResult:
+    """The posterior mixture (pruned) and, per measurement, how much target weight explains it."""
+
+    mixture: Mixture
+    explained: np.ndarray  # (M,) sum over components of the detected-term weights
+
+
+class GmPhdFilter:
+    """Vo & Ma's GM-PHD recursion; see the module docstring. `step` = predict, update, reduce."""
+
+    def __init__(self, config: GmPhdConfig, static_birth: Mixture | None = None) -> None:
+        if config.problems():
+            raise ValueError("invalid GmPhdConfig: " + "; ".join(config.problems()))
+        self.config = config
+        self.static_birth = static_birth if static_birth is not None else Mixture.empty()
+        self.mixture = Mixture.empty()
+        self._unexplained = np.zeros((0, AXES))  # last scan's measurements no target explained
+        self._birth_pairs = Mixture.empty()  # births made at the last scan, at its time
+
+    def reset(self) -> None:
+        self.mixture = Mixture.empty()
+        self._unexplained = np.zeros((0, AXES))
+        self._birth_pairs = Mixture.empty()
+
+    def _propagate(self, mixture: Mixture, dt: float, noise: np.ndarray) -> Mixture:
+        transition = CONSTANT_VELOCITY.transition(dt)
+        return Mixture(
+            mixture.weights,
+            mixture.means @ transition.T,
+            transition @ mixture.covariances @ transition.T + noise,
+            mixture.tags,
+            np.full(len(mixture), -1, np.int64),
+        )
+
+    def predict(self, dt: float, injected: Mixture | None = None) -> Mixture:
+        """The predicted intensity dt later: survivors, spawns, births and `injected` components
+        (e.g. occluded targets kept alive), all moved by the motion model."""
+        c = self.config
+        noise = CONSTANT_VELOCITY.process_noise(dt, c.process_noise)
+        survivors = self._propagate(self.mixture, dt, noise)
+        survivors = Mixture(
+            c.survival * survivors.weights,
+            survivors.means,
+            survivors.covariances,
+            survivors.tags,
+            survivors.sources,
+        )
+        parts = [survivors]
+        if c.spawn_weight > 0 and len(self.mixture):
+            spread = np.diag([0.0, 0.0, c.spawn_noise**2, c.spawn_noise**2])
+            spawned = self._propagate(self.mixture, dt, noise + spread)
+            parts.append(
+                Mixture(
+                    c.spawn_weight * self.mixture.weights,
+                    spawned.means,
+                    spawned.covariances,
+                    np.zeros(len(spawned), np.int64),
+                    spawned.sources,
+                )
+            )
+        for births in (self._birth_pairs, self.static_birth, injected):
+            if births is not None and len(births):
+                parts.append(self._propagate(births, dt, noise))
+        return Mixture.concatenate(parts)
+
+    def update(
+        self, predicted: Mixture, measurements: np.ndarray, miss_factor: np.ndarray | None = None
+    ) -> UpdateResult:
+        """Vo & Ma's update of `predicted` with the scan's measurements (M, 2), pruned at T while
+        it is built. `miss_factor` (J,) replaces 1 - p_D per component when given."""
+        c = self.config
+        z = np.asarray(measurements, dtype=float).reshape(-1, AXES)
+        factor = 1.0 - c.detection if miss_factor is None else miss_factor
+        missed = Mixture(
+            factor * predicted.weights,
+            predicted.means,
+            predicted.covariances,
+            predicted.tags,
+            np.full(len(predicted), -1, np.int64),
+        )
+        if not len(z) or not len(predicted):
+            return UpdateResult(prune(missed, c.prune_threshold, 1 << 62), np.zeros(len(z)))
+        p = predicted.covariances
+        innovation_cov = p[:, :AXES, :AXES] + c.measurement_noise**2 * np.eye(AXES)
+        likelihood, innovations = gaussian_likelihoods(predicted.means, innovation_cov, z)
+        numerators = c.detection * predicted.weights[:, None] * likelihood
+        weights = numerators / (c.clutter_density + numerators.sum(axis=0))[None, :]
+        gain = p[:, :, :AXES] @ np.linalg.inv(innovation_cov)  # (J, 4, 2)
+        posterior = p - gain @ p[:, :AXES, :]
+        rows, cols = np.nonzero(weights >= c.prune_threshold)
+        detected = Mixture(
+            weights[rows, cols],
+            predicted.means[rows] + np.einsum("nij,nj->ni", gain[rows], innovations[rows, cols]),
+            posterior[rows],
+            predicted.tags[rows],
+            cols.astype(np.int64),
+        )
+        return UpdateResult(
+            Mixture.concatenate([prune(missed, c.prune_threshold, 1 << 62), detected]),
+            weights.sum(axis=0),
+        )
+
+    def _births_from(self, measurements: np.ndarray, explained: np.ndarray, dt: float) -> None:
+        """Pair this scan's unexplained measurements with the last scan's: the births of the next
+        prediction, at this scan's time."""
+        c = self.config
+        fresh = measurements[explained < c.birth_gate]
+        previous, self._unexplained = self._unexplained, fresh
+        if not len(fresh) or not len(previous) or dt <= 0:
+            self._birth_pairs = Mixture.empty()
+            return
+        step = fresh[:, None, :] - previous[None, :, :]
+        new, old = np.nonzero(np.hypot(step[..., 0], step[..., 1]) <= c.max_birth_speed * dt)
+        if not len(new):
+            self._birth_pairs = Mixture.empty()
+            return
+        per_measurement = np.bincount(new, minlength=len(fresh))[new]
+        means = np.column_stack([fresh[new], step[new, old] / dt])
+        r2 = c.measurement_noise**2
+        covariance = np.diag([r2, r2, 2 * r2 / dt**2, 2 * r2 / dt**2])
+        self._birth_pairs = Mixture.of(
+            c.birth_weight / per_measurement, means, np.broadcast_to(covariance, (len(new), 4, 4))
+        )
+
+    def reduce(self, mixture: Mixture) -> Mixture:
+        c = self.config
+        merged = merge(prune(mixture, c.prune_threshold, 1 << 62), c.merge_threshold)
+        return prune(merged, c.prune_threshold, c.max_components)
+
+    def step(
+        self,
+        measurements: np.ndarray,
+        dt: float,
+        injected: Mixture | None = None,
+        miss_factor: Callable[[Mixture], np.ndarray] | None = None,
+        threshold: float | None = None,
+    ) -> Estimates:
+        """One scan `dt` after the last: predict (with `injected`), update (with the miss factor
+        `miss_factor(predicted)` gives, when given), reduce; returns the states extracted at
+        `threshold` (default: the configured extract_threshold)."""
+        z = np.asarray(measurements, dtype=float).reshape(-1, AXES)
+        predicted = self.predict(dt, injected)
+        factors = miss_factor(predicted) if miss_factor is not None else None
+        result = self.update(predicted, z, factors)
+        self._births_from(z, result.explained, dt)
+        self.mixture = self.reduce(result.mixture)
+        return extract(
+            self.mixture, self.config.extract_threshold if threshold is None else threshold
+        )

@@ -1,0 +1,81 @@
+"""Seed 004's labelling of GM-PHD estimates (no rclpy).
+
+The PHD filter extracts unlabelled states; the thesis gives them identities by a Hungarian
+assignment (scipy's `linear_sum_assignment`) between the states extracted at k and the labelled
+states of k - 1, the cost a Mahalanobis distance. Here the labelled state is first moved by its
+velocity to k (x_l^-, the caller's prediction), and the distance uses the estimate's position
+covariance plus R:
+
+    cost = (p_e - x_l^-)^T (P_e,pos + R)^-1 (p_e - x_l^-),  gated at `gate`
+
+An estimate from a component tagged with a track's label (an occluded track's own Gaussian)
+costs 0 for that track and is barred from the others. The "impulse": for a track inside an
+occlusion region, the region is split in four quadrants around the track's last position and
+candidates in the quadrant its heading points to cost `impulse` x as much.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.optimize import linear_sum_assignment
+
+from tracker_filter.gmphd import Estimates
+
+AXES = 2
+BARRED = 1e12
+
+
+@dataclass(frozen=True, eq=False)
+class LabelledStates:
+    """The labelled tracks predicted to k: labels (N,), positions (N, 2), velocities (N, 2)
+    px/s, and for each, the centre of its occlusion region or NaN when it is not occluded."""
+
+    labels: np.ndarray
+    positions: np.ndarray
+    velocities: np.ndarray
+    occlusion_centres: np.ndarray
+
+
+def labelling_costs(
+    tracks: LabelledStates,
+    estimates: Estimates,
+    measurement_variance: float,
+    impulse: float = 0.5,
+) -> np.ndarray:
+    """(N tracks, E estimates) assignment costs; see the module docstring."""
+    positions = estimates.means[:, :AXES]
+    gaps = positions[None, :, :] - tracks.positions[:, None, :]
+    cov = estimates.covariances[:, :AXES, :AXES] + measurement_variance * np.eye(AXES)
+    a, b, d = cov[:, 0, 0], cov[:, 0, 1], cov[:, 1, 1]
+    det = a * d - b * b
+    gx, gy = gaps[..., 0], gaps[..., 1]
+    costs = (d * gx * gx - 2.0 * b * gx * gy + a * gy * gy) / det
+    occluded = np.flatnonzero(np.isfinite(tracks.occlusion_centres[:, 0]))
+    for row in occluded:
+        heading = tracks.velocities[row]
+        if not np.any(heading):
+            continue
+        side = np.sign(heading)
+        offsets = np.sign(positions - tracks.positions[row])
+        ahead = ((side == 0) | (offsets == side)).all(axis=1)
+        costs[row, ahead] *= impulse
+    tagged = estimates.tags > 0
+    if tagged.any():
+        own = tracks.labels[:, None] == estimates.tags[None, :]
+        costs[:, tagged] = np.where(own[:, tagged], 0.0, BARRED)
+    return costs
+
+
+def assign(costs: np.ndarray, gate: float) -> tuple[np.ndarray, np.ndarray]:
+    """Hungarian assignment of tracks (rows) to estimates (columns); pairs costing more than
+    `gate` are not made. Returns the assigned rows and columns.
+
+    Every pair beyond the gate costs the same before solving: with their true costs the solver
+    would trade a good pair for a cheaper sum of two pairs that are both dropped afterwards."""
+    if not costs.size:
+        return np.zeros(0, np.int64), np.zeros(0, np.int64)
+    rows, cols = linear_sum_assignment(np.where(costs <= gate, costs, BARRED))
+    kept = costs[rows, cols] <= gate
+    return rows[kept].astype(np.int64), cols[kept].astype(np.int64)
