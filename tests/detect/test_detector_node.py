@@ -1,4 +1,5 @@
-"""The detector node (method ssim) in-process: pairing by stamp, one BlobArray per frame, bad input."""
+"""The detector node (method ssim; mog2 for a static-camera method's restarts) in-process:
+pairing by stamp, one BlobArray per frame, bad input."""
 
 from __future__ import annotations
 
@@ -208,6 +209,30 @@ def test_size_change_resets_the_history(harness_factory):
         h.settle(k + 1)
     assert h.node.counters.size_changes == 1
     assert [d.compared_area > 0 for d in h.detections] == [False, True, False, True]
+
+
+def test_a_static_camera_method_restarts_when_the_view_moves(harness_factory):
+    """mog2 through the node: detections in scene coordinates while the window stays, a model
+    restart (counted, warned once, not a size change) for each frame whose window moved."""
+    h = harness_factory(method="mog2", pose_source="ptz_state")
+    frames, windows = scene_and_windows(n=10)
+    for k, frame in enumerate(frames):
+        x, y, w, hh = window = (40, 50, 120, 90) if k < 7 else windows[k]
+        h.states.publish(state_msg(window, k * NS))
+        h.images.publish(image_msg(frame[y : y + hh, x : x + w], k * NS, "bgr8"))
+        h.settle(k + 1)
+    compared = [d.compared_area > 0 for d in h.detections]
+    assert compared == [False] * 5 + [True] * 2 + [False] * 3
+    for k in (5, 6):
+        # the square (its part MOG2 has not learned yet), dilated by the radius-4 diamond
+        [blob] = h.detections[k].blobs
+        x0, y0 = 100 + 6 * k, 80  # scene px
+        assert x0 <= blob.centroid_x <= x0 + 16 and y0 <= blob.centroid_y <= y0 + 16
+        assert x0 - 4 <= blob.bbox.x and blob.bbox.x + blob.bbox.width <= x0 + 20
+        assert y0 - 4 <= blob.bbox.y and blob.bbox.y + blob.bbox.height <= y0 + 20
+    assert not any(d.blobs for d in h.detections[7:])
+    assert (h.node.counters.view_restarts, h.node.counters.size_changes) == (3, 0)
+    assert h.node.problems.count("detector restarted: the view moved") == 3
 
 
 def test_debug_images_only_while_subscribed(harness_factory):

@@ -3,7 +3,8 @@
 - `CameraFrame`: a camera image with its stamp and, when known, where it lies in the scene
   (`registration.View`); the colour image is kept, the grey one made on first use.
 - `Detector`: what every detector offers -- SSIM motion detection (`detectors.SsimDetector`,
-  `detectors.SsimBackground`), CamShift colour tracking (`camshift.CamShiftTracker`). Methods
+  `detectors.SsimBackground`), CamShift colour tracking (`camshift.CamShiftTracker`), MOG2
+  background subtraction for a static camera (`mog2.Mog2Detector`). Methods
   seeded from a rectangle (CamShift) also implement `SeededDetector.select_region`, which the
   detector node serves as `select_region`, and `guide`, where the node places the next search
   at the tracker's prediction.
@@ -60,7 +61,8 @@ class Detection:
     registration_fallback: bool = False  # estimate rejected (beyond the radius): known map used
     similarity: np.ndarray | None = None  # (H, W) float32 per-pixel score in [0, 1], image px
     mask: np.ndarray | None = None  # (H, W) uint8 0/1 foreground mask, image px
-    history_reset: bool = False  # the image size changed: the history was cleared first
+    history_reset: bool = False  # the image size (static-camera methods: the view) changed:
+    # the history was cleared first
 
 
 @dataclass(frozen=True, eq=False)

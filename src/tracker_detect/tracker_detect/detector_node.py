@@ -138,6 +138,7 @@ class Counters:
     stale_stamp: int = 0
     without_pose: int = 0
     size_changes: int = 0
+    view_restarts: int = 0  # a static-camera method (mog2) restarted: the camera's view moved
     registration_fallbacks: int = 0
 
 
@@ -402,15 +403,22 @@ class DetectorNode(SuiteNode):
         except StaleFrameError:
             self.counters.stale_stamp += 1
             return
-        self.last_frame = frame
+        previous, self.last_frame = self.last_frame, frame
         self.recent_frames[frame.stamp_ns] = frame
         while len(self.recent_frames) > RECENT_FRAMES:
             del self.recent_frames[min(self.recent_frames)]
         self.counters.frames += 1
-        if detection.history_reset:
+        if detection.history_reset and (previous is None or previous.size != frame.size):
             self.counters.size_changes += 1
             self.get_logger().info(
                 f"image size changed to {frame.size[0]}x{frame.size[1]}: detection history cleared"
+            )
+        elif detection.history_reset:
+            self.counters.view_restarts += 1
+            self.problems.report(
+                "detector restarted: the view moved",
+                f"the {self.method.name} detector restarted its model because the camera's view "
+                "moved or zoomed: it is a static-camera method",
             )
         if detection.registration_fallback:
             self.counters.registration_fallbacks += 1

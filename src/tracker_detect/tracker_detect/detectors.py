@@ -15,6 +15,7 @@ from typing import Any
 from tracker_detect.background import BackgroundConfig, BackgroundDetector
 from tracker_detect.camshift import CamShiftConfig, CamShiftTracker
 from tracker_detect.detector import CameraFrame, Detection, Detector
+from tracker_detect.mog2 import Mog2Config, Mog2Detector
 from tracker_detect.motion import (
     COMPENSATION_MODES,
     ESTIMATORS,
@@ -424,5 +425,81 @@ DETECTORS.register(
         "loss and re-acquisition (seed 001)",
         build=lambda values: CamShift(config_from_params(CamShiftConfig, values)),
         parameters=CAMSHIFT_PARAMETERS,
+    )
+)
+
+
+_M = Mog2Config()
+
+MOG2_PARAMETERS: tuple[ParamSpec, ...] = (
+    ParamSpec(
+        "equalize",
+        _M.equalize,
+        "histogram-equalise the image first (the grey image, or each colour channel)",
+    ),
+    ParamSpec(
+        "colour",
+        _M.colour,
+        "model the colour image (a grey one replicated); false: the grey image, as the thesis "
+        "(MOG2's shadow test then takes any pixel darkened to 50-100 % for a shadow)",
+    ),
+    ParamSpec("history", _M.history, "frames of MOG2's history (OpenCV: 500)", 1, 100000),
+    ParamSpec(
+        "var_threshold",
+        _M.var_threshold,
+        "squared Mahalanobis distance within which a pixel matches a background mode (OpenCV: 16)",
+        0.01,
+        10000.0,
+    ),
+    ParamSpec(
+        "detect_shadows", _M.detect_shadows, "MOG2's shadow pixels are background, not objects"
+    ),
+    ParamSpec(
+        "learning_rate",
+        _M.learning_rate,
+        "model learning rate per frame (negative: OpenCV's automatic 1 / min(2 n, history))",
+        -1.0,
+        1.0,
+    ),
+    ParamSpec(
+        "dilate_radius",
+        _M.dilate_radius,
+        "radius of the diamond the mask is dilated with [px] (seed: 4; 0: none)",
+        0,
+        50,
+    ),
+    ParamSpec(
+        "close_size",
+        _M.close_size,
+        "side of the square the dilated mask is closed with [px] (seed: 2; 1: none)",
+        1,
+        51,
+    ),
+    _like_ssim("min_blob_area", _M.min_blob_area),
+    ParamSpec(
+        "warmup_frames",
+        _M.warmup_frames,
+        "frames after a (re)start of the model that are learned, not compared",
+        1,
+        100000,
+    ),
+    _like_ssim("presence_fraction", _M.presence_fraction),
+)
+
+
+class Mog2(Mog2Detector):
+    """`mog2.Mog2Detector` with reconfiguration from parameter values."""
+
+    def reconfigure(self, values: Mapping[str, Any]) -> None:  # type: ignore[override]
+        super().reconfigure(config_from_params(Mog2Config, values))
+
+
+DETECTORS.register(
+    Method(
+        name="mog2",
+        description="OpenCV MOG2 background subtraction for a static camera, dilate (diamond 4) "
+        "+ close (2x2), 8-connected blobs of small objects (seed 004)",
+        build=lambda values: Mog2(config_from_params(Mog2Config, values)),
+        parameters=MOG2_PARAMETERS,
     )
 )
