@@ -21,9 +21,10 @@ Files (:func:`write_scene` / :func:`load_scene`): a lossless FFV1 video (or a PN
 OpenCV cannot write FFV1), MOTChallenge ``gt/gt.txt`` (``frame,id,x,y,w,h,conf,class,visibility``
 with 1-based frames and x, y in the pixel convention above), 16-bit label PNGs in ``masks/``,
 ``seqinfo.ini`` and ``scene.json`` (the config and jitter, to load the scene back exactly). The same
-functions write and read the street scenes of :mod:`tracker_ptz_sim.simulation.street` (whose
-ground truth boxes are the visible boxes, with ``conf`` 0 for the barely visible ones, and whose
-labels are uint16); ``scene.json`` names the ``generator`` ("objects" or "street").
+functions write and read the street scenes of :mod:`tracker_ptz_sim.simulation.street` and the
+small-object scenes of :mod:`tracker_ptz_sim.simulation.small_objects` (whose ground truth boxes
+are the visible boxes, with ``conf`` 0 for the barely visible ones, and whose labels are uint16);
+``scene.json`` names the ``generator`` ("objects", "street" or "small_objects").
 """
 
 from __future__ import annotations
@@ -44,6 +45,7 @@ from tracker_msgs_py.codec import frame_stamp_ns
 from tracker_msgs_py.params import check_config
 
 if TYPE_CHECKING:
+    from tracker_ptz_sim.simulation.small_objects import SmallObjectsConfig
     from tracker_ptz_sim.simulation.street import StreetConfig
 
 VIDEO_NAME = "video.avi"
@@ -148,10 +150,10 @@ class Scene:
 
     frames: np.ndarray  # (N, H, W, 3) uint8 BGR
     fps: float
-    labels: np.ndarray  # (N, H, W) int32 (street: uint16), id of the visible object, 0 = none
+    labels: np.ndarray  # (N, H, W) int32 (street, small objects: uint16), visible id, 0 = none
     boxes: list[list[GroundTruthBox]]  # per frame
     jitter: np.ndarray  # (N, 2) int, camera offset (dx, dy) applied to frame n
-    config: SceneConfig | StreetConfig | None = None
+    config: SceneConfig | StreetConfig | SmallObjectsConfig | None = None
 
     @property
     def num_frames(self) -> int:
@@ -519,17 +521,25 @@ def _read_frames(path: Path) -> np.ndarray:
     return np.stack(readable)
 
 
-def _config_type(generator: str | None) -> type[SceneConfig] | type[StreetConfig]:
+def _config_type(
+    generator: str | None,
+) -> type[SceneConfig] | type[StreetConfig] | type[SmallObjectsConfig]:
     if generator in (None, SceneConfig.generator):
         return SceneConfig
     if generator == "street":
         from tracker_ptz_sim.simulation.street import StreetConfig  # imports this module
 
         return StreetConfig
+    if generator == "small_objects":
+        from tracker_ptz_sim.simulation.small_objects import SmallObjectsConfig  # imports this
+
+        return SmallObjectsConfig
     raise ValueError(f"unknown scene generator {generator!r}")
 
 
-def _config_from_dict(data: dict, kind: type[SceneConfig] | type[StreetConfig]) -> Any:
+def _config_from_dict(
+    data: dict, kind: type[SceneConfig] | type[StreetConfig] | type[SmallObjectsConfig]
+) -> Any:
     kwargs: dict[str, Any] = {}
     for f in fields(kind):
         if f.name in data:
@@ -562,7 +572,7 @@ def label_reader(root: Path) -> Callable[[int], np.ndarray] | None:
 
 def load_scene(directory: str | Path) -> Scene:
     """Read back a scene written by :func:`write_scene` (frames, labels, boxes, jitter, fps);
-    labels are int32, or uint16 for street scenes (as generated)."""
+    labels are int32, or uint16 for street and small-object scenes (as generated)."""
     root = Path(directory)
     meta_path = root / META_NAME
     if not meta_path.is_file():
@@ -573,7 +583,7 @@ def load_scene(directory: str | Path) -> Scene:
     if n != meta["num_frames"]:
         raise ValueError(f"{root}: {n} frames in the video, {meta['num_frames']} expected")
     kind = _config_type(meta.get("generator"))
-    dtype = np.uint16 if kind.generator == "street" else np.int32
+    dtype = np.int32 if kind.generator == SceneConfig.generator else np.uint16
     labels = np.stack([_read_mask(mask_path(root, i + 1), dtype) for i in range(n)])
     boxes: list[list[GroundTruthBox]] = [[] for _ in range(n)]
     for line in (root / GT_PATH).read_text().splitlines():

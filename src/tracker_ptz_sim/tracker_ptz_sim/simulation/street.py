@@ -1552,7 +1552,27 @@ def _visible_boxes(
 # --- rendering -----------------------------------------------------------------------------------
 
 
-def _illumination(config: StreetConfig, n: int, phases: np.ndarray) -> np.ndarray:
+class CameraEffects(Protocol):
+    """What :func:`_illumination` and :func:`_sensor` read of a scene config (the street's and the
+    small-object scenes' configs both have these fields)."""
+
+    @property
+    def width(self) -> int: ...
+    @property
+    def fps(self) -> float: ...
+    @property
+    def illumination_drift(self) -> float: ...
+    @property
+    def illumination_period(self) -> float: ...
+    @property
+    def optical_blur(self) -> float: ...
+    @property
+    def noise_sigma(self) -> float: ...
+    @property
+    def jpeg_quality(self) -> int: ...
+
+
+def _illumination(config: CameraEffects, n: int, phases: np.ndarray) -> np.ndarray:
     """(1, W, 1) gain of frame n: a slow global drift and a slowly turning left-right slant."""
     W = config.width
     if config.illumination_drift == 0 or config.illumination_period == 0:
@@ -1567,7 +1587,7 @@ def _illumination(config: StreetConfig, n: int, phases: np.ndarray) -> np.ndarra
 
 
 def _sensor(
-    image: np.ndarray, gain: np.ndarray, rng: np.random.Generator, config: StreetConfig
+    image: np.ndarray, gain: np.ndarray, rng: np.random.Generator, config: CameraEffects
 ) -> np.ndarray:
     """Lens blur, lighting, sensor noise and JPEG compression of one rendered frame."""
     if config.optical_blur > 0:
