@@ -26,8 +26,10 @@ extract   every component with w > 0.5, round(w) copies
 Two additions for occlusion handling (`phd_occlusion`), both neutral when unused:
 - every component carries a `tag` (0: none); only components with equal tags merge, so an
   occluded target's Gaussian is not swallowed by the one of the target that hides it;
-- `update(..., miss_factor=...)` replaces (1 - p_D) per component: the digest's persistence
-  factor P_d^occl on the missed-detection term of an occluded target's components.
+- `update(..., terms=DetectionTerms(...))` sets p_D and the missed-detection factor per
+  component, and guards components: an occluded target's Gaussian gets the digest's persistence
+  factor P_d^occl on its missed-detection term, p_D = 1 - P_d^occl (hidden: hardly detectable,
+  more so as the occlusion drags on), and only measurements no visible target explains.
 
 Every detected component remembers the measurement that made it (`sources`, -1 for missed terms
 and merges keep the heaviest member's), so a tracker can tell a hit from a coast.
@@ -138,6 +140,7 @@ class GmPhdConfig:
     birth_gate: float = 0.5  # a measurement this well explained by targets makes no birth
     spawn_weight: float = 0.0  # w_s: spawns per target (0: none)
     spawn_noise: float = 20.0  # sigma of the spawn's extra velocity, px/s
+    gate: float = math.inf  # squared Mahalanobis distance beyond which z does not update m
 
     @property
     def clutter_density(self) -> float:
@@ -158,16 +161,21 @@ class GmPhdConfig:
                 found.append(f"{name} must be >= 0, got {getattr(self, name)}")
         if self.max_components < 1:
             found.append(f"max_components must be >= 1, got {self.max_components}")
+        if not self.gate > 0.0:
+            found.append(f"gate must be > 0, got {self.gate}")
         if not self.max_birth_speed > 0.0:
             found.append(f"max_birth_speed must be > 0, got {self.max_birth_speed}")
         return found
 
 
 def gaussian_likelihoods(
-    means: np.ndarray, innovation_covariances: np.ndarray, measurements: np.ndarray
+    means: np.ndarray,
+    innovation_covariances: np.ndarray,
+    measurements: np.ndarray,
+    gate: float = math.inf,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """N(z; H m_j, S_j) for every component j and measurement z: (J, M), and the innovations
-    (J, M, 2). Closed-form 2x2 inverses: no per-component matrix call."""
+    """N(z; H m_j, S_j) for every component j and measurement z: (J, M), 0 beyond the squared
+    Mahalanobis distance `gate`, and the innovations (J, M, 2). Closed-form 2x2 inverses."""
     a = innovation_covariances[:, 0, 0]
     b = innovation_covariances[:, 0, 1]
     d = innovation_covariances[:, 1, 1]
@@ -178,6 +186,8 @@ def gaussian_likelihoods(
         :, None
     ]
     likelihood = np.exp(-0.5 * squared) / (2.0 * math.pi * np.sqrt(det))[:, None]
+    if math.isfinite(gate):
+        likelihood[squared > gate] = 0.0
     return likelihood, innovations
 
 
@@ -186,11 +196,13 @@ def _merge_groups(  # pragma: no cover (compiled; tested through merge())
     weights: np.ndarray,
     means: np.ndarray,
     inverses: np.ndarray,
+    spreads: np.ndarray,
     tags: np.ndarray,
     threshold: float,
 ) -> np.ndarray:
     """Group of every component: heaviest first, each takes the ungrouped components of its tag
-    within `threshold` (their own inverse covariances, as Vo & Ma)."""
+    within `threshold` (their own inverse covariances, as Vo & Ma). `spreads` are the traces of
+    the covariances: d^2 >= |dx|^2 / trace(P), so farther pairs are skipped without d^2."""
     count = weights.shape[0]
     order = np.argsort(-weights, kind="mergesort")
     group = np.full(count, -1, np.int64)
@@ -203,6 +215,10 @@ def _merge_groups(  # pragma: no cover (compiled; tested through merge())
         for b in range(a + 1, count):
             other = order[b]
             if group[other] >= 0 or tags[other] != tags[lead]:
+                continue
+            dx = means[other, 0] - means[lead, 0]
+            dy = means[other, 1] - means[lead, 1]
+            if dx * dx + dy * dy > threshold * spreads[other]:
                 continue
             distance = 0.0
             for r in range(DIM):
@@ -220,8 +236,10 @@ def merge(mixture: Mixture, threshold: float) -> Mixture:
     component keeps the tag of its members and the source of its heaviest."""
     if len(mixture) < 2:
         return mixture
+    covariances = mixture.covariances
+    spreads = np.trace(covariances, axis1=1, axis2=2)
     group = _merge_groups(
-        mixture.weights, mixture.means, np.linalg.inv(mixture.covariances), mixture.tags, threshold
+        mixture.weights, mixture.means, np.linalg.inv(covariances), spreads, mixture.tags, threshold
     )
     count = int(group.max()) + 1
     if count == len(mixture):
@@ -278,6 +296,37 @@ def extract(mixture: Mixture, threshold: float = 0.5) -> Estimates:
         mixture.tags[index],
         mixture.sources[index],
     )
+
+
+@dataclass(frozen=True, eq=False)
+class DetectionTerms:
+    """Per component (J,): its detection probability, the factor of its missed-detection term,
+    and whether it is guarded: not updated by the measurement any visible target -- an unguarded
+    component heavier than 0.5 -- explains best (an occluded target's Gaussian must not claim the
+    blob of the target that hides it, only a measurement that appears beside it), and by one
+    measurement at most, its likeliest."""
+
+    detection: np.ndarray
+    miss: np.ndarray
+    guarded: np.ndarray
+
+    @classmethod
+    def standard(cls, count: int, detection: float) -> DetectionTerms:
+        """Vo & Ma's: p_D and 1 - p_D for every component, none guarded."""
+        return cls(
+            np.full(count, detection), np.full(count, 1.0 - detection), np.zeros(count, bool)
+        )
+
+
+def _taken(numerators: np.ndarray, weights: np.ndarray, guarded: np.ndarray) -> np.ndarray:
+    """(M,) the measurements a visible target takes: for every unguarded component heavy enough
+    to be one (weight > 0.5), the measurement it explains best."""
+    taken = np.zeros(numerators.shape[1], dtype=bool)
+    visible = np.flatnonzero(~guarded & (weights > 0.5))
+    if len(visible):
+        best = np.argmax(numerators[visible], axis=1)
+        taken[best[numerators[visible, best] > 0]] = True
+    return taken
 
 
 @dataclass(frozen=True, eq=False)
@@ -347,26 +396,37 @@ class GmPhdFilter:
         return Mixture.concatenate(parts)
 
     def update(
-        self, predicted: Mixture, measurements: np.ndarray, miss_factor: np.ndarray | None = None
+        self, predicted: Mixture, measurements: np.ndarray, terms: DetectionTerms | None = None
     ) -> UpdateResult:
         """Vo & Ma's update of `predicted` with the scan's measurements (M, 2), pruned at T while
-        it is built. `miss_factor` (J,) replaces 1 - p_D per component when given."""
+        it is built; `terms` changes p_D and the missed-detection factor per component."""
         c = self.config
         z = np.asarray(measurements, dtype=float).reshape(-1, AXES)
-        factor = 1.0 - c.detection if miss_factor is None else miss_factor
+        count = len(predicted)
+        if terms is None:
+            terms = DetectionTerms.standard(count, c.detection)
         missed = Mixture(
-            factor * predicted.weights,
+            terms.miss * predicted.weights,
             predicted.means,
             predicted.covariances,
             predicted.tags,
-            np.full(len(predicted), -1, np.int64),
+            np.full(count, -1, np.int64),
         )
-        if not len(z) or not len(predicted):
+        if not len(z) or not count:
             return UpdateResult(prune(missed, c.prune_threshold, 1 << 62), np.zeros(len(z)))
         p = predicted.covariances
         innovation_cov = p[:, :AXES, :AXES] + c.measurement_noise**2 * np.eye(AXES)
-        likelihood, innovations = gaussian_likelihoods(predicted.means, innovation_cov, z)
-        numerators = c.detection * predicted.weights[:, None] * likelihood
+        likelihood, innovations = gaussian_likelihoods(predicted.means, innovation_cov, z, c.gate)
+        numerators = (terms.detection * predicted.weights)[:, None] * likelihood
+        if terms.guarded.any():
+            guarded = numerators[terms.guarded] * ~_taken(
+                numerators, predicted.weights, terms.guarded
+            )
+            # a hidden target comes back as one measurement: its best, not a spray over several
+            best = np.argmax(guarded, axis=1)
+            kept = np.zeros_like(guarded)
+            kept[np.arange(len(best)), best] = guarded[np.arange(len(best)), best]
+            numerators[terms.guarded] = kept
         weights = numerators / (c.clutter_density + numerators.sum(axis=0))[None, :]
         gain = p[:, :, :AXES] @ np.linalg.inv(innovation_cov)  # (J, 4, 2)
         posterior = p - gain @ p[:, :AXES, :]
@@ -415,16 +475,15 @@ class GmPhdFilter:
         measurements: np.ndarray,
         dt: float,
         injected: Mixture | None = None,
-        miss_factor: Callable[[Mixture], np.ndarray] | None = None,
+        terms: Callable[[Mixture], DetectionTerms] | None = None,
         threshold: float | None = None,
     ) -> Estimates:
-        """One scan `dt` after the last: predict (with `injected`), update (with the miss factor
-        `miss_factor(predicted)` gives, when given), reduce; returns the states extracted at
+        """One scan `dt` after the last: predict (with `injected`), update (with the detection
+        terms `terms(predicted)` gives, when given), reduce; returns the states extracted at
         `threshold` (default: the configured extract_threshold)."""
         z = np.asarray(measurements, dtype=float).reshape(-1, AXES)
         predicted = self.predict(dt, injected)
-        factors = miss_factor(predicted) if miss_factor is not None else None
-        result = self.update(predicted, z, factors)
+        result = self.update(predicted, z, terms(predicted) if terms is not None else None)
         self._births_from(z, result.explained, dt)
         self.mixture = self.reduce(result.mixture)
         return extract(

@@ -23,7 +23,7 @@ frame without it still updates every track.
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import replace
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -32,7 +32,7 @@ from tracker_filter.gmphd import Estimates, GmPhdConfig, GmPhdFilter, Mixture
 from tracker_filter.layout import StateLayout
 from tracker_filter.models import CONSTANT_VELOCITY
 from tracker_filter.observation import Detections, Need, Observation
-from tracker_filter.phd_labels import BARRED, LabelledStates, assign, labelling_costs
+from tracker_filter.phd_labels import LabelledStates, assign, labelling_costs
 from tracker_filter.phd_occlusion import OcclusionConfig, OcclusionMonitor
 from tracker_filter.tracking import TrackBook, TrackSet
 from tracker_msgs_py.params import ParamSpec
@@ -42,15 +42,59 @@ LAYOUT = StateLayout.from_names("x y vx vy")
 FIRST_INTERVAL = 1.0  # s, the first frame's (nothing to predict yet)
 
 
-def _one_per_tag(estimates: Estimates) -> np.ndarray:
-    """Mask of the estimates labelling may use: every untagged one, and of each occluded track's
-    (tagged) estimates the one a measurement made, else the heaviest."""
-    usable = estimates.tags == 0
-    for tag in np.unique(estimates.tags[~usable]):
-        mine = np.flatnonzero(estimates.tags == tag)
-        rank = (estimates.sources[mine] >= 0) * 2.0 + np.minimum(estimates.weights[mine], 1.0)
-        usable[mine[np.argmax(rank)]] = True
-    return usable
+@dataclass(frozen=True)
+class BirthSites:
+    """A static birth mixture (Vo & Ma's): targets appear at `points` (N, 2) px, standing or
+    moving any way: a Gaussian of position std `position_std` px, zero mean velocity of std
+    `speed_std` px/s, and weight `weight`, at every site, every frame."""
+
+    points: np.ndarray
+    weight: float
+    position_std: float
+    speed_std: float
+
+    def mixture(self) -> Mixture:
+        count = len(self.points)
+        means = np.column_stack([self.points, np.zeros((count, 2))])
+        variances = [self.position_std**2] * 2 + [self.speed_std**2] * 2
+        covariances = np.broadcast_to(np.diag(variances), (count, 4, 4))
+        return Mixture.of(np.full(count, self.weight), means, covariances)
+
+    @classmethod
+    def from_values(cls, values: Mapping[str, Any]) -> BirthSites | None:
+        """The sites the parameters describe, None when birth_site_weight is 0."""
+        if values["birth_site_weight"] <= 0:
+            return None
+        points = np.asarray(values["birth_sites"], dtype=float).reshape(-1, 2)
+        return cls(
+            points,
+            values["birth_site_weight"],
+            values["birth_site_position_std"],
+            values["birth_site_speed_std"],
+        )
+
+
+def _pairs(value: Any) -> str | None:
+    if len(value) % 2 or not all(np.isfinite(v) for v in value):
+        return "birth_sites must be finite x, y pairs"
+    return None
+
+
+#: Per-track arrays kept in the TrackBook's row order.
+_ROW_FIELDS = (
+    "states",
+    "covariances",
+    "weights",
+    "unassigned",
+    "hit_states",
+    "hit_covariances",
+    "hit_times",
+    "mean_velocities",
+)
+#: Weight of the newest hit-to-hit velocity in a track's mean velocity.
+VELOCITY_SMOOTHING = 0.3
+#: Std of an occluded track's velocity, as a share of its speed.
+OCCLUDED_SPEED_SPREAD = 0.3
 
 
 class GmPhdTracker:
@@ -69,10 +113,13 @@ class GmPhdTracker:
         max_misses: int = 3,
         window_area: bool = False,
         continue_threshold: float = 0.2,
+        birth_sites: BirthSites | None = None,
         first_id: int = 1,
     ) -> None:
         self.config = filter_config
-        self.filter = GmPhdFilter(filter_config)
+        self.filter = GmPhdFilter(
+            filter_config, birth_sites.mixture() if birth_sites is not None else None
+        )
         self.monitor = OcclusionMonitor(occlusion)
         self.label_gate, self.impulse = label_gate, impulse
         self.confirm_hits, self.max_misses = confirm_hits, max_misses
@@ -86,8 +133,18 @@ class GmPhdTracker:
         self.covariances = np.zeros((0, LAYOUT.dim, LAYOUT.dim))
         self.weights = np.zeros(0)
         self.unassigned = np.zeros(0, np.int64)  # consecutive frames without a state of its own
+        # the state at the last hit: an occluded track's Gaussian is injected from it, not from
+        # the states the merged blob pulled off course just before the occlusion was seen
+        self.hit_states = np.zeros((0, LAYOUT.dim))
+        self.hit_covariances = np.zeros((0, LAYOUT.dim, LAYOUT.dim))
+        self.hit_times = np.zeros(0)
+        self.mean_velocities = np.zeros((0, 2))  # px/s, smoothed from hit to hit (the thesis's
+        # "average speed" of a labelled state)
         self.pending = Mixture.empty()  # Gaussians of tracks occluded at the last frame
         self._epsilon_now = self.monitor.config.object_size  # px, this frame's occlusion radius
+        self._now = 0.0  # s, the step being processed
+        # per label inside an occlusion region: its state at the region's start and that time
+        self.anchors: dict[int, tuple[np.ndarray, float]] = {}
         self._explained: np.ndarray = np.zeros(0, dtype=bool)  # per estimate: within a track's gate
 
     @property
@@ -118,17 +175,19 @@ class GmPhdTracker:
         in `self._explained` the estimates an existing track could have taken (within the gate
         of one): they never start a track (the PHD update gives a clutter point near a target
         almost the target's whole weight; that is one target, not two)."""
-        centres = np.full((len(self.book), 2), np.nan)
-        for row, label in enumerate(self.book.ids.tolist()):
-            if label in self.monitor.occluded:
-                centres[row] = self.monitor.occluded[label].centre
-        tracks = LabelledStates(self.book.ids, self.states[:, :2], self.states[:, 2:], centres)
-        costs = labelling_costs(tracks, estimates, self.config.measurement_noise**2, self.impulse)
-        costs[:, ~_one_per_tag(estimates)] = BARRED
+        tracks = self._labelled_states()
+        centres = tracks.occlusion_centres
+        costs = labelling_costs(
+            tracks, estimates, self.config.measurement_noise**2, self.impulse, self.label_gate
+        )
         self._explained = np.asarray((costs <= self.label_gate).any(axis=0))
         rows, cols = assign(costs, self.label_gate)
         hit = np.zeros(len(self.book), dtype=bool)
-        sources = estimates.sources[cols]
+        sources = estimates.sources[cols].copy()
+        # an occluded track's wide Gaussian also reaches false alarms: it is back only when a
+        # measurement makes it a target again (weight above the extraction threshold)
+        occluded = np.isfinite(centres[rows, 0])
+        sources[occluded & (estimates.weights[cols] <= self.config.extract_threshold)] = -1
         # a measurement shared by several tracks (a merged blob) is the hit of the nearest only
         for source in np.unique(sources[sources >= 0]):
             sharing = np.flatnonzero(sources == source)
@@ -139,6 +198,7 @@ class GmPhdTracker:
     def step(self, observation: Observation) -> TrackSet:
         t, book = observation.time, self.book
         book.check_time(t)
+        self._now = t
         dt = t - book.time if book.time is not None else FIRST_INTERVAL
         detections, rejections = observation.detections.validated()
         self._adopt_window_area(observation)
@@ -153,9 +213,10 @@ class GmPhdTracker:
             detections.positions,
             dt,
             injected,
-            lambda predicted: self.monitor.miss_factors(predicted.tags, 1.0 - config.detection),
+            lambda predicted: self.monitor.detection_terms(predicted.tags, config.detection),
             min(self.continue_threshold, config.extract_threshold),
         )
+        self._drop_stray_tagged()
         # every track predicted to t (coasting); those given a state take it below
         transition = CONSTANT_VELOCITY.transition(dt)
         noise = CONSTANT_VELOCITY.process_noise(dt, config.process_noise)
@@ -170,13 +231,18 @@ class GmPhdTracker:
         self.unassigned[rows] = 0
         self.weights[self.unassigned > 0] = 0.0  # no Gaussian of its own: a prediction
         hit_rows = np.flatnonzero(hit)
+        self._smooth_velocities(hit_rows, t)
+        self.hit_states[hit_rows] = self.states[hit_rows]
+        self.hit_covariances[hit_rows] = self.covariances[hit_rows]
+        self.hit_times[hit_rows] = t
         sources = np.full(len(book), -1, np.int64)
         sources[rows] = estimates.sources[cols]
         book.record_frame(hit_rows, sources[hit_rows], detections, LAYOUT.positions(self.states))
         window = observation.window
         bounds = None if window is None else (window.x, window.y, window.width, window.height)
-        self._occlusions(hit, detections.bboxes, bounds)
+        self._occlusions(t, hit, detections.bboxes)
         lost = self._lost(bounds)
+        self._update_anchors()
         count = len(book)
         self._start_tracks(t, estimates, cols, detections)
         added = len(book) - count
@@ -197,8 +263,101 @@ class GmPhdTracker:
         book.finish(t)
         return tracks
 
+    def _smooth_velocities(self, rows: np.ndarray, t: float) -> None:
+        gaps = t - self.hit_times[rows]
+        moved = LAYOUT.positions(self.states[rows]) - LAYOUT.positions(self.hit_states[rows])
+        velocity = moved / np.maximum(gaps, 1e-9)[:, None]
+        self.mean_velocities[rows] += VELOCITY_SMOOTHING * (velocity - self.mean_velocities[rows])
+
+    def _drop_stray_tagged(self) -> None:
+        """An occluded track is one Gaussian: its tagged components too light to be it (below
+        half the continuation threshold) are false alarms it brushed, not the target."""
+        mixture = self.filter.mixture
+        stray = (mixture.tags > 0) & (mixture.weights < self.continue_threshold / 2)
+        if stray.any():
+            self.filter.mixture = mixture.subset(np.flatnonzero(~stray))
+
+    def _labelled_states(self) -> LabelledStates:
+        """The tracks as labelling sees them. A track inside an occlusion region -- hidden, or
+        the visible one whose blob hides another -- is placed by dead reckoning from its last
+        clean hit with its mean velocity (the thesis's kept speed and heading), with the spread
+        of that guess: the blob it follows is where both targets are not."""
+        count = len(self.book)
+        positions, velocities = self.states[:, :2].copy(), self.states[:, 2:].copy()
+        variances = np.zeros(count)
+        centres = np.full((count, 2), np.nan)
+        labels = self.book.ids.tolist()
+        partners = self.monitor.partners()
+        for row, label in enumerate(labels):
+            occlusion = self.monitor.occluded.get(label)
+            if occlusion is not None:
+                centres[row] = occlusion.centre
+            if occlusion is None and label not in partners:
+                continue
+            state, time = self._anchor(row)
+            gap = self._now - time
+            positions[row] = state[:2] + gap * state[2:]
+            velocities[row] = state[2:]
+            variances[row] = (OCCLUDED_SPEED_SPREAD * np.hypot(*state[2:]) * gap) ** 2
+            if occlusion is None:  # a partner: the region is its hidden partner's
+                hidden = [o for o in self.monitor.occluded.values() if o.partner == label]
+                centres[row] = hidden[0].centre
+        return LabelledStates(self.book.ids, positions, velocities, variances, centres)
+
+    def _since_hit(self, rows: np.ndarray, t: float) -> tuple[np.ndarray, np.ndarray]:
+        """The states of `rows` at t dead-reckoned from their anchors (else their last hits)
+        with their mean velocities, and covariances widened by the speed's uncertainty."""
+        noise_std = self.config.process_noise
+        means = np.zeros((len(rows), LAYOUT.dim))
+        covariances = np.zeros((len(rows), LAYOUT.dim, LAYOUT.dim))
+        for i, row in enumerate(rows):
+            last, time = self._anchor(int(row))
+            gap = t - time
+            transition = CONSTANT_VELOCITY.transition(gap)
+            # the speed is known to within a share of itself, whatever the filter's own
+            # covariance says: where a hidden target comes out is that uncertain
+            speed_var = (OCCLUDED_SPEED_SPREAD * np.hypot(*last[2:])) ** 2
+            spread = np.diag([0.0, 0.0, speed_var, speed_var])
+            means[i] = transition @ last
+            covariances[i] = transition @ (
+                self.hit_covariances[row] + spread
+            ) @ transition.T + CONSTANT_VELOCITY.process_noise(gap, noise_std)
+        return means, covariances
+
+    def _anchor(self, row: int) -> tuple[np.ndarray, float]:
+        """The clean state (position, mean velocity) a track is dead-reckoned from, and its
+        time: the anchor taken when it came near another track, else its last hit."""
+        label = int(self.book.ids[row])
+        if label in self.anchors:
+            return self.anchors[label]
+        state = np.concatenate([self.hit_states[row, :2], self.mean_velocities[row]])
+        return state, float(self.hit_times[row])
+
+    def _update_anchors(self) -> None:
+        """Anchor every confirmed track that comes within twice the possible-occlusion radius
+        of another (before their blobs merge and pull its state and velocity off course); free
+        the anchors of tracks apart again and not in an occlusion region."""
+        positions = LAYOUT.positions(self.states)
+        labels = self.book.ids.tolist()
+        confirmed = self.book.confirmed
+        near = np.zeros(len(labels), dtype=bool)
+        if len(labels) > 1:
+            gaps = np.linalg.norm(positions[:, None] - positions[None], axis=2)
+            np.fill_diagonal(gaps, np.inf)
+            close = gaps <= 2.0 * self._epsilon_now
+            near = (close & confirmed[None, :]).any(axis=1) & confirmed
+        in_regions = set(self.monitor.occluded) | self.monitor.partners()
+        for row, label in enumerate(labels):
+            if near[row] and label not in self.anchors:
+                self.anchors[label] = self._anchor(row)
+            elif not near[row] and label not in in_regions:
+                self.anchors.pop(label, None)
+
     def _occlusions(
-        self, hit: np.ndarray, boxes: np.ndarray, bounds: tuple[float, float, float, float] | None
+        self,
+        t: float,
+        hit: np.ndarray,
+        boxes: np.ndarray,
     ) -> None:
         labels = self.book.ids
         for label in self.monitor.advance(labels, hit):
@@ -211,9 +370,8 @@ class GmPhdTracker:
         begun = self.monitor.begin(labels, positions, hidden, self._epsilon_now)
         if begun:
             rows = np.array(begun)
-            self.pending = Mixture.of(
-                np.ones(len(rows)), self.states[rows], self.covariances[rows], labels[rows]
-            )
+            means, covariances = self._since_hit(rows, t)
+            self.pending = Mixture.of(np.ones(len(rows)), means, covariances, labels[rows])
             self.weights[rows] = np.maximum(self.weights[rows], 1.0)
         else:
             self.pending = Mixture.empty()
@@ -249,18 +407,28 @@ class GmPhdTracker:
             return
         cols = np.array(new)
         self.book.add(t, detections, estimates.sources[cols], np.zeros(len(cols), dtype=bool))
-        self.states = np.concatenate([self.states, estimates.means[cols]])
-        self.covariances = np.concatenate([self.covariances, estimates.covariances[cols]])
-        self.weights = np.concatenate([self.weights, estimates.weights[cols]])
-        self.unassigned = np.concatenate([self.unassigned, np.zeros(len(cols), np.int64)])
+        rows = {
+            "states": estimates.means[cols],
+            "covariances": estimates.covariances[cols],
+            "weights": estimates.weights[cols],
+            "unassigned": np.zeros(len(cols), np.int64),
+            "hit_states": estimates.means[cols],
+            "hit_covariances": estimates.covariances[cols],
+            "hit_times": np.full(len(cols), t),
+            "mean_velocities": estimates.means[cols][:, 2:],
+        }
+        for name in _ROW_FIELDS:
+            setattr(self, name, np.concatenate([getattr(self, name), rows[name]]))
 
     def _drop(self, lost: np.ndarray) -> None:
         if not lost.any():
             return
         keep = ~lost
+        for label in self.book.ids[lost].tolist():
+            self.anchors.pop(label, None)
         self.book.keep(keep)
-        self.states, self.covariances = self.states[keep], self.covariances[keep]
-        self.weights, self.unassigned = self.weights[keep], self.unassigned[keep]
+        for name in _ROW_FIELDS:
+            setattr(self, name, getattr(self, name)[keep])
 
 
 _F = GmPhdConfig()
@@ -281,6 +449,14 @@ PARAMETERS: tuple[ParamSpec, ...] = (
     ParamSpec("max_components", 500, "J_max, Gaussians kept at most", 1, 100000),
     ParamSpec(
         "extract_threshold", _F.extract_threshold, "a Gaussian heavier is a target", 0.01, 1.0
+    ),
+    ParamSpec(
+        "continue_threshold",
+        0.2,
+        "a Gaussian heavier continues an existing track (hysteresis: a track survives the low "
+        "weight one missed detection leaves)",
+        0.0,
+        1.0,
     ),
     ParamSpec(
         "birth_weight", _F.birth_weight, "weight of the births one detection makes", 0.0, 1.0
@@ -307,6 +483,18 @@ PARAMETERS: tuple[ParamSpec, ...] = (
         0.0,
         1e4,
     ),  # fmt: skip
+    ParamSpec(
+        "birth_sites",
+        [0.0, 0.0],
+        "static birth mixture: where targets appear, as [x1, y1, x2, y2, ...] [scene px] "
+        "(used when birth_site_weight > 0)",
+        validator=_pairs,
+    ),
+    ParamSpec("birth_site_weight", 0.0, "weight of each birth site's Gaussian (0: none)", 0.0, 1.0),
+    ParamSpec("birth_site_position_std", 10.0, "position std of a birth site [px]", 0.01, 1e5),
+    ParamSpec(
+        "birth_site_speed_std", 100.0, "speed std of a birth site's targets [px/s]", 0.0, 1e6
+    ),
     ParamSpec("label_gate", 16.0, "squared Mahalanobis distance a label reaches", 0.1, 1e6),
     ParamSpec("impulse", 0.5, "cost factor of candidates ahead of an occluded track", 0.0, 1.0),
     ParamSpec("confirm_hits", 2, "hits before a track is confirmed", 1, 1000),
@@ -351,6 +539,7 @@ def build(values: Mapping[str, Any], first_id: int = 1) -> GmPhdTracker:
         max_misses=values["max_misses"],
         window_area=area <= 0,
         continue_threshold=values["continue_threshold"],
+        birth_sites=BirthSites.from_values(values),
         first_id=first_id,
     )
 

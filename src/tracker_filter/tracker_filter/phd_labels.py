@@ -4,12 +4,15 @@ The PHD filter extracts unlabelled states; the thesis gives them identities by a
 assignment (scipy's `linear_sum_assignment`) between the states extracted at k and the labelled
 states of k - 1, the cost a Mahalanobis distance. Here the labelled state is first moved by its
 velocity to k (x_l^-, the caller's prediction), and the distance uses the estimate's position
-covariance plus R:
+covariance plus R plus the track's own extra variance V_l (a track dead-reckoned through an
+occlusion is less sure where it is):
 
-    cost = (p_e - x_l^-)^T (P_e,pos + R)^-1 (p_e - x_l^-),  gated at `gate`
+    cost = (p_e - x_l^-)^T (P_e,pos + R + V_l I)^-1 (p_e - x_l^-),  gated at `gate`
 
 An estimate from a component tagged with a track's label (an occluded track's own Gaussian)
-costs 0 for that track and is barred from the others. The "impulse": for a track inside an
+is barred from the other tracks; of a track's tagged estimates the nearest is its own, at a
+cost no more than `gate_inside` (so it stays within the gate however far the guess drifted), the
+others are barred. The "impulse": for a track inside an
 occlusion region, the region is split in four quadrants around the track's last position and
 candidates in the quadrant its heading points to cost `impulse` x as much.
 """
@@ -30,11 +33,13 @@ BARRED = 1e12
 @dataclass(frozen=True, eq=False)
 class LabelledStates:
     """The labelled tracks predicted to k: labels (N,), positions (N, 2), velocities (N, 2)
-    px/s, and for each, the centre of its occlusion region or NaN when it is not occluded."""
+    px/s (the headings of the impulse), their positions' extra variance (N,) px^2, and for each
+    the centre of its occlusion region, NaN when it is in none."""
 
     labels: np.ndarray
     positions: np.ndarray
     velocities: np.ndarray
+    variances: np.ndarray
     occlusion_centres: np.ndarray
 
 
@@ -43,12 +48,14 @@ def labelling_costs(
     estimates: Estimates,
     measurement_variance: float,
     impulse: float = 0.5,
+    gate_inside: float = 0.0,
 ) -> np.ndarray:
     """(N tracks, E estimates) assignment costs; see the module docstring."""
     positions = estimates.means[:, :AXES]
     gaps = positions[None, :, :] - tracks.positions[:, None, :]
     cov = estimates.covariances[:, :AXES, :AXES] + measurement_variance * np.eye(AXES)
-    a, b, d = cov[:, 0, 0], cov[:, 0, 1], cov[:, 1, 1]
+    extra = tracks.variances[:, None]
+    a, b, d = cov[None, :, 0, 0] + extra, cov[None, :, 0, 1], cov[None, :, 1, 1] + extra
     det = a * d - b * b
     gx, gy = gaps[..., 0], gaps[..., 1]
     costs = (d * gx * gx - 2.0 * b * gx * gy + a * gy * gy) / det
@@ -61,10 +68,15 @@ def labelling_costs(
         offsets = np.sign(positions - tracks.positions[row])
         ahead = ((side == 0) | (offsets == side)).all(axis=1)
         costs[row, ahead] *= impulse
-    tagged = estimates.tags > 0
-    if tagged.any():
-        own = tracks.labels[:, None] == estimates.tags[None, :]
-        costs[:, tagged] = np.where(own[:, tagged], 0.0, BARRED)
+    tagged = np.flatnonzero(estimates.tags > 0)
+    if len(tagged):
+        own = tracks.labels[:, None] == estimates.tags[None, tagged]
+        costs[:, tagged] = np.where(own, np.minimum(costs[:, tagged], gate_inside), BARRED)
+        # of an occluded track's estimates only the nearest to where it should be is its own
+        for row in np.flatnonzero(own.any(axis=1)):
+            mine = tagged[own[row]]
+            others = mine[mine != mine[np.argmin(costs[row, mine])]]
+            costs[:, others] = BARRED
     return costs
 
 

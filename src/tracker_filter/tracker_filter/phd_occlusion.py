@@ -12,14 +12,16 @@ The thesis's three kinds of region, as `OcclusionMonitor` keeps them per labelle
    such a region is occluded too (a static object hides it), and the region gets a birth
    Gaussian, so a target that reappears there is picked up at once.
 
-An occluded track keeps its Gaussian: its components get the track's label as `tag` (so they are
-never merged into the Gaussian of the target hiding it), a component at its last state is
-injected when none is left (m = F m~, P = F P~ F^T + Q through the filter's prediction), and the
-missed-detection term of its components is multiplied by the persistence factor P_d^occl instead
-of 1 - p_D: 1 when the occlusion starts, lowered by chi = 0.3 / N_occ per occluded frame down to
-`floor` (0.7), where N_occ is the mean occlusion length in frames seen so far (`mean_occlusion`
-until one has ended). This is the digest's reading of the thesis's adaptive detection
-probability (a literal p_D = 1 would zero the missed-detection term, the opposite of the intent).
+An occluded track keeps its Gaussian: a component at its state predicted from its last hit with
+its mean velocity is injected, tagged with the track's label (so it is never merged into the
+Gaussian of the target hiding it; m = F m~, P = F P~ F^T + Q through the filter's prediction). It
+is guarded (the measurement a visible target explains best -- the blob of the target that hides
+it -- does not update it), its missed-detection term is multiplied by the persistence factor
+P_d^occl instead of 1 - p_D, and its p_D is 1 - P_d^occl. P_d^occl is 1 when the occlusion
+starts and drops by chi = 0.3 / N_occ per occluded frame down to `floor` (0.7), N_occ being the
+mean occlusion length in frames seen so far (`mean_occlusion` until one has ended). This is the
+digest's reading of the thesis's adaptive detection probability (a literal p_D = 1 would zero
+the missed-detection term, the opposite of the intent).
 """
 
 from __future__ import annotations
@@ -28,7 +30,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from tracker_filter.gmphd import DIM, Mixture
+from tracker_filter.gmphd import DIM, DetectionTerms, Mixture
 
 AXES = 2
 
@@ -64,6 +66,7 @@ class Occlusion:
 
     centre: np.ndarray  # (2,) px, the occlusion region's centre
     radius: float  # px
+    partner: int = 0  # label of the track whose blob hides it (0: an unidentified object)
     frames: int = 0
     persistence: float = 1.0  # P_d^occl
 
@@ -98,12 +101,16 @@ class OcclusionMonitor:
         """N_occ, frames."""
         return float(np.mean(self.ended)) if self.ended else self.config.mean_occlusion
 
-    def miss_factors(self, tags: np.ndarray, missed_detection: float) -> np.ndarray:
-        """Per component: P_d^occl of its occluded track, else 1 - p_D (`missed_detection`)."""
-        factors = np.full(len(tags), missed_detection)
+    def detection_terms(self, tags: np.ndarray, detection: float) -> DetectionTerms:
+        """Per component: an occluded track's are guarded, missed-detection factor P_d^occl
+        and p_D = 1 - P_d^occl; the others p_D (`detection`) and 1 - p_D."""
+        terms = DetectionTerms.standard(len(tags), detection)
         for label, occlusion in self.occluded.items():
-            factors[tags == label] = occlusion.persistence
-        return factors
+            mine = tags == label
+            terms.miss[mine] = occlusion.persistence
+            terms.detection[mine] = 1.0 - occlusion.persistence
+            terms.guarded[mine] = True
+        return terms
 
     def _in_region(self, position: np.ndarray) -> UnknownObjectRegion | None:
         for region in self.regions:
@@ -133,7 +140,8 @@ class OcclusionMonitor:
             near = int(np.argmin(gaps)) if len(gaps) > 1 else -1
             if near >= 0 and gaps[near] <= epsilon:
                 centre = (positions[row] + positions[near]) / 2.0
-                self.occluded[label] = Occlusion(centre, max(epsilon, float(gaps[near])))
+                radius = max(epsilon, float(gaps[near]))
+                self.occluded[label] = Occlusion(centre, radius, int(labels[near]))
             elif (region := self._in_region(positions[row])) is not None:
                 self.occluded[label] = Occlusion(region.centre.copy(), region.radius)
             else:
@@ -141,6 +149,11 @@ class OcclusionMonitor:
             self.started += 1
             begun.append(int(row))
         return begun
+
+    def partners(self) -> set[int]:
+        """Labels of the visible tracks whose blobs hide an occluded one: inside the occlusion
+        region too, their own measurements are merged blobs until the hidden one is back."""
+        return {o.partner for o in self.occluded.values() if o.partner}
 
     def away_from_border(
         self, position: np.ndarray, window: tuple[float, float, float, float] | None

@@ -43,12 +43,23 @@ THESIS: dict[int, dict[str, float]] = {
     3: {"ospa_mht": 121.8, "ospa_cgm": 64.9, "ospa": 15.7, "mota_mht": 0.56, "mota_cgm": 0.72, "mota": 0.83},
 }  # fmt: skip
 THESIS_MOR = {1: 0.0, 2: 0.0, 3: 0.0}
+BIRTH_SITE_WEIGHT = 0.1
 WINDOW = Rect(AREA[0], AREA[2], AREA[1] - AREA[0], AREA[3] - AREA[2])
 
 
-def scenario_parameters(case: Scenario, occlusion_handling: bool = True) -> dict[str, Any]:
-    """gm_phd parameters with the scenario's models (one time unit per step)."""
-    return TRACKERS.get("gm_phd").defaults() | {
+def scenario_parameters(
+    case: Scenario, occlusion_handling: bool = True, birth_sites: bool = True
+) -> dict[str, Any]:
+    """gm_phd parameters with the scenario's models (one time unit per step); with
+    `birth_sites`, a static birth mixture at the scenario's birth sites (Vo & Ma's protocol)
+    besides the measurement-driven births."""
+    sites = {
+        "birth_sites": [float(v) for v in case.birth_sites.ravel()],
+        "birth_site_weight": BIRTH_SITE_WEIGHT if birth_sites else 0.0,
+        "birth_site_position_std": 10.0,
+        "birth_site_speed_std": 25.0,
+    }
+    return TRACKERS.get("gm_phd").defaults() | sites | {
         "clutter_rate": float(case.clutter),
         "area": WINDOW.width * WINDOW.height,
         "process_noise": 5.0,
@@ -91,17 +102,26 @@ def evaluate(numbers: list[int], seeds: range) -> dict[str, dict[int, Summary]]:
     return results
 
 
-def table(results: dict[str, dict[int, Summary]], seeds: int) -> str:
+def table(
+    results: dict[str, dict[int, Summary]],
+    seeds: int,
+    stone_soup: dict[int, dict[str, dict[str, float]]] | None = None,
+) -> str:
+    """The thesis's table beside ours; `stone_soup` adds bench_gmphd's filters-alone OSPA."""
     head = (
         "| scenario | OSPA thesis (MHT / CGM-PHD / proposed) | OSPA ours | OSPA no occl. | "
         "MOTA thesis (MHT / CGM / proposed) | MOTA ours | MOTA no occl. | IDF1 ours | "
         "FAR / ReR / MLR ours | missed occlusions ours | no occl. | ms/step |"
     )
-    lines = [head, "|" + "---|" * 12]
+    columns = 12
+    if stone_soup is not None:
+        head += " OSPA filters alone: ours / Stone Soup | ms/step ours / Stone Soup |"
+        columns += 2
+    lines = [head, "|" + "---|" * columns]
     for number, ours in results["gm_phd"].items():
         plain = results["gm_phd_no_occlusion"][number]
         t = THESIS[number]
-        lines.append(
+        line = (
             f"| {number} | {t['ospa_mht']} / {t['ospa_cgm']} / {t['ospa']} "
             f"| {ours.ospa:.1f} ± {ours.ospa_std:.1f} | {plain.ospa:.1f} "
             f"| {t['mota_mht']} / {t['mota_cgm']} / {t['mota']} | {ours.mota:.2f} | {plain.mota:.2f} "
@@ -109,6 +129,13 @@ def table(results: dict[str, dict[int, Summary]], seeds: int) -> str:
             f"| {ours.missed_occlusions} / {ours.occlusions} | {plain.missed_occlusions} / "
             f"{plain.occlusions} | {ours.ms_per_step:.2f} |"
         )
+        if stone_soup is not None:
+            ss = stone_soup[number]
+            line += (
+                f" {ss['ours']['ospa']:.1f} / {ss['stone_soup']['ospa']:.1f} "
+                f"| {ss['ours']['ms_per_step']:.2f} / {ss['stone_soup']['ms_per_step']:.0f} |"
+            )
+        lines.append(line)
     return "\n".join(lines) + f"\n\n{seeds} Monte Carlo runs per scenario."
 
 

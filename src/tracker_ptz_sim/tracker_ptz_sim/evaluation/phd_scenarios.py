@@ -5,9 +5,12 @@ The thesis describes the scenarios in words only (digest section 5); this is the
 - scenario 1: two targets cross mid-scene at step 25, a third is born there at step 25 (inside
   the occlusion) and leaves along the middle; 25 clutter points per step;
 - scenario 2: three targets cross at (0, 500) at step 25, all alive at steps 1..50; 25 clutter;
-- scenario 3: 11 targets, 2 born every 5 steps (steps 1, 6, ..., 21, and one at 26) at random
-  places inside the area with random headings at 10-25 units/step, living until step 50 or until
-  they leave; 50 false alarms per step;
+- scenario 3: 11 targets, 2 born every 5 steps (steps 1, 6, ..., 21, and one at 26) at four
+  birth sites (Vo & Ma's arrangement: the thesis's base code has a birth mixture of covariance
+  diag(100, 100, 25, 25), i.e. known sites), within std 10 of the site, with random headings at
+  10-25 units/step, living until step 50 or until they leave; 50 false alarms per step;
+- every scenario lists its `birth_sites` (the start points), for a tracker with a static birth
+  mixture; a tracker without one must find births from the measurements alone;
 - a target is detected with p_D = 0.98, its measurement perturbed by Gaussian noise of std 10
   clipped to +-50 per axis (the thesis's noise "not exceeding 50 units"); clutter uniform over the
   area, the stated count each step;
@@ -47,6 +50,7 @@ class Scenario:
     name: str
     positions: np.ndarray
     clutter: int
+    birth_sites: np.ndarray  # (S, 2), where targets appear
 
     @property
     def targets(self) -> int:
@@ -86,6 +90,13 @@ def _inside(track: np.ndarray) -> np.ndarray:
     return track
 
 
+def _starts(tracks: list[np.ndarray]) -> np.ndarray:
+    return np.array([track[np.flatnonzero(np.isfinite(track[:, 0]))[0]] for track in tracks])
+
+
+SCENARIO_3_SITES = np.array([[-500.0, 300.0], [-400.0, 700.0], [400.0, 300.0], [500.0, 700.0]])
+
+
 def scenario(number: int) -> Scenario:
     """Scenario 1, 2 or 3 of the thesis (see the module docstring)."""
     if number == 1:
@@ -94,24 +105,24 @@ def scenario(number: int) -> Scenario:
             _line((-480.0, 788.0), (20.0, -12.0), 1, 50),
             _line((0.0, 500.0), (20.0, 0.0), 25, 50),
         ]
-        return Scenario("scenario 1", np.stack(tracks, axis=1), clutter=25)
+        return Scenario("scenario 1", np.stack(tracks, axis=1), 25, _starts(tracks))
     if number == 2:
         headings = np.radians([0.0, 60.0, 120.0])
         velocities = 20.0 * np.column_stack([np.cos(headings), np.sin(headings)])
         tracks = [
             _line(tuple(np.array([0.0, 500.0]) - 24 * v), tuple(v), 1, 50) for v in velocities
         ]
-        return Scenario("scenario 2", np.stack(tracks, axis=1), clutter=25)
+        return Scenario("scenario 2", np.stack(tracks, axis=1), 25, _starts(tracks))
     if number == 3:
         rng = np.random.default_rng(3)
         births = [1, 1, 6, 6, 11, 11, 16, 16, 21, 21, 26]
         tracks = []
-        for born in births:
-            start = (rng.uniform(-800, 800), rng.uniform(150, 850))
+        for n, born in enumerate(births):
+            x, y = SCENARIO_3_SITES[n % len(SCENARIO_3_SITES)] + rng.normal(0.0, 10.0, 2)
             heading, speed = rng.uniform(0, 2 * np.pi), rng.uniform(10.0, 25.0)
             velocity = (speed * np.cos(heading), speed * np.sin(heading))
-            tracks.append(_inside(_line(start, velocity, born, 50)))
-        return Scenario("scenario 3", np.stack(tracks, axis=1), clutter=50)
+            tracks.append(_inside(_line((x, y), velocity, born, 50)))
+        return Scenario("scenario 3", np.stack(tracks, axis=1), 50, SCENARIO_3_SITES.copy())
     raise ValueError(f"scenario must be 1, 2 or 3, got {number}")
 
 

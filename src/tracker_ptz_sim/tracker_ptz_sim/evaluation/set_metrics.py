@@ -11,8 +11,8 @@ an id to its (2,) position.
 - The thesis's rates, from the same matching: FAR = false estimates / estimates; ReR = correct
   estimates / true targets; MLR = lost-label time / target time, a target's label being the
   estimate id it was matched with most and its lost-label time the frames it is not matched with
-  that id; MOR = missed occlusions / occlusions, an occlusion missed when the id matched in the
-  frame before it is not the id matched within `reacquire` frames after it.
+  that id; MOR = missed occlusions / occlusions, an occlusion missed when the id last matched within
+  `reacquire` frames before it is not among those matched within `reacquire` frames after it.
 """
 
 from __future__ import annotations
@@ -148,10 +148,11 @@ def _missed_occlusions(
 ) -> int:
     missed = 0
     for target, first, last in occlusions:
-        before = matches[first - 1].get(target) if first > 0 else None
+        before = [matches[k].get(target) for k in range(max(0, first - reacquire), first)]
+        known = [label for label in before if label is not None]
         after = [
             matches[k].get(target) for k in range(last + 1, min(last + 1 + reacquire, len(matches)))
         ]
-        if before is None or before not in after:
+        if not known or known[-1] not in after:
             missed += 1
     return missed
