@@ -1,0 +1,64 @@
+"""Seed 004's synthetic scenarios and the gm_phd tracker's accuracy on them (5 Monte Carlo seeds).
+
+Floors are the values measured on these seeds (see README, `phd_benchmark`) less a margin; the
+comparison with and without occlusion handling is the seed's claim: occlusions are not missed.
+"""
+
+from __future__ import annotations
+
+from functools import partial
+
+import numpy as np
+import pytest
+
+from tracker_ptz_sim.bringup.phd_benchmark import gm_phd_scan_tracker, scenario_parameters
+from tracker_ptz_sim.evaluation import phd_scenarios
+from tracker_ptz_sim.evaluation.phd_scenarios import AREA, STEPS, Summary
+
+SEEDS = range(5)
+
+
+def test_scenario_two_crosses_at_the_centre_and_scenario_three_has_eleven_births():
+    two = phd_scenarios.scenario(2)
+    assert np.allclose(two.positions[24], [[0.0, 500.0]] * 3)
+    three = phd_scenarios.scenario(3)
+    born = [int(np.flatnonzero(np.isfinite(three.positions[:, i, 0]))[0]) + 1 for i in range(11)]
+    assert sorted(born) == [1, 1, 6, 6, 11, 11, 16, 16, 21, 21, 26]
+    alive = three.positions[np.isfinite(three.positions[..., 0])]
+    assert (alive[:, 0] >= AREA[0]).all() and (alive[:, 1] <= AREA[3]).all()
+    one = phd_scenarios.scenario(1)
+    assert np.allclose(one.positions[24, 2], [0.0, 500.0])  # born inside the crossing
+
+
+def test_scans_merge_close_targets_and_add_the_clutter():
+    case = phd_scenarios.scenario(2)
+    draw = phd_scenarios.scans(case, seed=0)
+    assert len(draw.measurements) == STEPS
+    assert all(len(z) <= case.clutter + 3 for z in draw.measurements)
+    assert len(draw.measurements[24]) <= case.clutter + 1  # one blob at the crossing
+    assert {target for target, _, _ in draw.occlusions} == {1, 2, 3}
+
+
+def evaluate(number: int, occlusion_handling: bool) -> Summary:
+    case = phd_scenarios.scenario(number)
+    values = scenario_parameters(case, occlusion_handling)
+    return phd_scenarios.monte_carlo(case, SEEDS, partial(gm_phd_scan_tracker, values))
+
+
+@pytest.mark.parametrize(
+    ("number", "mota", "ospa", "missed_share"),
+    [(1, 0.78, 55.0, 0.35), (2, 0.78, 40.0, 0.35), (3, 0.78, 70.0, 0.15)],
+)
+def test_gm_phd_tracks_the_scenarios(number, mota, ospa, missed_share):
+    found = evaluate(number, occlusion_handling=True)
+    assert found.mota >= mota
+    assert found.ospa <= ospa
+    assert found.missed_occlusions <= missed_share * found.occlusions
+
+
+@pytest.mark.parametrize("number", [1, 2])
+def test_occlusion_handling_keeps_labels_through_crossings(number):
+    handled = evaluate(number, occlusion_handling=True)
+    plain = evaluate(number, occlusion_handling=False)
+    assert handled.missed_occlusions < plain.missed_occlusions / 2
+    assert handled.idf1 > plain.idf1 + 0.1
