@@ -39,6 +39,7 @@ setup(
             "benchmark = tracker_ptz_sim.entry_points:benchmark",
             "predictor_study = tracker_ptz_sim.entry_points:predictor_study",
             "single_target_benchmark = tracker_ptz_sim.entry_points:single_target_benchmark",
+            "phd_benchmark = tracker_ptz_sim.entry_points:phd_benchmark",
         ],
     },
 )

@@ -25,6 +25,7 @@ TOOLS = {
     "benchmark",
     "predictor_study",
     "single_target_benchmark",
+    "phd_benchmark",
 }
 
 

@@ -50,3 +50,7 @@ def predictor_study() -> int:
 
 def single_target_benchmark() -> int:
     return guarded_main("tracker_ptz_sim.bringup.single_target_benchmark")
+
+
+def phd_benchmark() -> int:
+    return guarded_main("tracker_ptz_sim.bringup.phd_benchmark")
