@@ -4,6 +4,9 @@
                                      handling; prints the table, writes out/phd_benchmark/
     phd_benchmark --seeds 10 --scenarios 2
 
+Writes table.md, results.json and scenarios.png (per scenario, one draw: the measurements, the
+truth and the labelled estimates with and without occlusion handling, and OSPA over time).
+
 The scenarios and metrics are `evaluation.phd_scenarios` and `evaluation.set_metrics` (OSPA with
 c = 200, p = 2; MOTA with a 50-unit match; FAR, ReR, MLR, MOR). The tracker is the registered
 `gm_phd` method itself, fed each scan as an Observation one time unit apart, with the scenario's
@@ -23,6 +26,8 @@ from functools import partial
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from tracker_filter.observation import Detections, Observation
 from tracker_filter.trackers import TRACKERS
 from tracker_filter.tracking import TrackStatus
@@ -31,10 +36,12 @@ from tracker_ptz_sim.evaluation import phd_scenarios
 from tracker_ptz_sim.evaluation.phd_scenarios import (
     AREA,
     OBJECT_SIZE,
+    OSPA_CUTOFF,
     ScanTracker,
     Scenario,
     Summary,
 )
+from tracker_ptz_sim.evaluation.set_metrics import ospa
 
 #: The thesis's table (digest section 5): OSPA and MOTA of MHT, CGM-PHD and the proposed filter.
 THESIS: dict[int, dict[str, float]] = {
@@ -59,17 +66,21 @@ def scenario_parameters(
         "birth_site_position_std": 10.0,
         "birth_site_speed_std": 25.0,
     }
-    return TRACKERS.get("gm_phd").defaults() | sites | {
-        "clutter_rate": float(case.clutter),
-        "area": WINDOW.width * WINDOW.height,
-        "process_noise": 5.0,
-        "measurement_noise": 10.0,
-        "max_birth_speed": 60.0,
-        "max_components": 100,
-        "object_size": OBJECT_SIZE,
-        "border_margin": 50.0,
-        "occlusion_handling": occlusion_handling,
-    }
+    return (
+        TRACKERS.get("gm_phd").defaults()
+        | sites
+        | {
+            "clutter_rate": float(case.clutter),
+            "area": WINDOW.width * WINDOW.height,
+            "process_noise": 5.0,
+            "measurement_noise": 10.0,
+            "max_birth_speed": 60.0,
+            "max_components": 100,
+            "object_size": OBJECT_SIZE,
+            "border_margin": 50.0,
+            "occlusion_handling": occlusion_handling,
+        }
+    )
 
 
 def gm_phd_scan_tracker(values: dict[str, Any]) -> ScanTracker:
@@ -139,6 +150,55 @@ def table(
     return "\n".join(lines) + f"\n\n{seeds} Monte Carlo runs per scenario."
 
 
+def plot_scenarios(numbers: list[int], path: Path, seed: int = 0) -> Path:
+    """One row per scenario (Monte Carlo draw `seed`): the measurements, the truth and the
+    labelled estimates coloured by label, with and without occlusion handling, and OSPA over
+    time; written to `path` (PNG)."""
+    import matplotlib
+
+    matplotlib.use("Agg")  # files only
+    import matplotlib.pyplot as plt
+
+    figure, axes = plt.subplots(len(numbers), 3, figsize=(16, 4.2 * len(numbers)), squeeze=False)
+    for row, number in zip(axes, numbers, strict=True):
+        case = phd_scenarios.scenario(number)
+        draw = phd_scenarios.scans(case, seed)
+        truth = case.truth()
+        ospas = {}
+        for column, handling in ((0, True), (1, False)):
+            track = gm_phd_scan_tracker(scenario_parameters(case, handling))
+            found = [track(k, z) for k, z in enumerate(draw.measurements)]
+            axis = row[column]
+            every = np.vstack(draw.measurements)
+            axis.plot(every[:, 0], every[:, 1], ".", color="0.85", ms=2)
+            for target in range(case.targets):
+                axis.plot(*case.positions[:, target].T, "-", color="0.4", lw=1)
+            labels = sorted({i for frame in found for i in frame})
+            for label in labels:
+                points = np.array([frame[label] for frame in found if label in frame])
+                axis.plot(points[:, 0], points[:, 1], ".", ms=4, label=str(label))
+            axis.set_xlim(AREA[0], AREA[1])
+            axis.set_ylim(AREA[2], AREA[3])
+            kind = "occlusion handling" if handling else "no occlusion handling"
+            axis.set_title(f"{case.name}, seed {seed}: gm_phd, {kind} ({len(labels)} labels)")
+            ospas[kind] = [
+                ospa(np.reshape(list(t.values()), (-1, 2)), np.reshape(list(f.values()), (-1, 2)),
+                     OSPA_CUTOFF)
+                for t, f in zip(truth, found, strict=True)
+            ]  # fmt: skip
+        for kind, values in ospas.items():
+            row[2].plot(range(1, len(values) + 1), values, label=kind)
+        for _, first, last in draw.occlusions:
+            row[2].axvspan(first + 1, last + 1, color="orange", alpha=0.1)
+        row[2].set_xlabel("step")
+        row[2].set_ylabel(f"OSPA (c = {OSPA_CUTOFF:g}, p = 2)")
+        row[2].legend(loc="upper right")
+    figure.tight_layout()
+    figure.savefig(path, dpi=80)
+    plt.close(figure)
+    return path
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="phd_benchmark", description=__doc__.split("\n")[0])
     parser.add_argument("--seeds", type=int, default=50, help="Monte Carlo runs per scenario")
@@ -154,7 +214,8 @@ def main(argv: list[str] | None = None) -> int:
     (args.out / "table.md").write_text(text + "\n")
     serial = {name: {n: asdict(s) for n, s in by.items()} for name, by in results.items()}
     (args.out / "results.json").write_text(json.dumps(serial, indent=2))
-    print(f"wrote {args.out}/table.md and results.json")
+    plot_scenarios(args.scenarios, args.out / "scenarios.png")
+    print(f"wrote {args.out}/table.md, results.json and scenarios.png")
     return 0
 
 
