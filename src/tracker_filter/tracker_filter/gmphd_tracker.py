@@ -90,9 +90,12 @@ _ROW_FIELDS = (
     "hit_covariances",
     "hit_times",
     "mean_velocities",
+    "mean_positions",
+    "history_times",
+    "history_points",
 )
-#: Weight of the newest hit-to-hit velocity in a track's mean velocity.
-VELOCITY_SMOOTHING = 0.3
+#: Hits (time, measured position) a track's mean velocity is fitted to.
+VELOCITY_HISTORY = 10
 #: Std of an occluded track's velocity, as a share of its speed.
 OCCLUDED_SPEED_SPREAD = 0.3
 
@@ -138,8 +141,12 @@ class GmPhdTracker:
         self.hit_states = np.zeros((0, LAYOUT.dim))
         self.hit_covariances = np.zeros((0, LAYOUT.dim, LAYOUT.dim))
         self.hit_times = np.zeros(0)
-        self.mean_velocities = np.zeros((0, 2))  # px/s, smoothed from hit to hit (the thesis's
-        # "average speed" of a labelled state)
+        # the thesis's kept "average speed": a straight line fitted to the last hits' measured
+        # positions (least squares), steadier than the filter's velocity for dead reckoning
+        self.mean_velocities = np.zeros((0, 2))  # px/s
+        self.mean_positions = np.zeros((0, 2))  # px, the fitted line at the last hit
+        self.history_times = np.zeros((0, VELOCITY_HISTORY))  # NaN: no hit yet
+        self.history_points = np.zeros((0, VELOCITY_HISTORY, 2))
         self.pending = Mixture.empty()  # Gaussians of tracks occluded at the last frame
         self._epsilon_now = self.monitor.config.object_size  # px, this frame's occlusion radius
         self._now = 0.0  # s, the step being processed
@@ -231,12 +238,12 @@ class GmPhdTracker:
         self.unassigned[rows] = 0
         self.weights[self.unassigned > 0] = 0.0  # no Gaussian of its own: a prediction
         hit_rows = np.flatnonzero(hit)
-        self._smooth_velocities(hit_rows, t)
+        sources = np.full(len(book), -1, np.int64)
+        sources[rows] = estimates.sources[cols]
+        self._fit_velocities(hit_rows, t, detections.positions[sources[hit_rows]])
         self.hit_states[hit_rows] = self.states[hit_rows]
         self.hit_covariances[hit_rows] = self.covariances[hit_rows]
         self.hit_times[hit_rows] = t
-        sources = np.full(len(book), -1, np.int64)
-        sources[rows] = estimates.sources[cols]
         book.record_frame(hit_rows, sources[hit_rows], detections, LAYOUT.positions(self.states))
         window = observation.window
         bounds = None if window is None else (window.x, window.y, window.width, window.height)
@@ -263,11 +270,32 @@ class GmPhdTracker:
         book.finish(t)
         return tracks
 
-    def _smooth_velocities(self, rows: np.ndarray, t: float) -> None:
-        gaps = t - self.hit_times[rows]
-        moved = LAYOUT.positions(self.states[rows]) - LAYOUT.positions(self.hit_states[rows])
-        velocity = moved / np.maximum(gaps, 1e-9)[:, None]
-        self.mean_velocities[rows] += VELOCITY_SMOOTHING * (velocity - self.mean_velocities[rows])
+    def _fit_velocities(self, rows: np.ndarray, t: float, measured: np.ndarray) -> None:
+        """Add the hits (measured positions (R, 2) at t) to the rows' histories and refit their
+        mean velocities: the least-squares slope of position over time."""
+        if not len(rows):
+            return
+        times = np.roll(self.history_times[rows], -1, axis=1)
+        points = np.roll(self.history_points[rows], -1, axis=1)
+        times[:, -1], points[:, -1] = t, measured
+        self.history_times[rows], self.history_points[rows] = times, points
+        valid = np.isfinite(times)
+        count = valid.sum(axis=1)
+        centred = np.where(valid, times - np.nanmean(times, axis=1, keepdims=True), 0.0)
+        spread = (centred**2).sum(axis=1)
+        mean_point = (points * valid[..., None]).sum(axis=1) / count[:, None]
+        slope = (centred[..., None] * (points - mean_point[:, None])).sum(axis=1)
+        fitted = (count >= 3) & (spread > 0)
+        velocity = np.where(
+            fitted[:, None],
+            slope / np.where(spread > 0, spread, 1.0)[:, None],
+            self.states[rows, 2:],
+        )
+        self.mean_velocities[rows] = velocity
+        latest = (t - np.nanmean(times, axis=1))[:, None]
+        self.mean_positions[rows] = np.where(
+            fitted[:, None], mean_point + velocity * latest, measured
+        )
 
     def _drop_stray_tagged(self) -> None:
         """An occluded track is one Gaussian: its tagged components too light to be it (below
@@ -330,7 +358,7 @@ class GmPhdTracker:
         label = int(self.book.ids[row])
         if label in self.anchors:
             return self.anchors[label]
-        state = np.concatenate([self.hit_states[row, :2], self.mean_velocities[row]])
+        state = np.concatenate([self.mean_positions[row], self.mean_velocities[row]])
         return state, float(self.hit_times[row])
 
     def _update_anchors(self) -> None:
@@ -360,21 +388,30 @@ class GmPhdTracker:
         boxes: np.ndarray,
     ) -> None:
         labels = self.book.ids
-        for label in self.monitor.advance(labels, hit):
-            mixture = self.filter.mixture
-            tags = np.where(mixture.tags == label, 0, mixture.tags)
-            self.filter.mixture = replace(mixture, tags=tags)
+        self.monitor.advance(labels, hit)
+        in_regions = set(self.monitor.occluded) | self.monitor.partners()
+        mixture = self.filter.mixture
+        done = (mixture.tags > 0) & ~np.isin(mixture.tags, list(in_regions))
+        if done.any():  # their occlusions ended: ordinary Gaussians again
+            self.filter.mixture = replace(mixture, tags=np.where(done, 0, mixture.tags))
         self._epsilon_now = self._epsilon(boxes)
         hidden = ~hit & self.book.confirmed
         positions = LAYOUT.positions(self.states)
         begun = self.monitor.begin(labels, positions, hidden, self._epsilon_now)
-        if begun:
-            rows = np.array(begun)
-            means, covariances = self._since_hit(rows, t)
-            self.pending = Mixture.of(np.ones(len(rows)), means, covariances, labels[rows])
-            self.weights[rows] = np.maximum(self.weights[rows], 1.0)
-        else:
-            self.pending = Mixture.empty()
+        self.pending = Mixture.empty()
+        if not begun:
+            return
+        partners = {self.monitor.occluded[int(labels[row])].partner for row in begun}
+        tagged = set(self.filter.mixture.tags.tolist())
+        extra = [
+            row
+            for row, label in enumerate(labels.tolist())
+            if label in partners and label not in tagged and row not in begun
+        ]
+        rows = np.array(begun + extra)
+        means, covariances = self._since_hit(rows, t)
+        self.pending = Mixture.of(np.ones(len(rows)), means, covariances, labels[rows])
+        self.weights[begun] = np.maximum(self.weights[begun], 1.0)
 
     def _lost(self, bounds: tuple[float, float, float, float] | None) -> np.ndarray:
         occluded = np.array([label in self.monitor.occluded for label in self.book.ids.tolist()])
@@ -416,6 +453,13 @@ class GmPhdTracker:
             "hit_covariances": estimates.covariances[cols],
             "hit_times": np.full(len(cols), t),
             "mean_velocities": estimates.means[cols][:, 2:],
+            "mean_positions": detections.positions[estimates.sources[cols]],
+            "history_times": np.column_stack(
+                [np.full((len(cols), VELOCITY_HISTORY - 1), np.nan), np.full(len(cols), t)]
+            ),
+            "history_points": np.repeat(
+                detections.positions[estimates.sources[cols]][:, None, :], VELOCITY_HISTORY, axis=1
+            ),
         }
         for name in _ROW_FIELDS:
             setattr(self, name, np.concatenate([getattr(self, name), rows[name]]))

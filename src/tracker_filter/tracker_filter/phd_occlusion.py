@@ -12,6 +12,10 @@ The thesis's three kinds of region, as `OcclusionMonitor` keeps them per labelle
    such a region is occluded too (a static object hides it), and the region gets a birth
    Gaussian, so a target that reappears there is picked up at once.
 
+The visible partner of an occlusion (the track whose blob hides the other) gets such a Gaussian
+too, beside the blob's: when the blob splits, the blob's Gaussian follows the nearest piece,
+the dead-reckoned one the piece that moved as the partner did.
+
 An occluded track keeps its Gaussian: a component at its state predicted from its last hit with
 its mean velocity is injected, tagged with the track's label (so it is never merged into the
 Gaussian of the target hiding it; m = F m~, P = F P~ F^T + Q through the filter's prediction). It
@@ -102,14 +106,18 @@ class OcclusionMonitor:
         return float(np.mean(self.ended)) if self.ended else self.config.mean_occlusion
 
     def detection_terms(self, tags: np.ndarray, detection: float) -> DetectionTerms:
-        """Per component: an occluded track's are guarded, missed-detection factor P_d^occl
-        and p_D = 1 - P_d^occl; the others p_D (`detection`) and 1 - p_D."""
+        """Per component: those of an occluded track and of its partner (the dead-reckoned
+        Gaussian kept beside the blob the partner follows) are guarded, missed-detection factor
+        P_d^occl and p_D = 1 - P_d^occl; the others p_D (`detection`) and 1 - p_D."""
         terms = DetectionTerms.standard(len(tags), detection)
         for label, occlusion in self.occluded.items():
-            mine = tags == label
-            terms.miss[mine] = occlusion.persistence
-            terms.detection[mine] = 1.0 - occlusion.persistence
-            terms.guarded[mine] = True
+            for owner in (label, occlusion.partner) if occlusion.partner else (label,):
+                mine = tags == owner
+                terms.miss[mine] = np.maximum(
+                    np.where(terms.guarded[mine], terms.miss[mine], 0.0), occlusion.persistence
+                )
+                terms.detection[mine] = 1.0 - terms.miss[mine]
+                terms.guarded[mine] = True
         return terms
 
     def _in_region(self, position: np.ndarray) -> UnknownObjectRegion | None:
@@ -137,7 +145,9 @@ class OcclusionMonitor:
                 continue
             gaps = np.hypot(*(positions - positions[row]).T)
             gaps[row] = np.inf
-            near = int(np.argmin(gaps)) if len(gaps) > 1 else -1
+            # the blob that hides it is a visible track's: prefer those to other hidden ones
+            ranked = gaps + np.where(hidden, epsilon, 0.0)
+            near = int(np.argmin(ranked)) if len(gaps) > 1 else -1
             if near >= 0 and gaps[near] <= epsilon:
                 centre = (positions[row] + positions[near]) / 2.0
                 radius = max(epsilon, float(gaps[near]))
