@@ -51,6 +51,7 @@ def node_parameters() -> dict[tuple[str, str], list]:
         ("tracker_filter/README.md", "### `colour_particles`"): list(
             TRACKERS.get("colour_particles").parameters
         ),
+        ("tracker_filter/README.md", "### `gm_phd`"): list(TRACKERS.get("gm_phd").parameters),
     }
 
 
