@@ -13,7 +13,8 @@ predict   survivors   w <- p_S w,  m <- F m,  P <- F P F^T + Q
           births      measurement-driven (pairs of unexplained measurements of the last two
                       scans within `max_birth_speed`: m = [z_k, (z_k - z_{k-1}) / dt]) and a
                       static birth mixture, both predicted like survivors
-update    missed      (1 - p_D) w, m, P                    (or `miss_factor` w, see below)
+update    missed      (1 - p_D) w, m, P   (none for births: as Stone Soup, unlike Vo & Ma's
+                      formula -- an undetected wide birth would widen the targets it merges into)
           detected    eta = H m, S = R + H P H^T, K = P H^T S^-1,
                       m' = m + K (z - eta), P' = (I - K H) P,
                       w' = p_D w N(z; eta, S) / (kappa + p_D sum_l w_l N(z; eta_l, S_l))
@@ -39,7 +40,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numba
 import numpy as np
@@ -48,6 +49,7 @@ from tracker_filter.models import CONSTANT_VELOCITY
 
 DIM = 4  # x y vx vy
 AXES = 2
+BIRTH = -2  # source of a birth component between prediction and update
 
 
 @dataclass(frozen=True, eq=False)
@@ -141,6 +143,9 @@ class GmPhdConfig:
     spawn_weight: float = 0.0  # w_s: spawns per target (0: none)
     spawn_noise: float = 20.0  # sigma of the spawn's extra velocity, px/s
     gate: float = math.inf  # squared Mahalanobis distance beyond which z does not update m
+    # Stone Soup's GaussianMixtureReducer caps a merged weight at 1; Vo & Ma (and this filter by
+    # default) do not. Only for comparing with it like for like.
+    cap_merged_weight: bool = False
 
     @property
     def clutter_density(self) -> float:
@@ -364,9 +369,13 @@ class GmPhdFilter:
             np.full(len(mixture), -1, np.int64),
         )
 
-    def predict(self, dt: float, injected: Mixture | None = None) -> Mixture:
-        """The predicted intensity dt later: survivors, spawns, births and `injected` components
-        (e.g. occluded targets kept alive), all moved by the motion model."""
+    def predict(
+        self, dt: float, injected: Mixture | None = None, births: Mixture | None = None
+    ) -> Mixture:
+        """The predicted intensity dt later: survivors, spawns, `injected` components (e.g.
+        occluded targets kept alive), and births -- the measurement-driven ones, the static
+        mixture and `births` -- all moved by the motion model. Births are marked (source BIRTH)
+        until the update."""
         c = self.config
         noise = CONSTANT_VELOCITY.process_noise(dt, c.process_noise)
         survivors = self._propagate(self.mixture, dt, noise)
@@ -390,9 +399,12 @@ class GmPhdFilter:
                     spawned.sources,
                 )
             )
-        for births in (self._birth_pairs, self.static_birth, injected):
-            if births is not None and len(births):
-                parts.append(self._propagate(births, dt, noise))
+        if injected is not None and len(injected):
+            parts.append(self._propagate(injected, dt, noise))
+        for born in (self._birth_pairs, self.static_birth, births):
+            if born is not None and len(born):
+                moved = self._propagate(born, dt, noise)
+                parts.append(replace(moved, sources=np.full(len(moved), BIRTH, np.int64)))
         return Mixture.concatenate(parts)
 
     def update(
@@ -405,8 +417,10 @@ class GmPhdFilter:
         count = len(predicted)
         if terms is None:
             terms = DetectionTerms.standard(count, c.detection)
+        # a birth no measurement supports is no target: its missed-detection copy is dropped
+        # (a wide birth Gaussian's copy would otherwise merge into nearby targets and widen them)
         missed = Mixture(
-            terms.miss * predicted.weights,
+            np.where(predicted.sources == BIRTH, 0.0, terms.miss * predicted.weights),
             predicted.means,
             predicted.covariances,
             predicted.tags,
@@ -449,7 +463,7 @@ class GmPhdFilter:
         c = self.config
         fresh = measurements[explained < c.birth_gate]
         previous, self._unexplained = self._unexplained, fresh
-        if not len(fresh) or not len(previous) or dt <= 0:
+        if not len(fresh) or not len(previous) or dt <= 0 or c.birth_weight <= 0:
             self._birth_pairs = Mixture.empty()
             return
         step = fresh[:, None, :] - previous[None, :, :]
@@ -468,6 +482,8 @@ class GmPhdFilter:
     def reduce(self, mixture: Mixture) -> Mixture:
         c = self.config
         merged = merge(prune(mixture, c.prune_threshold, 1 << 62), c.merge_threshold)
+        if c.cap_merged_weight:
+            merged = replace(merged, weights=np.minimum(merged.weights, 1.0))
         return prune(merged, c.prune_threshold, c.max_components)
 
     def step(
@@ -477,12 +493,13 @@ class GmPhdFilter:
         injected: Mixture | None = None,
         terms: Callable[[Mixture], DetectionTerms] | None = None,
         threshold: float | None = None,
+        births: Mixture | None = None,
     ) -> Estimates:
         """One scan `dt` after the last: predict (with `injected`), update (with the detection
         terms `terms(predicted)` gives, when given), reduce; returns the states extracted at
         `threshold` (default: the configured extract_threshold)."""
         z = np.asarray(measurements, dtype=float).reshape(-1, AXES)
-        predicted = self.predict(dt, injected)
+        predicted = self.predict(dt, injected, births)
         result = self.update(predicted, z, terms(predicted) if terms is not None else None)
         self._births_from(z, result.explained, dt)
         self.mixture = self.reduce(result.mixture)

@@ -210,18 +210,16 @@ class GmPhdTracker:
         detections, rejections = observation.detections.validated()
         self._adopt_window_area(observation)
         config = self.filter.config
-        injected = Mixture.concatenate(
-            [
-                self.pending,
-                self.monitor.region_births(config.measurement_noise, config.max_birth_speed / 2),
-            ]
+        region_births = self.monitor.region_births(
+            config.measurement_noise, config.max_birth_speed / 2
         )
         estimates = self.filter.step(
             detections.positions,
             dt,
-            injected,
+            self.pending,
             lambda predicted: self.monitor.detection_terms(predicted.tags, config.detection),
             min(self.continue_threshold, config.extract_threshold),
+            region_births,
         )
         self._drop_stray_tagged()
         # every track predicted to t (coasting); those given a state take it below

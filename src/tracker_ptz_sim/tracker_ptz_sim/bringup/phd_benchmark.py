@@ -126,7 +126,7 @@ def table(
     )
     columns = 12
     if stone_soup is not None:
-        head += " OSPA filters alone: ours / Stone Soup | ms/step ours / Stone Soup |"
+        head += " OSPA filters alone: ours / ours capped / Stone Soup | ms/step ours / Stone Soup |"
         columns += 2
     lines = [head, "|" + "---|" * columns]
     for number, ours in results["gm_phd"].items():
@@ -143,7 +143,8 @@ def table(
         if stone_soup is not None:
             ss = stone_soup[number]
             line += (
-                f" {ss['ours']['ospa']:.1f} / {ss['stone_soup']['ospa']:.1f} "
+                f" {ss['ours']['ospa']:.1f} / {ss['ours_capped']['ospa']:.1f} / "
+                f"{ss['stone_soup']['ospa']:.1f} "
                 f"| {ss['ours']['ms_per_step']:.2f} / {ss['stone_soup']['ms_per_step']:.0f} |"
             )
         lines.append(line)
