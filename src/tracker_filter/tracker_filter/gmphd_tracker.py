@@ -86,7 +86,6 @@ _ROW_FIELDS = (
     "covariances",
     "weights",
     "unassigned",
-    "hit_states",
     "hit_covariances",
     "hit_times",
     "mean_velocities",
@@ -136,9 +135,8 @@ class GmPhdTracker:
         self.covariances = np.zeros((0, LAYOUT.dim, LAYOUT.dim))
         self.weights = np.zeros(0)
         self.unassigned = np.zeros(0, np.int64)  # consecutive frames without a state of its own
-        # the state at the last hit: an occluded track's Gaussian is injected from it, not from
-        # the states the merged blob pulled off course just before the occlusion was seen
-        self.hit_states = np.zeros((0, LAYOUT.dim))
+        # the covariance and time of the last hit: an occluded track's Gaussian is injected from
+        # them with its mean velocity (not from the states a merged blob pulled off course)
         self.hit_covariances = np.zeros((0, LAYOUT.dim, LAYOUT.dim))
         self.hit_times = np.zeros(0)
         # the thesis's kept "average speed": a straight line fitted to the last hits' measured
@@ -239,7 +237,6 @@ class GmPhdTracker:
         sources = np.full(len(book), -1, np.int64)
         sources[rows] = estimates.sources[cols]
         self._fit_velocities(hit_rows, t, detections.positions[sources[hit_rows]])
-        self.hit_states[hit_rows] = self.states[hit_rows]
         self.hit_covariances[hit_rows] = self.covariances[hit_rows]
         self.hit_times[hit_rows] = t
         book.record_frame(hit_rows, sources[hit_rows], detections, LAYOUT.positions(self.states))
@@ -447,7 +444,6 @@ class GmPhdTracker:
             "covariances": estimates.covariances[cols],
             "weights": estimates.weights[cols],
             "unassigned": np.zeros(len(cols), np.int64),
-            "hit_states": estimates.means[cols],
             "hit_covariances": estimates.covariances[cols],
             "hit_times": np.full(len(cols), t),
             "mean_velocities": estimates.means[cols][:, 2:],
