@@ -121,7 +121,7 @@ def table(
     """The thesis's table beside ours; `stone_soup` adds bench_gmphd's filters-alone OSPA."""
     head = (
         "| scenario | OSPA thesis (MHT / CGM-PHD / proposed) | OSPA ours | OSPA no occl. | "
-        "MOTA thesis (MHT / CGM / proposed) | MOTA ours | MOTA no occl. | IDF1 ours | "
+        "MOTA thesis (MHT / CGM / proposed) | MOTA ours | MOTA no occl. | IDF1 ours / no occl. | "
         "FAR / ReR / MLR ours | missed occlusions ours | no occl. | ms/step |"
     )
     columns = 12
@@ -136,7 +136,7 @@ def table(
             f"| {number} | {t['ospa_mht']} / {t['ospa_cgm']} / {t['ospa']} "
             f"| {ours.ospa:.1f} ± {ours.ospa_std:.1f} | {plain.ospa:.1f} "
             f"| {t['mota_mht']} / {t['mota_cgm']} / {t['mota']} | {ours.mota:.2f} | {plain.mota:.2f} "
-            f"| {ours.idf1:.2f} | {ours.far:.2f} / {ours.rer:.2f} / {ours.mlr:.2f} "
+            f"| {ours.idf1:.2f} / {plain.idf1:.2f} | {ours.far:.2f} / {ours.rer:.2f} / {ours.mlr:.2f} "
             f"| {ours.missed_occlusions} / {ours.occlusions} | {plain.missed_occlusions} / "
             f"{plain.occlusions} | {ours.ms_per_step:.2f} |"
         )
