@@ -41,6 +41,7 @@ def test_ospa_edge_cases():
 
 
 def test_ospa_of_order_one_equals_stone_soups():
+    pytest.importorskip("stonesoup")  # a benchmark dependency, not a runtime one
     from stonesoup.measures import Euclidean
     from stonesoup.metricgenerator.ospametric import OSPAMetric
     from stonesoup.types.state import State
