@@ -35,7 +35,7 @@ from dataclasses import dataclass, field
 import cv2
 import numpy as np
 
-from tracker_detect.detector import CameraFrame, Detection, StaleFrameError
+from tracker_detect.detector import CameraFrame, Detection, checked_view
 from tracker_detect.mosaic import MosaicSample, SceneMosaic
 from tracker_detect.motion import (
     DetectorConfig,
@@ -173,16 +173,7 @@ class BackgroundDetector:
         if gray.ndim != 2 or gray.size == 0 or gray.dtype != np.uint8:
             raise ValueError(f"expected a grey uint8 (H, W) image, got {gray.dtype} {gray.shape}")
         height, width = gray.shape
-        if frame.view is not None and (frame.view.width, frame.view.height) != (width, height):
-            raise ValueError(
-                f"view is for {frame.view.width}x{frame.view.height} px, image is {width}x{height}"
-            )
-        if self._last_stamp is not None and frame.stamp_ns <= self._last_stamp:
-            raise StaleFrameError(
-                f"stamp {frame.stamp_ns} ns is not newer than the last frame's "
-                f"{self._last_stamp} ns"
-            )
-        view = frame.view or View.identity(width, height)
+        view = checked_view(frame, self._last_stamp)
         history_reset = self._size is not None and self._size != (width, height)
         if history_reset and frame.view is None:
             self.mosaic.clear()  # a static camera's mosaic is the image: a new size, a new scene

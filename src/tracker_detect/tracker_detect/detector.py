@@ -94,6 +94,22 @@ class CameraFrame:
         return int(self.image.shape[1]), int(self.image.shape[0])
 
 
+def checked_view(frame: CameraFrame, last_stamp_ns: int | None) -> View:
+    """The frame's view (the identity when its pose is unknown), after the checks every detector
+    makes before touching its state: the view is for the image's size (else ValueError) and the
+    stamp is newer than the last accepted frame's (else StaleFrameError)."""
+    width, height = frame.size
+    if frame.view is not None and (frame.view.width, frame.view.height) != (width, height):
+        raise ValueError(
+            f"view is for {frame.view.width}x{frame.view.height} px, image is {width}x{height}"
+        )
+    if last_stamp_ns is not None and frame.stamp_ns <= last_stamp_ns:
+        raise StaleFrameError(
+            f"stamp {frame.stamp_ns} ns is not newer than the last frame's {last_stamp_ns} ns"
+        )
+    return frame.view or View.identity(width, height)
+
+
 @runtime_checkable
 class Detector(Protocol):
     """A per-frame detector; see the module docstring for its contract."""

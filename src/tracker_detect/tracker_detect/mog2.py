@@ -35,7 +35,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from tracker_detect.detector import CameraFrame, Detection, StaleFrameError
+from tracker_detect.detector import CameraFrame, Detection, checked_view
 from tracker_detect.motion import find_blobs, presence_test
 from tracker_detect.registration import View
 from tracker_msgs_py.params import check_config
@@ -173,16 +173,7 @@ class Mog2Detector:
         if image.ndim == 3 and image.shape[2] != 3:
             raise ValueError(f"expected a grey or BGR uint8 image, got shape {image.shape}")
         width, height = frame.size
-        if frame.view is not None and (frame.view.width, frame.view.height) != (width, height):
-            raise ValueError(
-                f"view is for {frame.view.width}x{frame.view.height} px, image is {width}x{height}"
-            )
-        if self._last_stamp is not None and frame.stamp_ns <= self._last_stamp:
-            raise StaleFrameError(
-                f"stamp {frame.stamp_ns} ns is not newer than the last frame's "
-                f"{self._last_stamp} ns"
-            )
-        view = frame.view or View.identity(width, height)
+        view = checked_view(frame, self._last_stamp)
         history_reset = self._view is not None and not same_view(self._view, view)
         if history_reset or self._model is None:
             self._restart()
