@@ -51,6 +51,20 @@ def test_direct_mode_jumps_to_the_target():
     assert (command.pan, command.tilt) == pytest.approx((0.1, 0.05))  # left and down, REP-103
 
 
+def test_hold_mode_keeps_a_fixed_camera_still_whatever_is_tracked():
+    """Seed 004's static camera: every target, or none, is answered with HOLD (no zoom), and
+    losing a target starts no scan, homing or search."""
+    config = ControllerConfig(mode="hold", zoom_control=True, search="sweep", home_dwell_time=0.0)
+    controller = PanTiltController(config)
+    unit = IdealUnit()
+    for k in range(60):
+        target = target_at(CX + 150.0, CY - 80.0, 40.0, 10.0) if k < 20 else None
+        command = controller.step(k * DT, unit.pose(), target)
+        assert command.mode is CommandMode.HOLD and command.zoom == 0.0
+        unit.apply(command, DT)
+    assert (unit.pan, unit.tilt) == (0.0, 0.0)
+
+
 @pytest.mark.parametrize("feed_forward", [True, False])
 def test_servo_centres_a_moving_target(feed_forward):
     config = ControllerConfig(mode="servo", feed_forward=feed_forward, kp=3.0, ki=0.5)

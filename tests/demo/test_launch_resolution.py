@@ -133,6 +133,22 @@ def test_a_live_camera_runs_the_graph_behind_the_bridge_on_wall_time(tmp_path):
         assert controller.value("joint_command_topic") == "ptz/joint_command"
 
 
+def test_the_small_objects_graph_keeps_its_fixed_camera_unless_told_otherwise(tmp_path):
+    """controller_mode's default (graph) leaves the mode to the graph's files: hold for the
+    small-objects graph's fixed camera, servo for the surveillance graph; a mode given wins."""
+    for graph, mode in (("small_objects", "hold"), ("surveillance", "servo")):
+        planned = node(plan(LaunchArguments(video="v.avi", graph=graph)), "ptz_controller")
+        with Resolved(launch_ros_command(planned, tmp_path)) as controller:
+            assert controller.value("mode") == mode
+    planned = plan(LaunchArguments(video="v.avi", graph="small_objects", controller_mode="servo"))
+    with Resolved(launch_ros_command(node(planned, "ptz_controller"), tmp_path)) as controller:
+        assert controller.value("mode") == "servo"
+    with Resolved(launch_ros_command(node(planned, "detector"), tmp_path)) as detector:
+        assert detector.value("method") == "mog2"
+    with pytest.raises(ValueError, match="controller_mode"):
+        plan(LaunchArguments(video="v.avi", controller_mode="fast"))
+
+
 def test_a_wildcard_override_after_a_files_node_section_loses_to_it(tmp_path):
     """Why the plan keys its values by the node's full name: rcl applies sections in the order
     their keys first appear, so a `/**` dict (launch_ros's key when no namespace is given) loses

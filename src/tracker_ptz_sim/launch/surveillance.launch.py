@@ -1,12 +1,13 @@
 """ros2 launch tracker_ptz_sim surveillance.launch.py video:=/path/to/video.mp4
-    [graph:=surveillance|colour|standard] [camera:=sim|live] [namespace:=cam1]
+    [graph:=surveillance|colour|standard|small_objects] [camera:=sim|live] [namespace:=cam1]
     [use_sim_time:=auto|true|false] [clock:=auto|global|namespaced|off]
-    [controller_mode:=servo|direct] [respawn:=true] [live_view:=true]
+    [controller_mode:=graph|servo|direct|hold] [respawn:=true] [live_view:=true]
 
 The whole graph, built from the same config/*graph.yaml and parameter files the demo runner
 (make demo) uses, so both run exactly the same nodes with the same parameters. graph:=colour runs
 the colour-following graph (motion hands its target over to CamShift; seed 001); graph:=standard
-the surveillance graph behind a simulated camera that speaks only sensor_msgs, as real drivers do.
+the surveillance graph behind a simulated camera that speaks only sensor_msgs, as real drivers do;
+graph:=small_objects a fixed camera tracking many small movers (MOG2 + GM-PHD; seed 004).
 camera:=live runs the graph behind a real unit's drivers instead of the simulator (no video).
 Every argument wins over the parameter files, also under a namespace; two cameras run side by side
 in two namespaces, each on its own clock (`tracker_ptz_sim.bringup.launch_plan` has the rules).
@@ -27,6 +28,7 @@ from tracker_ptz_sim.bringup.graph import GRAPHS, MALLOC_TUNABLES, load_graph
 from tracker_ptz_sim.bringup.launch_plan import (
     CAMERAS,
     CLOCKS,
+    CONTROLLER_MODES,
     SIM_TIMES,
     LaunchArguments,
     plan,
@@ -39,7 +41,8 @@ ARGUMENTS = [
         "surveillance",
         list(GRAPHS),
         "surveillance (motion), colour (hands over to "
-        "CamShift) or standard (surveillance behind sensor_msgs-only drivers)",
+        "CamShift), standard (surveillance behind sensor_msgs-only drivers) or small_objects "
+        "(a fixed camera, MOG2 + GM-PHD for many small movers)",
     ),
     (
         "camera",
@@ -57,7 +60,12 @@ ARGUMENTS = [
         "sim: global /clock, namespaced <namespace>/clock, or off; "
         "auto: namespaced under a namespace",
     ),
-    ("controller_mode", "servo", ["servo", "direct"], "ptz_controller mode"),
+    (
+        "controller_mode",
+        "graph",
+        list(CONTROLLER_MODES),
+        "ptz_controller mode; graph: the graph's parameter files decide",
+    ),
     (
         "respawn",
         "false",

@@ -1,10 +1,11 @@
 """run_demo: the whole surveillance graph as separate processes, recorded and summarised.
 
-    run_demo [--video PATH] [--out out] [--graph surveillance|colour|standard] [--mode servo|direct]
-             [--set node.param=value ...] [--respawn] [--no-video] [--live]
+    run_demo [--video PATH] [--out out] [--graph surveillance|colour|standard|small_objects]
+             [--mode servo|direct|hold] [--set node.param=value ...] [--respawn] [--no-video] [--live]
 
 Starts every node of the graph (config/graph.yaml; --graph colour: config/colour_graph.yaml;
---graph standard: config/standard_graph.yaml)
+--graph standard: config/standard_graph.yaml; --graph small_objects:
+config/small_objects_graph.yaml, a fixed camera tracking many small movers)
 from the install space (exactly as `ros2 run` would) with its parameter files, replays the video
 in lockstep, records every topic into an MCAP bag with `rosbags`, shows progress, and writes to
 the output directory:
@@ -539,14 +540,20 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument(
         "--out", type=Path, default=Path("out"), help="output directory (default: out)"
     )
-    parser.add_argument("--mode", choices=("servo", "direct"), help="ptz_controller mode")
+    parser.add_argument(
+        "--mode",
+        choices=("servo", "direct", "hold"),
+        help="ptz_controller mode (default: the graph's)",
+    )
     parser.add_argument(
         "--graph",
         choices=list(GRAPHS),
         default="surveillance",
         help="surveillance (motion, the default); colour (motion hands its target over to "
         "CamShift, which the camera then follows; seed 001); standard (surveillance behind a "
-        "camera that speaks only sensor_msgs, as a real unit's drivers do)",
+        "camera that speaks only sensor_msgs, as a real unit's drivers do); small_objects (a "
+        "fixed camera over the whole scene, MOG2 and the GM-PHD tracker for many small movers; "
+        "seed 004)",
     )
     parser.add_argument("--set", action="append", default=[], metavar="NODE.PARAM=VALUE")
     parser.add_argument("--no-video", action="store_true", help="skip the annotated video")

@@ -4,7 +4,10 @@ One place defines which nodes run, their names, remappings and parameters; the d
 it into processes started from the install space, the launch file into launch_ros Node actions.
 Graphs (`GRAPHS`): `surveillance` (config/graph.yaml: motion detection, multi-target tracking,
 the camera follows a walker) and `colour` (config/colour_graph.yaml: the same motion pipeline on
-motion/* topics hands its target over to CamShift, whose own tracker the camera follows).
+motion/* topics hands its target over to CamShift, whose own tracker the camera follows),
+`standard` (config/standard_graph.yaml: surveillance behind sensor_msgs-only drivers) and
+`small_objects` (config/small_objects_graph.yaml: a fixed camera showing the whole scene, MOG2
+background subtraction and the GM-PHD tracker for many small movers; seed 004).
 """
 
 from __future__ import annotations
@@ -88,6 +91,7 @@ GRAPHS = {
     "surveillance": "graph.yaml",
     "colour": "colour_graph.yaml",
     "standard": "standard_graph.yaml",
+    "small_objects": "small_objects_graph.yaml",
 }
 
 

@@ -15,6 +15,8 @@ the launch arguments into nodes, so the launch file stays a thin shell and its r
   publishes `/clock`; `namespaced` remaps every node's `/clock` to `<namespace>/clock`, so two
   simulated cameras do not drive each other's time; `off` publishes none. `auto`: namespaced
   when a namespace is given or pushed by an including launch file, else global.
+- `controller_mode` (`graph`: as the graph's parameter files say, servo in the surveillance,
+  colour and standard graphs, hold in small_objects) sets ptz_controller's `mode`.
 - `live_view:=true` adds the Foxglove live view (`live_view` node, ws://127.0.0.1:8765).
 """
 
@@ -29,6 +31,7 @@ from tracker_ptz_sim.bringup.graph import Graph, NodeSpec, load_graph, with_live
 CAMERAS = ("sim", "live")
 CLOCKS = ("auto", "global", "namespaced", "off")
 SIM_TIMES = ("auto", "true", "false")
+CONTROLLER_MODES = ("graph", "servo", "direct", "hold")  # graph: the graph's own
 SIMULATOR_NODES = ("video_source", "ptz_camera")
 BRIDGE = NodeSpec("tracker_ptz_sim", "ptz_state_bridge", "ptz_state_bridge")
 LIVE_PARAMETERS = "live.yaml"  # in the graph's config directory
@@ -42,7 +45,7 @@ class LaunchArguments:
     namespace: str = ""
     use_sim_time: str = "auto"
     clock: str = "auto"
-    controller_mode: str = "servo"
+    controller_mode: str = "graph"  # or a ptz_controller mode
     respawn: bool = False
     outer_namespace: str = ""  # pushed by an including launch file (PushRosNamespace)
     live_view: bool = False  # serve the graph to the Foxglove app
@@ -79,7 +82,7 @@ def plan(arguments: LaunchArguments, graph: Graph | None = None) -> list[Planned
         values: dict[str, Any] = {"use_sim_time": sim_time}
         if node.name == "video_source":
             values |= {"path": arguments.video, "publish_clock": clock != "off"}
-        if node.name == "ptz_controller":
+        if node.name == "ptz_controller" and arguments.controller_mode != "graph":
             values["mode"] = arguments.controller_mode
         remappings = list(node.remappings.items())
         if clock == "namespaced":
@@ -103,6 +106,11 @@ def _check(arguments: LaunchArguments) -> None:
         raise ValueError(f"camera must be one of {', '.join(CAMERAS)}, got '{arguments.camera}'")
     if arguments.clock not in CLOCKS:
         raise ValueError(f"clock must be one of {', '.join(CLOCKS)}, got '{arguments.clock}'")
+    if arguments.controller_mode not in CONTROLLER_MODES:
+        raise ValueError(
+            f"controller_mode must be one of {', '.join(CONTROLLER_MODES)}, got "
+            f"'{arguments.controller_mode}'"
+        )
     if arguments.use_sim_time not in SIM_TIMES:
         raise ValueError(
             f"use_sim_time must be one of {', '.join(SIM_TIMES)}, got '{arguments.use_sim_time}'"

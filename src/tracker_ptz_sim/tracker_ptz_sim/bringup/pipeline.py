@@ -2,13 +2,13 @@
 
 Per scene frame, in the order the lockstep graph runs it: the camera model advances to the frame's
 stamp and renders its window (ptz_camera), the registered detector finds blobs in that image
-(ssim_detector), the registered tracker steps with them and the target selector picks the track to
-follow (tracker), and the pan-tilt controller answers with a command the camera applies before the
-next frame (ptz_controller). In the colour graph the motion tracker's target is then offered to the
-seeded detector (colour_detector, through `tracker_detect.seeding`, guided by its own tracker's
-previous target) and its tracker (colour_tracker) picks what the controller follows. Parameters
-come from the same params files the graph uses on top of each method's defaults, with the same
-`node.param` overrides.
+(ssim_detector; `detector` in the small-objects graph), the registered tracker steps with them and
+the target selector picks the track to follow (tracker), and the pan-tilt controller answers with a
+command the camera applies before the next frame (ptz_controller). In the colour graph the motion
+tracker's target is then offered to the seeded detector (colour_detector, through
+`tracker_detect.seeding`, guided by its own tracker's previous target) and its tracker
+(colour_tracker) picks what the controller follows. Parameters come from the same params files the
+graph uses on top of each method's defaults, with the same `node.param` overrides.
 
 What it leaves out is transport: the messages' conversions are mirrored (blob areas are rounded as
 tracker_msgs/Blob stores them; the mask reaches the tracker as mono8 0/255; targets carry the
@@ -134,10 +134,19 @@ class PipelineSettings:
             colour = StageSettings.of(params(COLOUR_DETECTOR), params(COLOUR_TRACKER))
         return cls(
             camera=config_from_params(PtzConfig, params(CAMERA)),
-            motion=StageSettings.of(params(DETECTOR), params(TRACKER)),
+            motion=StageSettings.of(params(detector_node(graph)), params(TRACKER)),
             controller=controller_config(control_values),
             colour=colour,
         )
+
+
+def detector_node(graph: Graph) -> str:
+    """The name of the detector node feeding `tracker`: the graph's detector executable that is not
+    the colour graph's `colour_detector` (`ssim_detector` in the surveillance graphs)."""
+    names = [
+        n.name for n in graph.nodes if n.executable == "detector" and n.name != COLOUR_DETECTOR
+    ]
+    return names[0] if names else DETECTOR
 
 
 def _method_values(defaults: Mapping[str, Any], given: Mapping[str, Any]) -> dict[str, Any]:

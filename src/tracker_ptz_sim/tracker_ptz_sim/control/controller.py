@@ -13,6 +13,10 @@ States:
 - SEARCH: nothing tracked; sweep horizontally, reversing at the pan limits (seed 000), or visit a
   list of preset poses in turn.
 
+`hold` mode is a fixed camera (seed 004's static camera watching many objects): every step answers
+with HOLD, whatever is tracked, so the unit stays where it is and never zooms; the commands still
+acknowledge each image, as a lockstep replay needs.
+
 Zoom (`zoom_control`): while tracking, the target's box should fill between `fill_low` and
 `fill_high` of the view's height; outside that band the zoom moves towards `fill_target`
 (zoom out when the target no longer fits, back in when it is small, up to `max_zoom`: a target
@@ -84,7 +88,7 @@ class TargetEstimate:
 
 @dataclass(frozen=True)
 class ControllerConfig:
-    mode: str = "servo"  # "direct" or "servo"
+    mode: str = "servo"  # "direct", "servo" or "hold" (a fixed camera: never moves)
     kp: float = 1.5  # 1/s: rate per radian of error
     ki: float = 0.3  # 1/s^2
     dead_zone: float = 0.01  # rad: errors below this are not corrected
@@ -114,8 +118,8 @@ class ControllerConfig:
     def problems(self) -> list[str]:
         """Why this configuration is unusable (empty: usable)."""
         found = []
-        if self.mode not in ("direct", "servo"):
-            found.append(f"mode must be direct or servo, got '{self.mode}'")
+        if self.mode not in ("direct", "servo", "hold"):
+            found.append(f"mode must be direct, servo or hold, got '{self.mode}'")
         if self.search not in ("sweep", "presets", "none"):
             found.append(f"search must be sweep, presets or none, got '{self.search}'")
         if self.search == "presets" and not self.presets:
@@ -186,6 +190,8 @@ class PanTiltController:
         """The command for time t [s] given the camera pose and the locked target (None if none)."""
         dt = 0.0 if self._last_time is None else max(0.0, t - self._last_time)
         self._last_time = t
+        if self.config.mode == "hold":  # a fixed camera: it stays where it is, whatever is tracked
+            return Command(CommandMode.HOLD)
         self._update_state(t, target)
         if self.state is ControlState.TRACK and target is not None:  # TRACK needs a target
             command = self._track(pose, target, dt)

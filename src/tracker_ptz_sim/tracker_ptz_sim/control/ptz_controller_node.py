@@ -38,8 +38,9 @@ PARAMS = [
     ParamSpec(
         "mode",
         _DEFAULTS.mode,
-        "direct: jump to the target (seed 000); servo: PI velocity control",
-        choices=("direct", "servo"),
+        "direct: jump to the target (seed 000); servo: PI velocity control; hold: a fixed "
+        "camera (every target answered with HOLD)",
+        choices=("direct", "servo", "hold"),
     ),
     ParamSpec("kp", _DEFAULTS.kp, "servo proportional gain [1/s]", 0.0, 50.0),
     ParamSpec("ki", _DEFAULTS.ki, "servo integral gain [1/s^2]", 0.0, 50.0),

@@ -10,7 +10,9 @@ boxes and the locked target. `score_trace` then gives
   centre is in the view, their boxes clipped to it;
 - the pan-tilt figures (`PanTiltScores`): share of locked frames whose target lies on a real object,
   how often the followed object changes (and how often without a reason: it neither left nor was
-  lost for `REASON_GAP_S`), centring error, time to the first lock and to re-acquire after a loss.
+  lost for `REASON_GAP_S`), centring error, time to the first lock and to re-acquire after a loss;
+- on request (`centres`), seed 004's scores on box centres for small objects
+  (`centre_scores`: OSPA with c = 5 and 10 px, CLEAR MOT with a 10 px match), over the whole scene.
 """
 
 from __future__ import annotations
@@ -27,7 +29,7 @@ import numpy as np
 from tracker_filter.tracking import TrackStatus
 from tracker_msgs_py.codec import msg_to_rect
 from tracker_msgs_py.geometry import Rect
-from tracker_ptz_sim.evaluation import metrics, run_report
+from tracker_ptz_sim.evaluation import centre_scores, metrics, run_report
 from tracker_ptz_sim.evaluation.metrics import Boxes
 
 LabelImages = Callable[[int], np.ndarray]  # 1-based frame -> label image (pixel = object id)
@@ -183,21 +185,27 @@ def _reacquire_times(
     return times
 
 
-def score_trace(trace: RunTrace, gt: Path, label_of: LabelImages | None = None) -> dict[str, Any]:
+def score_trace(
+    trace: RunTrace, gt: Path, label_of: LabelImages | None = None, centres: bool = False
+) -> dict[str, Any]:
     """Every score of a run against a MOTChallenge gt.txt (conf-0 rows: ignored objects) and,
-    when given, the scene's label images (`label_of(frame)`: pixel value = object id)."""
+    when given, the scene's label images (`label_of(frame)`: pixel value = object id); with
+    `centres` also the scores on box centres (`centre_scores.centre_scores`) as "centres"."""
     truth = metrics.load_mot(gt)
     ignored = metrics.load_mot(gt, ignored=True)
     hypotheses = metrics.without_ignored(trace.hypotheses, truth, ignored)
     frames = sorted(trace.windows)
     view_truth, view_ignored = _view_truth(truth, ignored, trace.windows, label_of)
     view_hypotheses = metrics.without_ignored(hypotheses, view_truth, view_ignored)
-    return {
+    result = {
         "frames": len(frames),
         "in_view": _tracking_scores(view_truth, view_hypotheses, frames),
         "whole_scene": _tracking_scores(truth, hypotheses, frames),
         "pan_tilt": asdict(pan_tilt_scores(metrics.every_object(gt), trace)),
     }
+    if centres:
+        result["centres"] = centre_scores.centre_scores(truth, ignored, trace.hypotheses, frames)
+    return result
 
 
 def _view_truth(
@@ -222,14 +230,20 @@ def _tracking_scores(truth: Boxes, hypotheses: Boxes, frames: list[int]) -> dict
 
 
 def write_evaluation(
-    trace: RunTrace, gt: Path, out: Path, title: str = "", label_of: LabelImages | None = None
+    trace: RunTrace,
+    gt: Path,
+    out: Path,
+    title: str = "",
+    label_of: LabelImages | None = None,
+    centres: bool = False,
 ) -> dict[str, Any]:
-    """Score a run and write tracks.txt, evaluation.json and plots.png into `out`; the scores."""
+    """Score a run (`score_trace`) and write tracks.txt, evaluation.json and plots.png into
+    `out`; the scores."""
     from tracker_ptz_sim.evaluation.plots import plot_run  # matplotlib only when plotting
 
     out.mkdir(parents=True, exist_ok=True)
     trace.write_mot(out / "tracks.txt")
-    result = score_trace(trace, gt, label_of)
+    result = score_trace(trace, gt, label_of, centres)
     write_json(result, out / "evaluation.json")
     plot_run(trace, metrics.every_object(gt), out / "plots.png", title or str(gt))
     return result
@@ -260,6 +274,22 @@ def format_scores(result: dict) -> str:
                 f"MOTA {s['mota']:.3f}  IDF1 {s['idf1']:.3f}  HOTA {s['hota']:.3f}  "
                 f"MOTP {s['motp']:.3f}  id switches {s['id_switches']}  "
                 f"recall {s['recall']:.3f}  precision {s['precision']:.3f}",
+            )
+        )
+    if "centres" in result:
+        c = result["centres"]
+        ospa = "  ".join(
+            f"OSPA c={k.removeprefix('ospa_').removesuffix('px')} px {v:.2f}"
+            for k, v in c.items()
+            if k.startswith("ospa_")
+        )
+        rows.append(
+            (
+                "box centres",
+                f"MOTA {c['mota']:.3f}  IDF1 {c['idf1']:.3f}  id switches {c['id_switches']}  "
+                f"recall {c['recall']:.3f}  false alarms {c['false_alarm_rate']:.3f}  "
+                f"missed occlusions {c['missed_occlusions']}/{c['occlusions']}  {ospa} "
+                f"(match {c['match_distance_px']:g} px)",
             )
         )
     p = result["pan_tilt"]
