@@ -89,6 +89,7 @@ def tracks(points, velocities=None, labels=None, centres=None) -> LabelledStates
         np.zeros((count, 2)) if velocities is None else np.array(velocities, float),
         np.zeros(count),
         np.full((count, 2), np.nan) if centres is None else np.array(centres, float),
+        np.zeros(count, bool) if centres is None else np.isfinite(np.array(centres, float)[:, 0]),
     )
 
 

@@ -32,8 +32,9 @@ Two additions for occlusion handling (`phd_occlusion`), both neutral when unused
   factor P_d^occl on its missed-detection term, p_D = 1 - P_d^occl (hidden: hardly detectable,
   more so as the occlusion drags on), and only measurements no visible target explains.
 
-Every detected component remembers the measurement that made it (`sources`, -1 for missed terms
-and merges keep the heaviest member's), so a tracker can tell a hit from a coast.
+Every detected component remembers the measurement that made it (`sources`, -1 for missed terms;
+a merge keeps its heaviest detected member's when its detected members weigh 0.5 or more, else
+the heaviest member's), so a tracker can tell a hit from a coast.
 """
 
 from __future__ import annotations
@@ -50,6 +51,7 @@ from tracker_filter.models import CONSTANT_VELOCITY
 DIM = 4  # x y vx vy
 AXES = 2
 BIRTH = -2  # source of a birth component between prediction and update
+DETECTED_SHARE = 0.5  # detected weight in a merged group that makes it a measured Gaussian
 
 
 @dataclass(frozen=True, eq=False)
@@ -259,10 +261,19 @@ def merge(mixture: Mixture, threshold: float) -> Mixture:
     covariances = np.zeros((count, DIM, DIM))
     np.add.at(covariances, group, w[:, None, None] * weighted)
     covariances /= weights[:, None, None]
-    # the heaviest member of each group decides its tag and source
+    # the heaviest member of each group decides its tag; its source is the heaviest detected
+    # member's when the detected members weigh a target's worth (DETECTED_SHARE): a Gaussian a
+    # measurement updated this scan, even where a persisting missed-detection copy is heavier
     order = np.lexsort((-w, group))
     heads = order[np.r_[0, np.flatnonzero(np.diff(group[order])) + 1]]
-    return Mixture(weights, means, covariances, mixture.tags[heads], mixture.sources[heads])
+    detected = mixture.sources >= 0
+    detected_weight = np.bincount(group, weights=np.where(detected, w, 0.0), minlength=count)
+    by_detected = np.lexsort((-np.where(detected, w, -1.0), group))
+    best = by_detected[np.r_[0, np.flatnonzero(np.diff(group[by_detected])) + 1]]
+    sources = np.where(
+        detected_weight >= DETECTED_SHARE, mixture.sources[best], mixture.sources[heads]
+    )
+    return Mixture(weights, means, covariances, mixture.tags[heads], sources)
 
 
 def prune(mixture: Mixture, threshold: float, max_components: int) -> Mixture:

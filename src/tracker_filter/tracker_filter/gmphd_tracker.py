@@ -181,7 +181,6 @@ class GmPhdTracker:
         of one): they never start a track (the PHD update gives a clutter point near a target
         almost the target's whole weight; that is one target, not two)."""
         tracks = self._labelled_states()
-        centres = tracks.occlusion_centres
         costs = labelling_costs(
             tracks, estimates, self.config.measurement_noise**2, self.impulse, self.label_gate
         )
@@ -191,8 +190,9 @@ class GmPhdTracker:
         sources = estimates.sources[cols].copy()
         # an occluded track's wide Gaussian also reaches false alarms: it is back only when a
         # measurement makes it a target again (weight above the extraction threshold)
-        occluded = np.isfinite(centres[rows, 0])
-        sources[occluded & (estimates.weights[cols] <= self.config.extract_threshold)] = -1
+        sources[
+            tracks.hidden[rows] & (estimates.weights[cols] <= self.config.extract_threshold)
+        ] = -1
         # a measurement shared by several tracks (a merged blob) is the hit of the nearest only
         for source in np.unique(sources[sources >= 0]):
             sharing = np.flatnonzero(sources == source)
@@ -323,9 +323,10 @@ class GmPhdTracker:
             velocities[row] = state[2:]
             variances[row] = (OCCLUDED_SPEED_SPREAD * np.hypot(*state[2:]) * gap) ** 2
             if occlusion is None:  # a partner: the region is its hidden partner's
-                hidden = [o for o in self.monitor.occluded.values() if o.partner == label]
-                centres[row] = hidden[0].centre
-        return LabelledStates(self.book.ids, positions, velocities, variances, centres)
+                hiding = [o for o in self.monitor.occluded.values() if o.partner == label]
+                centres[row] = hiding[0].centre
+        hidden = np.isin(self.book.ids, list(self.monitor.occluded))
+        return LabelledStates(self.book.ids, positions, velocities, variances, centres, hidden)
 
     def _since_hit(self, rows: np.ndarray, t: float) -> tuple[np.ndarray, np.ndarray]:
         """The states of `rows` at t dead-reckoned from their anchors (else their last hits)

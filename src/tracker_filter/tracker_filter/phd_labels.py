@@ -10,9 +10,11 @@ occlusion is less sure where it is):
     cost = (p_e - x_l^-)^T (P_e,pos + R + V_l I)^-1 (p_e - x_l^-),  gated at `gate`
 
 An estimate from a component tagged with a track's label (an occluded track's own Gaussian)
-is barred from the other tracks; of a track's tagged estimates the nearest is its own, at a
-cost no more than `gate_inside` (so it stays within the gate however far the guess drifted), the
-others are barred. The "impulse": for a track inside an
+is barred from the other tracks; of a track's tagged estimates the nearest is its own, the others
+are barred. Its cost: its distance, at most `gate_inside` (within the gate however far the guess
+drifted); but `gate_inside` for a visible track's guess that no measurement made (its coasting
+copy never displaces a detection near it, while a hidden track keeps to its guess and leaves
+the blob that hides it to the visible one). The "impulse": for a track inside an
 occlusion region, the region is split in four quadrants around the track's last position and
 candidates in the quadrant its heading points to cost `impulse` x as much.
 """
@@ -41,6 +43,7 @@ class LabelledStates:
     velocities: np.ndarray
     variances: np.ndarray
     occlusion_centres: np.ndarray
+    hidden: np.ndarray  # (N,) bool: occluded (not merely beside an occluded one)
 
 
 def labelling_costs(
@@ -71,12 +74,15 @@ def labelling_costs(
     tagged = np.flatnonzero(estimates.tags > 0)
     if len(tagged):
         own = tracks.labels[:, None] == estimates.tags[None, tagged]
-        costs[:, tagged] = np.where(own, np.minimum(costs[:, tagged], gate_inside), BARRED)
+        real = costs[:, tagged]
+        guess = (estimates.sources[tagged] < 0)[None, :] & ~tracks.hidden[:, None]
+        own_cost = np.where(guess, gate_inside, np.minimum(real, gate_inside))
+        costs[:, tagged] = np.where(own, own_cost, BARRED)
         # of an occluded track's estimates only the nearest to where it should be is its own
         for row in np.flatnonzero(own.any(axis=1)):
-            mine = tagged[own[row]]
-            others = mine[mine != mine[np.argmin(costs[row, mine])]]
-            costs[:, others] = BARRED
+            mine = np.flatnonzero(own[row])
+            nearest = mine[np.argmin(real[row, mine])]
+            costs[:, tagged[mine[mine != nearest]]] = BARRED
     return costs
 
 
