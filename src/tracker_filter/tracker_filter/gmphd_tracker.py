@@ -96,7 +96,7 @@ _ROW_FIELDS = (
 #: Hits (time, measured position) a track's mean velocity is fitted to.
 VELOCITY_HISTORY = 10
 #: Std of an occluded track's velocity, as a share of its speed.
-OCCLUDED_SPEED_SPREAD = 0.3
+OCCLUDED_SPEED_SPREAD = 0.1
 
 
 class GmPhdTracker:
@@ -211,6 +211,7 @@ class GmPhdTracker:
         region_births = self.monitor.region_births(
             config.measurement_noise, config.max_birth_speed / 2
         )
+        self._reanchor_tagged()
         estimates = self.filter.step(
             detections.positions,
             dt,
@@ -292,6 +293,25 @@ class GmPhdTracker:
             fitted[:, None], mean_point + velocity * latest, measured
         )
 
+    def _reanchor_tagged(self) -> None:
+        """Put every coasting tagged Gaussian (a hidden track's, or its visible partner's) back
+        on its track's dead reckoning at the last step's time: the filter's own prediction would
+        widen it by the motion model's noise each frame until no measurement could find it again
+        (the kept speed is steadier than that)."""
+        if self.book.time is None:
+            return
+        mixture = self.filter.mixture
+        tags = set(mixture.tags[mixture.tags > 0].tolist())
+        rows = [row for row, label in enumerate(self.book.ids.tolist()) if label in tags]
+        if not rows:
+            return
+        means, covariances = mixture.means.copy(), mixture.covariances.copy()
+        placed, spread = self._since_hit(np.array(rows), self.book.time)
+        for row, mean, covariance in zip(rows, placed, spread, strict=True):
+            mine = mixture.tags == self.book.ids[row]
+            means[mine], covariances[mine] = mean, covariance
+        self.filter.mixture = replace(mixture, means=means, covariances=covariances)
+
     def _drop_stray_tagged(self) -> None:
         """An occluded track is one Gaussian: its tagged components too light to be it (below
         half the continuation threshold) are false alarms it brushed, not the target."""
@@ -331,21 +351,19 @@ class GmPhdTracker:
     def _since_hit(self, rows: np.ndarray, t: float) -> tuple[np.ndarray, np.ndarray]:
         """The states of `rows` at t dead-reckoned from their anchors (else their last hits)
         with their mean velocities, and covariances widened by the speed's uncertainty."""
-        noise_std = self.config.process_noise
         means = np.zeros((len(rows), LAYOUT.dim))
         covariances = np.zeros((len(rows), LAYOUT.dim, LAYOUT.dim))
         for i, row in enumerate(rows):
             last, time = self._anchor(int(row))
             gap = t - time
             transition = CONSTANT_VELOCITY.transition(gap)
-            # the speed is known to within a share of itself, whatever the filter's own
-            # covariance says: where a hidden target comes out is that uncertain
-            speed_var = (OCCLUDED_SPEED_SPREAD * np.hypot(*last[2:])) ** 2
-            spread = np.diag([0.0, 0.0, speed_var, speed_var])
+            # the speed is known to within a share of itself (the line through its hits is
+            # steadier than the filter's young covariance): where the hidden target comes out
+            r2 = self.config.measurement_noise**2
+            speed_var = (OCCLUDED_SPEED_SPREAD * np.hypot(*last[2:])) ** 2 + r2 / VELOCITY_HISTORY
+            anchored = np.diag([r2, r2, speed_var, speed_var])
             means[i] = transition @ last
-            covariances[i] = transition @ (
-                self.hit_covariances[row] + spread
-            ) @ transition.T + CONSTANT_VELOCITY.process_noise(gap, noise_std)
+            covariances[i] = transition @ anchored @ transition.T
         return means, covariances
 
     def _anchor(self, row: int) -> tuple[np.ndarray, float]:
