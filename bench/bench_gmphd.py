@@ -148,6 +148,7 @@ def stone_soup(scans: list[np.ndarray], clutter_density: float) -> tuple[list[np
 
 def stone_soup_ospa(truth: np.ndarray, estimates: np.ndarray, order: int) -> float | None:
     """Stone Soup's OSPAMetric of the sets (None for two empty sets: it needs a timestamp)."""
+    from stonesoup.measures import Euclidean
     from stonesoup.metricgenerator.ospametric import OSPAMetric
     from stonesoup.types.state import State
 
@@ -157,7 +158,7 @@ def stone_soup_ospa(truth: np.ndarray, estimates: np.ndarray, order: int) -> flo
     def states(points: np.ndarray) -> list:
         return [State(np.array([[p[0]], [p[1]]]), timestamp=START) for p in points]
 
-    metric = OSPAMetric(c=OSPA_CUTOFF, p=order, measure=_euclidean())
+    metric = OSPAMetric(c=OSPA_CUTOFF, p=order, measure=Euclidean())
     return float(metric.compute_OSPA_distance(states(estimates), states(truth)).value)
 
 
@@ -177,12 +178,6 @@ def check_ospa(pairs: list[tuple[np.ndarray, np.ndarray]]) -> dict:
         differ_2 += abs(ours_2 - theirs_2) > 1e-9
     return {"sets": len(pairs), "order1_max_difference": worst_1,
             "order2_ours_above_theirs": above_2, "order2_different": differ_2}  # fmt: skip
-
-
-def _euclidean():  # noqa: ANN202 (Stone Soup's Measure)
-    from stonesoup.measures import Euclidean
-
-    return Euclidean()
 
 
 def filters_alone(seeds: range) -> dict:

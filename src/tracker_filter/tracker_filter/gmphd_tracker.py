@@ -86,8 +86,6 @@ _ROW_FIELDS = (
     "covariances",
     "weights",
     "unassigned",
-    "hit_covariances",
-    "hit_times",
     "mean_velocities",
     "mean_positions",
     "history_times",
@@ -135,15 +133,13 @@ class GmPhdTracker:
         self.covariances = np.zeros((0, LAYOUT.dim, LAYOUT.dim))
         self.weights = np.zeros(0)
         self.unassigned = np.zeros(0, np.int64)  # consecutive frames without a state of its own
-        # the covariance and time of the last hit: an occluded track's Gaussian is injected from
-        # them with its mean velocity (not from the states a merged blob pulled off course)
-        self.hit_covariances = np.zeros((0, LAYOUT.dim, LAYOUT.dim))
-        self.hit_times = np.zeros(0)
         # the thesis's kept "average speed": a straight line fitted to the last hits' measured
-        # positions (least squares), steadier than the filter's velocity for dead reckoning
+        # positions (least squares), steadier than the filter's velocity for dead reckoning; an
+        # occluded track's Gaussian is dead-reckoned from it (not from the states a merged blob
+        # pulled off course)
         self.mean_velocities = np.zeros((0, 2))  # px/s
         self.mean_positions = np.zeros((0, 2))  # px, the fitted line at the last hit
-        self.history_times = np.zeros((0, VELOCITY_HISTORY))  # NaN: no hit yet
+        self.history_times = np.zeros((0, VELOCITY_HISTORY))  # NaN: no hit; the last is the latest
         self.history_points = np.zeros((0, VELOCITY_HISTORY, 2))
         self.pending = Mixture.empty()  # Gaussians of tracks occluded at the last frame
         self._epsilon_now = self.monitor.config.object_size  # px, this frame's occlusion radius
@@ -238,8 +234,6 @@ class GmPhdTracker:
         sources = np.full(len(book), -1, np.int64)
         sources[rows] = estimates.sources[cols]
         self._fit_velocities(hit_rows, t, detections.positions[sources[hit_rows]])
-        self.hit_covariances[hit_rows] = self.covariances[hit_rows]
-        self.hit_times[hit_rows] = t
         book.record_frame(hit_rows, sources[hit_rows], detections, LAYOUT.positions(self.states))
         window = observation.window
         bounds = None if window is None else (window.x, window.y, window.width, window.height)
@@ -373,7 +367,7 @@ class GmPhdTracker:
         if label in self.anchors:
             return self.anchors[label]
         state = np.concatenate([self.mean_positions[row], self.mean_velocities[row]])
-        return state, float(self.hit_times[row])
+        return state, float(self.history_times[row, -1])
 
     def _update_anchors(self) -> None:
         """Anchor every confirmed track that comes within twice the possible-occlusion radius
@@ -463,8 +457,6 @@ class GmPhdTracker:
             "covariances": estimates.covariances[cols],
             "weights": estimates.weights[cols],
             "unassigned": np.zeros(len(cols), np.int64),
-            "hit_covariances": estimates.covariances[cols],
-            "hit_times": np.full(len(cols), t),
             "mean_velocities": estimates.means[cols][:, 2:],
             "mean_positions": detections.positions[estimates.sources[cols]],
             "history_times": np.column_stack(

@@ -92,13 +92,11 @@ class OcclusionMonitor:
     occluded: dict[int, Occlusion] = field(default_factory=dict)  # by track label
     regions: list[UnknownObjectRegion] = field(default_factory=list)
     ended: list[int] = field(default_factory=list)  # lengths (frames) of occlusions that ended
-    started: int = 0  # occlusions begun
 
     def reset(self) -> None:
         self.occluded.clear()
         self.regions.clear()
         self.ended.clear()
-        self.started = 0
 
     @property
     def mean_length(self) -> float:
@@ -156,7 +154,6 @@ class OcclusionMonitor:
                 self.occluded[label] = Occlusion(region.centre.copy(), region.radius)
             else:
                 continue
-            self.started += 1
             begun.append(int(row))
         return begun
 

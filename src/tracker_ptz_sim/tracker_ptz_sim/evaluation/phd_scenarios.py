@@ -29,6 +29,8 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.sparse import csr_matrix
+from scipy.sparse.csgraph import connected_components
 
 from tracker_ptz_sim.evaluation.set_metrics import Points, PointScores, score_points
 
@@ -137,20 +139,12 @@ class Scans:
     occlusions: list[tuple[int, int, int]]  # (target id, first step index, last step index)
 
 
-def _groups(points: np.ndarray, distance: float) -> list[list[int]]:
-    """Connected groups of points closer than `distance` (single linkage)."""
-    count = len(points)
+def _groups(points: np.ndarray, distance: float) -> list[np.ndarray]:
+    """Connected groups of points closer than `distance` (single linkage), each in index order,
+    the groups in the order of their first member."""
     near = np.linalg.norm(points[:, None] - points[None], axis=2) < distance
-    group = list(range(count))
-    for a in range(count):
-        for b in range(a + 1, count):
-            if near[a, b]:
-                old, new = group[b], group[a]
-                group = [new if g == old else g for g in group]
-    found: dict[int, list[int]] = {}
-    for index, g in enumerate(group):
-        found.setdefault(g, []).append(index)
-    return list(found.values())
+    count, labels = connected_components(csr_matrix(near), directed=False)
+    return [np.flatnonzero(labels == label) for label in range(count)]
 
 
 def scans(case: Scenario, seed: int) -> Scans:

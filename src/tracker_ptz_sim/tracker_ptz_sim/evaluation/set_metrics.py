@@ -65,15 +65,6 @@ class PointScores:
     frames: int
 
 
-@dataclass(frozen=True)
-class Matching:
-    """Per frame, the estimate id each true id was matched with (absent: unmatched)."""
-
-    matches: list[dict[int, int]]
-    estimates: int
-    targets: int
-
-
 def score_points(
     truth: list[Points],
     estimates: list[Points],
