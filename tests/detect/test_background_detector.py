@@ -8,12 +8,10 @@ after the background has been learned.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import cv2
 import numpy as np
 import pytest
-from scipy.optimize import linear_sum_assignment
+from box_scores import BoxScore
 
 from tracker_detect.background import BackgroundConfig, BackgroundDetector
 from tracker_detect.detector import CameraFrame
@@ -25,32 +23,6 @@ from tracker_ptz_sim.simulation.scenes import SceneConfig, generate_scene
 NS = 100_000_000
 MIN_PIXELS = 60  # visible pixels an object needs to count
 LEARNING_FRAMES = 10
-
-
-@dataclass
-class BoxScore:
-    objects: int = 0
-    blobs: int = 0
-    matched: int = 0
-    iou_sum: float = 0.0
-
-    @property
-    def recall(self) -> float:
-        return self.matched / max(self.objects, 1)
-
-    @property
-    def precision(self) -> float:
-        return self.matched / max(self.blobs, 1)
-
-    @property
-    def mean_iou(self) -> float:
-        return self.iou_sum / max(self.matched, 1)
-
-
-def iou(a: Rect, b: Rect) -> float:
-    overlap = a.intersection(b)
-    inter = overlap.area if overlap else 0.0
-    return inter / (a.area + b.area - inter)
 
 
 def visible_boxes(labels: np.ndarray, x: int, y: int) -> list[Rect]:
@@ -67,18 +39,6 @@ def visible_boxes(labels: np.ndarray, x: int, y: int) -> list[Rect]:
     return boxes
 
 
-def score_frame(score: BoxScore, truth: list[Rect], found: list[Rect]) -> None:
-    score.objects += len(truth)
-    score.blobs += len(found)
-    if not truth or not found:
-        return
-    ious = np.array([[iou(t, f) for f in found] for t in truth])
-    rows, cols = linear_sum_assignment(-ious)
-    good = ious[rows, cols] >= 0.5
-    score.matched += int(good.sum())
-    score.iou_sum += float(ious[rows, cols][good].sum())
-
-
 def run(scene, windows, config=None) -> BoxScore:
     detector = BackgroundDetector(config or BackgroundConfig())
     score = BoxScore()
@@ -87,7 +47,7 @@ def run(scene, windows, config=None) -> BoxScore:
         detection = detector.process(CameraFrame(k * NS, image, View(Rect(x, y, w, h), w, h)))
         if k >= LEARNING_FRAMES:
             truth = visible_boxes(scene.labels[k, y : y + h, x : x + w], x, y)
-            score_frame(score, truth, [b.bbox for b in detection.blobs])
+            score.add(truth, [b.bbox for b in detection.blobs])
     return score
 
 
@@ -154,7 +114,7 @@ def test_the_seed_frame_difference_boxes_fail_iou():
     for k in range(scene.num_frames):
         result = detector.process(cv2.cvtColor(scene.frames[k], cv2.COLOR_BGR2GRAY), k * NS)
         if k >= LEARNING_FRAMES:
-            score_frame(score, visible_boxes(scene.labels[k], 0, 0), [b.bbox for b in result.blobs])
+            score.add(visible_boxes(scene.labels[k], 0, 0), [b.bbox for b in result.blobs])
     background = run(scene, [(0, 0, 480, 320)] * scene.num_frames)
     print(f"seed k-3 recall at IoU 0.5 {score.recall:.3f} vs mosaic {background.recall:.3f}")
     assert background.recall > score.recall + 0.3
@@ -188,7 +148,7 @@ def test_things_that_move_in_place_are_learned_and_ignored():
         detection = detector.process(CameraFrame(k * NS, image))
         if k >= 60:
             assert len(detection.blobs) == 1, f"frame {k}: {[b.bbox for b in detection.blobs]}"
-            assert iou(detection.blobs[0].bbox, boxes[k]) >= 0.5
+            assert detection.blobs[0].bbox.iou(boxes[k]) >= 0.5
     seed_style = BackgroundDetector(BackgroundConfig(flicker_level=1.0))
     flicker_blobs = 0
     for k, image in enumerate(images):
@@ -212,7 +172,7 @@ def test_flat_blobs_are_dropped_when_min_aspect_is_set():
         kept = standing.process(CameraFrame(k * NS, image))
         found = everything.process(CameraFrame(k * NS, image))
         if k >= 25:  # the first frame's ghosts have healed
-            assert [iou(b.bbox, Rect(x, 140, 24, 50)) >= 0.5 for b in kept.blobs] == [True]
+            assert [b.bbox.iou(Rect(x, 140, 24, 50)) >= 0.5 for b in kept.blobs] == [True]
             assert any(b.bbox.y < 60 and b.bbox.height < b.bbox.width / 2 for b in found.blobs)
 
 
@@ -239,9 +199,9 @@ def test_cast_shadows_are_not_objects_when_shadow_ratio_is_set():
         if k >= 25:
             walker, coat = Rect(x, 140, 24, 50), Rect(280 - 3 * k, 60, 20, 40)
             assert sorted(
-                round(max(iou(b.bbox, t) for t in (walker, coat))) for b in kept.blobs
+                round(max(b.bbox.iou(t) for t in (walker, coat))) for b in kept.blobs
             ) == [1, 1]
-            assert max(iou(b.bbox, walker) for b in found.blobs) < 0.5
+            assert max(b.bbox.iou(walker) for b in found.blobs) < 0.5
 
 
 def test_a_ghost_of_an_object_seen_at_start_fades():

@@ -14,7 +14,7 @@ from dataclasses import dataclass, replace
 import cv2
 import numpy as np
 import pytest
-from scipy.optimize import linear_sum_assignment
+from box_scores import BoxScore
 
 from tracker_detect.detector import CameraFrame, Detection, StaleFrameError
 from tracker_detect.detectors import DETECTORS, MOG2_PARAMETERS
@@ -25,6 +25,7 @@ from tracker_ptz_sim.simulation.scenes import SceneConfig, generate_scene
 
 NS = 100_000_000
 WARMUP = Mog2Config().warmup_frames
+MIN_IOU = 0.3  # a blob matches an object's box (see the module docstring)
 
 
 # --- scenes ------------------------------------------------------------------------------------
@@ -79,42 +80,9 @@ def lanes(
     return out
 
 
-def iou(a: Rect, b: Rect) -> float:
-    overlap = a.intersection(b)
-    inter = overlap.area if overlap else 0.0
-    return inter / (a.area + b.area - inter)
-
-
-@dataclass
-class Score:
-    objects: int = 0
-    blobs: int = 0
-    matched: int = 0
-    frames: int = 0
-    count_close: int = 0  # frames with |blobs - objects| <= 1
-
-    @property
-    def recall(self) -> float:
-        return self.matched / max(self.objects, 1)
-
-    @property
-    def precision(self) -> float:
-        return self.matched / max(self.blobs, 1)
-
-    def add(self, truth: list[Rect], found: list[Rect]) -> None:
-        self.frames += 1
-        self.objects += len(truth)
-        self.blobs += len(found)
-        self.count_close += abs(len(found) - len(truth)) <= 1
-        if truth and found:
-            ious = np.array([[iou(t, f) for f in found] for t in truth])
-            rows, cols = linear_sum_assignment(-ious)
-            self.matched += int((ious[rows, cols] >= 0.3).sum())
-
-
-def score_lanes(scene: Lanes, config: Mog2Config | None = None) -> Score:
+def score_lanes(scene: Lanes, config: Mog2Config | None = None) -> BoxScore:
     detector = Mog2Detector(config)
-    score = Score()
+    score = BoxScore(min_iou=MIN_IOU)
     for k, (image, truth) in enumerate(zip(scene.frames, scene.truth, strict=True)):
         detection = detector.process(CameraFrame((k + 1) * NS, image))
         assert detection.compared == (k >= WARMUP)
@@ -279,7 +247,7 @@ def test_objects_of_the_scene_generator_are_found_unless_they_touch(generated):
     """Objects closer than about twice the dilation radius merge into one blob (the thesis's
     occlusion handling is the tracker's job); every other object is found."""
     detector = Mog2Detector()
-    score, apart, apart_found = Score(), 0, 0
+    score, apart, apart_found = BoxScore(min_iou=MIN_IOU), 0, 0
     for k in range(generated.num_frames):
         detection = detector.process(CameraFrame((k + 1) * NS, generated.frames[k]))
         if not detection.compared:
@@ -293,7 +261,7 @@ def test_objects_of_the_scene_generator_are_found_unless_they_touch(generated):
             )
             if not any(others):
                 apart += 1
-                apart_found += max((iou(box, f) for f in found), default=0.0) >= 0.3
+                apart_found += max((box.iou(f) for f in found), default=0.0) >= MIN_IOU
     print(
         f"generated scene: recall {score.recall:.3f} precision {score.precision:.3f} "
         f"({score.matched}/{score.objects}); objects > 10 px from any other: "

@@ -4,15 +4,15 @@ from __future__ import annotations
 
 import dataclasses
 import itertools
-import json
 import math
 
 import numpy as np
 import pytest
+from scene_files import assert_reloads_exactly
 
 from tracker_ptz_sim.evaluation.metrics import load_mot
 from tracker_ptz_sim.simulation.scene_cli import main as make_scene
-from tracker_ptz_sim.simulation.scenes import load_scene, write_scene
+from tracker_ptz_sim.simulation.scenes import load_scene
 from tracker_ptz_sim.simulation.small_objects import (
     SmallObjectsConfig,
     SmallObjectsScene,
@@ -183,13 +183,7 @@ def test_a_given_background_is_used():
 
 def test_written_scene_reloads_exactly(tmp_path):
     scene = generate_small_objects(small(num_frames=6))
-    paths = write_scene(scene, tmp_path / "small")
-    assert json.loads(paths.meta.read_text())["generator"] == "small_objects"
-    loaded = load_scene(paths.root)
-    assert loaded.config == scene.config and isinstance(loaded.config, SmallObjectsConfig)
-    assert loaded.labels.dtype == np.uint16 and np.array_equal(loaded.labels, scene.labels)
-    assert np.array_equal(loaded.frames, scene.frames)
-    assert loaded.boxes == scene.boxes
+    paths = assert_reloads_exactly(scene, tmp_path / "small", "small_objects")
     ignored = sum(b.conf == 0 for b in rows(scene))
     truth = load_mot(paths.gt)
     assert sum(len(v) for v in truth.values()) == len(rows(scene)) - ignored

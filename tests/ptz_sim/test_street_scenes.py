@@ -4,12 +4,12 @@ from __future__ import annotations
 
 import dataclasses
 import itertools
-import json
 import math
 
 import cv2
 import numpy as np
 import pytest
+from scene_files import assert_reloads_exactly
 
 from tracker_ptz_sim.evaluation.metrics import load_mot
 from tracker_ptz_sim.simulation.scene_cli import main as make_scene
@@ -267,13 +267,7 @@ def test_barely_visible_people_are_ignored(busy, tmp_path):
 
 def test_written_street_scene_reloads_exactly(tmp_path):
     scene = generate_street(small(walkers=2, crossings=1, num_frames=10))
-    paths = write_scene(scene, tmp_path / "street")
-    assert json.loads(paths.meta.read_text())["generator"] == "street"
-    loaded = load_scene(paths.root)
-    assert loaded.config == scene.config and isinstance(loaded.config, StreetConfig)
-    assert loaded.labels.dtype == np.uint16 and np.array_equal(loaded.labels, scene.labels)
-    assert np.array_equal(loaded.frames, scene.frames)
-    assert loaded.boxes == scene.boxes
+    assert_reloads_exactly(scene, tmp_path / "street", "street")
 
 
 def test_median_background_removes_what_moves(tmp_path):
