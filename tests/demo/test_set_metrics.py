@@ -8,7 +8,7 @@ import itertools
 import numpy as np
 import pytest
 
-from tracker_ptz_sim.evaluation.set_metrics import ospa, score_points
+from tracker_ptz_sim.evaluation.set_metrics import ospa, score_points, true_runs
 
 
 def brute_force_ospa(x: np.ndarray, y: np.ndarray, c: float, p: float) -> float:
@@ -84,3 +84,9 @@ def test_missed_occlusions_compare_labels_before_and_after():
     occlusion = [(1, 3, 5)]  # target 1 hidden in frames 3..5
     assert score_points(truth, kept, 5.0, 50.0, occlusion).mor == 0.0
     assert score_points(truth, changed, 5.0, 50.0, occlusion).mor == 1.0
+
+
+def test_true_runs_are_the_first_and_last_index_of_each_run():
+    assert true_runs([False, True, True, False, True]) == [(1, 2), (4, 4)]
+    assert true_runs([True, True]) == [(0, 1)]
+    assert true_runs([]) == [] and true_runs([False]) == []

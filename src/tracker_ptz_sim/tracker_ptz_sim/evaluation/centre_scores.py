@@ -25,7 +25,7 @@ from typing import Any
 import numpy as np
 
 from tracker_ptz_sim.evaluation.metrics import Boxes
-from tracker_ptz_sim.evaluation.set_metrics import Points, ospa, score_points
+from tracker_ptz_sim.evaluation.set_metrics import Points, as_arrays, ospa, score_points, true_runs
 
 MATCH_DISTANCE = 10.0  # px: a track matches a mover whose box centre is this close
 OSPA_CUTOFFS = (5.0, 10.0)  # px, the thesis's cut-offs on video (p = 2)
@@ -67,18 +67,10 @@ def occlusion_gaps(truth: list[Points], ignored: list[Points]) -> list[tuple[int
     gaps = []
     for mover in sorted({i for frame in truth for i in frame}):
         counted = [mover in frame for frame in truth]
-        hidden = [mover in frame for frame in ignored]
-        k, n = 0, len(truth)
-        while k < n:
-            if hidden[k] and not counted[k] and k > 0 and counted[k - 1]:
-                end = k
-                while end + 1 < n and hidden[end + 1] and not counted[end + 1]:
-                    end += 1
-                if end + 1 < n and counted[end + 1]:
-                    gaps.append((mover, k, end))
-                k = end + 1
-            else:
-                k += 1
+        hidden = [mover in frame and not seen for frame, seen in zip(ignored, counted, strict=True)]
+        for first, last in true_runs(hidden):
+            if first > 0 and counted[first - 1] and last + 1 < len(truth) and counted[last + 1]:
+                gaps.append((mover, first, last))
     return gaps
 
 
@@ -117,7 +109,8 @@ def centre_scores(
     }
     for cutoff in cutoffs:
         per_frame = [
-            ospa(_array(t), _array(e), cutoff) for t, e in zip(truth_points, estimates, strict=True)
+            ospa(as_arrays(t)[1], as_arrays(e)[1], cutoff)
+            for t, e in zip(truth_points, estimates, strict=True)
         ]
         result[ospa_key(cutoff)] = float(np.mean(per_frame)) if per_frame else 0.0
     return result
@@ -126,7 +119,3 @@ def centre_scores(
 def ospa_key(cutoff: float) -> str:
     """The result key of the mean OSPA with cut-off `cutoff` px: 'ospa_5px'."""
     return f"ospa_{cutoff:g}px"
-
-
-def _array(points: Points) -> np.ndarray:
-    return np.array([points[i] for i in sorted(points)], dtype=float).reshape(len(points), 2)

@@ -32,7 +32,7 @@ import numpy as np
 from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import connected_components
 
-from tracker_ptz_sim.evaluation.set_metrics import Points, PointScores, score_points
+from tracker_ptz_sim.evaluation.set_metrics import Points, PointScores, score_points, true_runs
 
 AREA = (-1000.0, 1000.0, 0.0, 1000.0)  # x min, x max, y min, y max
 STEPS = 50
@@ -174,18 +174,10 @@ def _occlusions(case: Scenario, merged: np.ndarray) -> list[tuple[int, int, int]
     found = []
     alive = np.isfinite(case.positions[:, :, 0])
     for target in range(case.targets):
-        k = 0
-        while k < STEPS:
-            if not merged[k, target]:
-                k += 1
-                continue
-            end = k
-            while end + 1 < STEPS and merged[end + 1, target]:
-                end += 1
-            seen_before = k >= REACQUIRE and alive[k - REACQUIRE : k, target].all()
-            if seen_before and end + 1 < STEPS and alive[end + 1, target]:
-                found.append((target + 1, k, end))
-            k = end + 1
+        for first, last in true_runs(merged[:, target]):
+            seen_before = first >= REACQUIRE and alive[first - REACQUIRE : first, target].all()
+            if seen_before and last + 1 < STEPS and alive[last + 1, target]:
+                found.append((target + 1, first, last))
     return found
 
 

@@ -18,6 +18,7 @@ an id to its (2,) position.
 from __future__ import annotations
 
 from collections import Counter
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import motmetrics
@@ -44,9 +45,18 @@ def ospa(truth: np.ndarray, estimates: np.ndarray, cutoff: float, order: float =
     return float((total / n) ** (1.0 / order))
 
 
-def _arrays(points: Points) -> tuple[list[int], np.ndarray]:
+def as_arrays(points: Points) -> tuple[list[int], np.ndarray]:
+    """The ids in order and their points (N, 2)."""
     ids = sorted(points)
     return ids, np.array([points[i] for i in ids], dtype=float).reshape(len(ids), 2)
+
+
+def true_runs(flags: Sequence[bool] | np.ndarray) -> list[tuple[int, int]]:
+    """(first, last) index of every run of consecutive True values in `flags`."""
+    edges = np.diff(np.r_[0, np.asarray(flags, dtype=np.int8), 0])
+    firsts = np.flatnonzero(edges == 1)
+    lasts = np.flatnonzero(edges == -1) - 1
+    return list(zip(firsts.tolist(), lasts.tolist(), strict=True))
 
 
 @dataclass(frozen=True)
@@ -78,8 +88,8 @@ def score_points(
     accumulator = motmetrics.MOTAccumulator(auto_id=True)
     ospas = []
     for frame_truth, frame_estimates in zip(truth, estimates, strict=True):
-        t_ids, t_points = _arrays(frame_truth)
-        e_ids, e_points = _arrays(frame_estimates)
+        t_ids, t_points = as_arrays(frame_truth)
+        e_ids, e_points = as_arrays(frame_estimates)
         squared = motmetrics.distances.norm2squared_matrix(
             t_points, e_points, max_d2=match_distance**2
         )
