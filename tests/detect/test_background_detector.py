@@ -8,6 +8,8 @@ after the background has been learned.
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import cv2
 import numpy as np
 import pytest
@@ -202,6 +204,36 @@ def test_cast_shadows_are_not_objects_when_shadow_ratio_is_set():
                 round(max(b.bbox.iou(t) for t in (walker, coat))) for b in kept.blobs
             ) == [1, 1]
             assert max(b.bbox.iou(walker) for b in found.blobs) < 0.5
+
+
+def test_legs_that_look_like_a_shadow_are_restored():
+    """A walker (24 x 50) in a red top (20 rows) and trousers of the ground's colour, a quarter
+    darker (30 rows), on faintly textured grey-green ground, with its cast shadow at the feet:
+    the shadow test takes the trousers for shadow, so the blob is the top alone (IoU 0.4).
+    `restore_legs` grows the box down through the rows below it that differ from the background
+    in its columns: the whole walker, not the shadow beside the feet."""
+    rng = np.random.default_rng(4)
+    grey = cv2.GaussianBlur(rng.integers(100, 140, (240, 320), dtype=np.uint8), (0, 0), 2)
+    ground = np.dstack([grey, (grey * 1.1).clip(0, 255).astype(np.uint8), grey])
+    config = BackgroundConfig(shadow_ratio=0.5, min_aspect=0.5)
+    top_only = BackgroundDetector(config)
+    restored = BackgroundDetector(replace(config, restore_legs=True))
+    halves, wholes = [], []
+    for k in range(40):
+        image = ground.copy()
+        x = 20 + 5 * k
+        shadow = (slice(180, 190), slice(x + 10, x + 60))
+        image[shadow] = (image[shadow] * 0.7).astype(np.uint8)
+        image[140:160, x : x + 24] = (40, 40, 200)  # BGR: red
+        image[160:190, x : x + 24] = (90, 99, 90)  # the ground's colour, a quarter darker, flat
+        walker = Rect(x, 140, 24, 50)
+        half = top_only.process(CameraFrame(k * NS, image))
+        whole = restored.process(CameraFrame(k * NS, image))
+        if k >= 25:
+            halves.append(max(b.bbox.iou(walker) for b in half.blobs))
+            wholes += [b.bbox.iou(walker) for b in whole.blobs]
+    assert max(halves) < 0.5
+    assert len(wholes) == len(halves) and min(wholes) >= 0.7
 
 
 def test_a_ghost_of_an_object_seen_at_start_fades():

@@ -5,12 +5,14 @@ import motmetrics as mm
 import numpy as np
 import pytest
 
+from tracker_filter.association import Association
 from tracker_filter.config import TrackerConfig
 from tracker_filter.filters import PerTrackFactory
-from tracker_filter.management import MergedSplitter, TrackManager
+from tracker_filter.management import BoxGate, MergedSplitter, OverlapRecovery, TrackManager
 from tracker_filter.observation import Detections, Observation
 from tracker_filter.synthetic import bouncing_scene, piecewise_constant_velocity
 from tracker_filter.tracking import OutOfOrderError, TrackStatus
+from tracker_msgs_py.geometry import Rect
 
 DT = 0.12
 FILTERS = ["kalman_cv", "alpha_beta", "kalman_ca", "alpha_beta_gamma"]
@@ -171,6 +173,89 @@ def test_only_consistent_movers_are_confirmed():
     still = _statuses(multi(**rules, confirm_travel_window=10), [100.0] * 12)
     assert [t.status.tolist() for t in still[8:10]] == [[0], [TrackStatus.LOST]]  # 10th frame
     assert not any(np.any(t.status == TrackStatus.CONFIRMED) for t in still)
+
+
+def _track_points(tracker, points):
+    """Step a tracker with one detection (10 px box) per frame at each (x, y); every TrackSet."""
+    return [
+        tracker.step(Observation(k * 0.1, Detections.from_positions(np.array([p]), size=10)))
+        for k, p in enumerate(points)
+    ]
+
+
+def test_a_slow_walker_whose_centroid_jitters_is_confirmed_with_a_straightness_step():
+    """A walker at 2.5 px a frame whose blob centroid jitters by 2.5 px (limbs come and go):
+    frame to frame, the path is twice the way and straightness stays below 0.7; measured between
+    waypoints 6 px apart it is a walker's. A sway in place is still no mover."""
+    rng = np.random.default_rng(5)
+    walk = [(100 + 2.5 * k + rng.normal(0, 2.5), 100 + rng.normal(0, 2.5)) for k in range(30)]
+    rules = {"confirm_travel": 12.0, "confirm_straightness": 0.7, "measurement_noise": 6.0}
+
+    def confirmed(tracksets):
+        return [k for k, t in enumerate(tracksets) if np.any(t.status == TrackStatus.CONFIRMED)]
+
+    frame_to_frame = _track_points(multi(**rules), walk)
+    assert confirmed(frame_to_frame) == [] and frame_to_frame[-1].ids.tolist() == [1]
+    assert frame_to_frame[-1].straightness[0] < 0.6
+    stepped = _track_points(multi(**rules, straightness_step=6.0), walk)
+    assert confirmed(stepped)[0] <= 6
+    assert stepped[-1].straightness[0] > 0.7
+    sway = [(100.0 + 0.8 * k + 8.0 * np.sin(2 * np.pi * k / 8), 100.0) for k in range(40)]
+    assert confirmed(_track_points(multi(**rules, straightness_step=6.0), sway)) == []
+
+
+def _person(x: float, legs: bool = True) -> np.ndarray:
+    """A person's box (24 x 50 at (x, 100)), or its upper half when the legs are not found."""
+    return np.array([x, 100.0, 24.0, 50.0 if legs else 25.0])
+
+
+def _boxes(boxes: list[np.ndarray]) -> Detections:
+    box = np.array(boxes)
+    return Detections(box[:, :2] + box[:, 2:] / 2, box[:, 2] * box[:, 3], box, np.zeros(len(box)))
+
+
+def test_a_track_keeps_a_detection_whose_centroid_jumped_when_their_boxes_overlap():
+    """A walker's blob loses its legs for three frames: its centroid jumps 12.5 px up, beyond
+    the centroid gate (R = 2 px). Paired by box overlap, the track goes on under its id;
+    without, a new track starts and the walker's own coasts."""
+
+    def ids(recover_overlap: float) -> set[int]:
+        tracker = multi(recover_overlap=recover_overlap)
+        seen: set[int] = set()
+        for k in range(30):
+            box = _person(40.0 + 4.0 * k, legs=not 15 <= k < 18)
+            tracks = tracker.step(Observation(k * 0.1, _boxes([box])))
+            seen |= set(tracks.ids[tracks.status != TrackStatus.LOST].tolist())
+        return seen
+
+    assert ids(0.3) == {1}
+    assert len(ids(0.0)) > 1
+    recovery = OverlapRecovery(0.3)
+    none = Association(np.zeros(0, np.int64), np.zeros(0, np.int64))
+    track_boxes = np.array([_person(100.0), _person(300.0)])
+    paired = recovery.recover(none, track_boxes, np.array([_person(330.0), _person(104.0, False)]))
+    assert paired.tracks.tolist() == [0] and paired.measurements.tolist() == [1]
+
+
+def test_box_edges_that_jump_are_kept_until_the_change_persists():
+    """A walker's box loses its legs for 3 frames and a flickering sign joins it from above for
+    2 (both paired by box overlap): the track's box keeps the walker's height (IoU with the
+    walker >= 0.9 throughout). A change that lasts (a person who sits down: half the height from
+    frame 20 on) is taken after `patience` frames."""
+    tracker = multi(box_tolerance=0.2, recover_overlap=0.3)
+    for k in range(40):
+        box = _person(40.0 + 4.0 * k, legs=not 10 <= k < 13)
+        if 15 <= k < 17:  # a 24 x 40 sign 10 px above the head joins the blob
+            box = np.array([box[0], 50.0, 24.0, 100.0])
+        if k >= 20:
+            box = np.array([box[0], 125.0, 24.0, 25.0])
+        tracks = tracker.step(Observation(k * 0.1, _boxes([box])))
+        (x, y, w, h), expected = tracks.bboxes[0], _person(40.0 + 4.0 * k)
+        if 5 <= k < 20:
+            assert Rect(x, y, w, h).iou(Rect(*expected)) >= 0.9, k
+        if k >= 20 + BoxGate().patience:
+            assert (y, h) == pytest.approx((125.0, 25.0), abs=1.0)
+    assert tracks.ids.tolist() == [1]
 
 
 def test_many_targets_with_clutter_keep_their_ids():

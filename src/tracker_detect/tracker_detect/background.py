@@ -21,7 +21,9 @@ silhouettes:
    dropped when it is set (a person stands, a strip of barrier tape or a foot's shadow lies;
    a blob cut by the view's top or bottom edge needs half that: only a slice of it is in view),
    then a person's fragments are joined (stacked head and legs: `merge_gap`; a hand or foot
-   beside the body: `satellite_share`);
+   beside the body: `satellite_share`); with `restore_legs`, a box grows down through the legs
+   that step 3 took for shadow or flicker: rows right below it that differ from the background
+   in its columns;
 5. the mosaic learns the view: quickly (learning_rate) where nothing is foreground, at heal_rate
    where the view differs but does not change (ghosts fade, a stopped object joins the
    background), not at all under movers.
@@ -30,12 +32,12 @@ silhouettes:
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import cv2
 import numpy as np
 
-from tracker_detect.detector import CameraFrame, Detection, checked_view
+from tracker_detect.detector import Blob, CameraFrame, Detection, checked_view
 from tracker_detect.mosaic import MosaicSample, SceneMosaic
 from tracker_detect.motion import (
     DetectorConfig,
@@ -84,6 +86,7 @@ class BackgroundConfig:
     satellite_share: float = 0.0  # join a blob this much smaller to a big one it touches (0: never)
     min_aspect: float = 0.0  # height / width below which a blob is dropped (0: keep all)
     shadow_ratio: float = 0.0  # darkest shadow, as a share of the background's brightness (0: off)
+    restore_legs: bool = False  # grow boxes down through their legs lost to shadow or flicker
     presence_fraction: float = 0.0008  # presence test, as the seed
     auto_downsample: bool = True
     ssim: SsimParams = field(default_factory=SsimParams)
@@ -205,6 +208,9 @@ class BackgroundDetector:
             if b.area >= c.min_blob_area and self._upright(b.bbox, view.rect)
         ]
         blobs = merge_satellites(merge_stacked(found, c.merge_gap), c.satellite_share)
+        if c.restore_legs:
+            differing = self._clean(different.astype(np.uint8))
+            blobs = [_with_legs(b, differing, view) for b in blobs]
         compared = int(np.count_nonzero(judged))
         present = presence_test(sum(b.pixel_count for b in blobs), compared, c.presence_fraction)
         return Detection(
@@ -277,6 +283,25 @@ class BackgroundDetector:
         if shrink and c.shrink_size > 1:
             mask = cv2.erode(mask, _ellipse(c.shrink_size))
         return mask
+
+
+def _with_legs(blob: Blob, differing: np.ndarray, view: View) -> Blob:
+    """`blob` with its box grown down, at most by its own height, row after row while the view
+    differs from the background anywhere in the box's columns (`differing`, image px).
+
+    A person's legs are lost where they look like a cast shadow (grey trousers on grey ground are
+    darker with the ground's colour) or cross the learned flicker of barrier tape; their pixels
+    still differ from the background, right below the body."""
+    box = blob.bbox
+    u0 = max(0, round((box.x - view.rect.x) / view.scale_x))
+    u1 = round((box.x + box.width - view.rect.x) / view.scale_x)
+    v0 = round((box.y - view.rect.y) / view.scale_y)
+    v1 = round((box.y + box.height - view.rect.y) / view.scale_y)
+    below = np.asarray(differing[v1 : v1 + max(v1 - v0, 0), u0:u1].any(axis=1))
+    rows = below.size if below.all() else int(np.argmin(below))
+    if rows == 0:
+        return blob
+    return replace(blob, bbox=Rect(box.x, box.y, box.width, box.height + rows * view.scale_y))
 
 
 def _ellipse(size: int) -> np.ndarray:

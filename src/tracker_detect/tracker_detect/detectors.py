@@ -280,6 +280,13 @@ BACKGROUND_PARAMETERS: tuple[ParamSpec, ...] = (
         0.0,
         0.94,
     ),
+    ParamSpec(
+        "restore_legs",
+        _B.restore_legs,
+        "grow a blob's box down through the rows right below it that differ from the background "
+        "in its columns, at most by its height (a person's legs lost to the shadow or flicker "
+        "tests)",
+    ),
     _like_ssim("presence_fraction", _B.presence_fraction),
     _like_ssim("auto_downsample", _B.auto_downsample),
 )

@@ -23,12 +23,14 @@ from tracker_filter.filters import FilterFactory, FilterKind
 from tracker_filter.gains import GainRule
 from tracker_filter.management import (
     AllDetections,
+    BoxGate,
     CappedInitiator,
     LargestDetection,
     MergedSplitter,
     MissCountDeleter,
     MofNConfirmation,
     NoSplit,
+    OverlapRecovery,
     TrackManager,
 )
 from tracker_filter.models import seed001_nominal_model
@@ -83,8 +85,11 @@ _MULTI: dict[str, Any] = {
     "confirm_travel": 0.0,
     "confirm_travel_window": 30,
     "confirm_straightness": 0.0,
+    "straightness_step": 0.0,
     "max_misses": 12,
     "split_merged": 0.0,
+    "recover_overlap": 0.0,
+    "box_tolerance": 0.0,
     "selection_policy": "longest_lived",
     "min_lock_time": 2.0,
     "switch_margin": 0.2,
@@ -181,6 +186,13 @@ TRACKING_PARAMETERS: tuple[ParamSpec, ...] = (
         0.0,
         1.0,
     ),
+    _spec(
+        "straightness_step",
+        "px between the waypoints of the path straightness is measured on (a blob's centroid "
+        "jitters from frame to frame; 0: every detection)",
+        0.0,
+        10000.0,
+    ),
     _spec("max_misses", "consecutive missed frames before a track is lost", 1, 10000),
     _spec(
         "split_merged",
@@ -188,6 +200,20 @@ TRACKING_PARAMETERS: tuple[ParamSpec, ...] = (
         "per track when its box is at least this x the largest of theirs in area (0: never)",
         0.0,
         100.0,
+    ),
+    _spec(
+        "recover_overlap",
+        "pair a track and a detection the centroid gate kept apart when the track's predicted "
+        "box and the detection's box overlap by at least this IoU (0: never)",
+        0.0,
+        1.0,
+    ),
+    _spec(
+        "box_tolerance",
+        "keep a track's box edge where the detection's moved more than this x its height "
+        "(legs lost, a sign joined above) for up to 5 frames (0: boxes as detected)",
+        0.0,
+        10.0,
     ),
 )
 
@@ -253,8 +279,11 @@ class TrackerConfig:
     confirm_travel: float
     confirm_travel_window: int
     confirm_straightness: float
+    straightness_step: float
     max_misses: int
     split_merged: float
+    recover_overlap: float
+    box_tolerance: float
     selection_policy: SelectionPolicy
     min_lock_time: float
     switch_margin: float
@@ -291,8 +320,11 @@ class TrackerConfig:
             confirm_travel=params["confirm_travel"],
             confirm_travel_window=params["confirm_travel_window"],
             confirm_straightness=params["confirm_straightness"],
+            straightness_step=params["straightness_step"],
             max_misses=params["max_misses"],
             split_merged=params["split_merged"],
+            recover_overlap=params["recover_overlap"],
+            box_tolerance=params["box_tolerance"],
             selection_policy=AUTOMATIC_POLICIES[params["selection_policy"]],
             min_lock_time=params["min_lock_time"],
             switch_margin=params["switch_margin"],
@@ -318,11 +350,14 @@ class TrackerConfig:
                 self.confirm_travel,
                 self.confirm_travel_window,
                 self.confirm_straightness,
+                self.straightness_step,
             ),
             MissCountDeleter(self.max_misses),
             LargestDetection() if self.measurements == "largest" else AllDetections(),
             first_id=first_id,
             splitter=MergedSplitter(self.split_merged) if self.split_merged else NoSplit(),
+            recovery=OverlapRecovery(self.recover_overlap) if self.recover_overlap else None,
+            box_gate=BoxGate(self.box_tolerance) if self.box_tolerance else None,
         )
 
     def build_selector(self) -> TargetSelector:

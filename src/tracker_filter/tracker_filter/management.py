@@ -16,8 +16,9 @@ from __future__ import annotations
 from typing import Protocol
 
 import numpy as np
+from scipy.optimize import linear_sum_assignment
 
-from tracker_filter.association import Associator
+from tracker_filter.association import Association, Associator
 from tracker_filter.filters import FilterFactory
 from tracker_filter.layout import StateLayout
 from tracker_filter.observation import Detections, Need, Observation
@@ -151,6 +152,96 @@ def _nested(boxes: np.ndarray) -> bool:
     return bool((inside >= 0.5).any())
 
 
+class OverlapRecovery:
+    """A second association by box overlap: a track and a detection that the centroid gate kept
+    apart are paired when the track's predicted box and the detection's box overlap by at least
+    `min_iou` (the most overlapping pairs first, Hungarian). A person's centroid jumps when the
+    detector finds or loses their legs; their box still covers them."""
+
+    def __init__(self, min_iou: float = 0.3) -> None:
+        if not 0.0 < min_iou <= 1.0:
+            raise ValueError(f"min_iou must be in (0, 1], got {min_iou}")
+        self.min_iou = min_iou
+
+    def recover(
+        self, association: Association, boxes: np.ndarray, detection_boxes: np.ndarray
+    ) -> Association:
+        free_tracks = np.ones(len(boxes), dtype=bool)
+        free_tracks[association.tracks] = False
+        tracks = np.flatnonzero(free_tracks)
+        measurements = association.unassigned_measurements(len(detection_boxes))
+        if len(tracks) == 0 or len(measurements) == 0:
+            return association
+        a, b = boxes[tracks], detection_boxes[measurements]
+        inter = intersection_areas(a, b)
+        union = (a[:, 2] * a[:, 3])[:, None] + (b[:, 2] * b[:, 3])[None, :] - inter
+        iou = np.divide(inter, union, out=np.zeros_like(inter), where=union > 0)
+        chosen_rows, chosen_cols = linear_sum_assignment(-iou)
+        kept = iou[chosen_rows, chosen_cols] >= self.min_iou
+        if not kept.any():
+            return association
+        all_tracks = np.concatenate([association.tracks, tracks[chosen_rows[kept]]])
+        all_measurements = np.concatenate(
+            [association.measurements, measurements[chosen_cols[kept]]]
+        )
+        order = np.argsort(all_tracks, kind="stable")
+        return Association(all_tracks[order], all_measurements[order])
+
+
+class BoxGate:
+    """Per box edge, keep a track's edge where the detection's jumps away from it.
+
+    A person's blob loses its legs for a few frames, or gains a strip of tape or a flickering
+    sign joined above; its box then jumps by a third of the person's height or more, while a
+    real change of size (walking towards the camera) is a few per cent a frame. Each edge (left,
+    top, right, bottom) of an associated detection's box is compared with the track's predicted
+    box: one that moved more than `tolerance` x the predicted height is replaced by the predicted
+    edge, unless it has disagreed `patience` frames in a row (then the detection is believed: the
+    object has changed). The detection's centroid moves with its box's centre, so the filter is
+    corrected by the same cleaned measurement."""
+
+    def __init__(self, tolerance: float = 0.2, patience: int = 5) -> None:
+        if not tolerance > 0 or patience < 1:
+            raise ValueError(f"need tolerance > 0 and patience >= 1, got {tolerance}, {patience}")
+        self.tolerance, self.patience = tolerance, patience
+
+    def gate(
+        self,
+        detections: Detections,
+        rows: np.ndarray,
+        cols: np.ndarray,
+        predicted: np.ndarray,
+        strikes: np.ndarray,
+    ) -> Detections:
+        """`detections` with the boxes and centroids of the associated ones (`cols`, paired with
+        track rows `rows` whose predicted boxes are `predicted` (N, 4)) gated; `strikes` (N, 4),
+        the consecutive disagreements per edge, is updated in place."""
+        if len(rows) == 0:
+            return detections
+        found = _edges(detections.bboxes[cols])
+        expected = _edges(predicted[rows])
+        height = np.maximum(predicted[rows, 3], 1.0)[:, None]
+        off = np.abs(found - expected) > self.tolerance * height
+        strikes[rows] = np.where(off, strikes[rows] + 1, 0)
+        keep = off & (strikes[rows] < self.patience)
+        strikes[rows] = np.where(keep, strikes[rows], 0)
+        edges = np.where(keep, expected, found)
+        edges[:, 2] = np.maximum(edges[:, 2], edges[:, 0] + 1.0)
+        edges[:, 3] = np.maximum(edges[:, 3], edges[:, 1] + 1.0)
+        boxes = detections.bboxes.copy()
+        positions = detections.positions.copy()
+        gated = np.column_stack([edges[:, :2], edges[:, 2:] - edges[:, :2]])
+        shift = (gated[:, :2] + gated[:, 2:] / 2) - (boxes[cols, :2] + boxes[cols, 2:] / 2)
+        boxes[cols] = gated
+        positions[cols] += shift
+        return Detections(positions, detections.areas, boxes, detections.scores)
+
+
+def _edges(boxes: np.ndarray) -> np.ndarray:
+    """x, y, width, height (N, 4) -> left, top, right, bottom."""
+    return np.column_stack([boxes[:, :2], boxes[:, :2] + boxes[:, 2:]])
+
+
 class Initiator(Protocol):
     def initiate(
         self, detections: Detections, free: np.ndarray, live_tracks: int
@@ -187,6 +278,7 @@ class MofNConfirmation:
         min_travel: float = 0.0,
         travel_window: int = 30,
         min_straightness: float = 0.0,
+        path_step: float = 0.0,
     ) -> None:
         if not 1 <= hits <= window:
             raise ValueError(f"confirmation needs 1 <= M <= N, got M = {hits}, N = {window}")
@@ -197,6 +289,7 @@ class MofNConfirmation:
         self.hits, self.window = hits, window
         self.min_travel, self.travel_window = min_travel, travel_window
         self.min_straightness = min_straightness
+        self.path_step = path_step  # px between the waypoints straightness is measured on
 
     def confirmed(
         self, hits: np.ndarray, frames: np.ndarray, travel: np.ndarray, straightness: np.ndarray
@@ -245,6 +338,8 @@ class TrackManager:
         selector: MeasurementSelector | None = None,
         first_id: int = 1,
         splitter: Splitter | None = None,
+        recovery: OverlapRecovery | None = None,
+        box_gate: BoxGate | None = None,
     ) -> None:
         self.filter_factory = filter_factory
         self.associator = associator
@@ -253,9 +348,11 @@ class TrackManager:
         self.deleter = deleter
         self.selector = selector or AllDetections()
         self.splitter = splitter or NoSplit()
+        self.recovery = recovery
+        self.box_gate = box_gate
         self.bank = filter_factory.new_bank()
         self.layout = StateLayout.from_names(self.bank.state_layout)
-        self.book = TrackBook(first_id)
+        self.book = TrackBook(first_id, confirmation.path_step)
         self.rejected_measurements = 0
 
     @property
@@ -300,7 +397,15 @@ class TrackManager:
         association = self.associator.associate(
             *self.bank.measurement_prediction(), detections.positions
         )
+        if self.recovery is not None:
+            association = self.recovery.recover(
+                association, book.moved_boxes(predicted), detections.bboxes
+            )
         rows, cols = association.tracks, association.measurements
+        if self.box_gate is not None:
+            detections = self.box_gate.gate(
+                detections, rows, cols, book.moved_boxes(predicted), book.edge_strikes
+            )
         self.bank.update(rows, detections.positions[cols])
         updated = book.record_frame(rows, cols, detections, self.layout.positions(self.bank.means))
         travel = book.measured_travel()

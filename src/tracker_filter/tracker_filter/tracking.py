@@ -213,8 +213,9 @@ class TrackBook:
 
     _INT_FIELDS = ("ids", "hits", "frames", "misses", "detections")
 
-    def __init__(self, first_id: int = 1) -> None:
+    def __init__(self, first_id: int = 1, path_step: float = 0.0) -> None:
         self.next_id = first_id
+        self.path_step = path_step  # px between the waypoints of `straightness`'s path
         self.clear()
 
     def __len__(self) -> int:
@@ -231,10 +232,12 @@ class TrackBook:
         self.born = np.zeros(0)
         self.confirmed = np.zeros(0, dtype=bool)
         self.bboxes = np.zeros((0, 4))
+        self.edge_strikes = np.zeros((0, 4), dtype=np.int64)  # frames each box edge disagreed
         self.anchors = np.zeros((0, AXES))  # estimated position when the box was measured
         self.origins = np.zeros((0, AXES))  # the initiating detection's position
         self.measured = np.zeros((0, AXES))  # the last associated detection's position
-        self.path = np.zeros(0)  # px walked from detection to associated detection
+        self.path = np.zeros(0)  # px walked from waypoint to waypoint (path_step apart)
+        self.waypoints = np.zeros((0, AXES))  # the last detection counted in the path
         self.areas = np.zeros(0)
 
     def reset(self, reset_ids: bool = False) -> int:
@@ -268,8 +271,12 @@ class TrackBook:
         self.bboxes[rows] = detections.bboxes[cols]
         self.areas[rows] = detections.areas[cols]
         self.anchors[rows] = positions[rows]
-        self.path[rows] += np.hypot(*(detections.positions[cols] - self.measured[rows]).T)
-        self.measured[rows] = detections.positions[cols]
+        found = detections.positions[cols]
+        hops = np.hypot(*(found - self.waypoints[rows]).T)
+        counted = hops >= self.path_step
+        self.path[rows[counted]] += hops[counted]
+        self.waypoints[rows[counted]] = found[counted]
+        self.measured[rows] = found
         return updated
 
     def travel(self, positions: np.ndarray) -> np.ndarray:
@@ -285,10 +292,14 @@ class TrackBook:
 
     def straightness(self) -> np.ndarray:
         """Per track, how directly its detections moved: the distance from the first to the last
-        divided by the path through all of them (1 for a walker, near 0 for a flutter in place;
-        1 before a track has moved)."""
+        divided by the path through them (1 for a walker, near 0 for a flutter in place; 1
+        before a track has moved). The path goes from waypoint to waypoint, a detection being
+        the next waypoint once it is `path_step` px from the last: a blob's centroid jitters by
+        a few px from frame to frame as limbs come and go, which would make a slow walker's path
+        many times their way."""
         net = self.measured_travel()
-        return np.divide(net, self.path, out=np.ones(len(self)), where=self.path > 0)
+        path = self.path + np.hypot(*(self.measured - self.waypoints).T)
+        return np.divide(net, path, out=np.ones(len(self)), where=path > 0)
 
     def moved_boxes(self, positions: np.ndarray) -> np.ndarray:
         """Every track's last measured box (N, 4), moved with its estimate to `positions` (N, 2)."""
@@ -315,10 +326,12 @@ class TrackBook:
         self.born = np.concatenate([self.born, np.full(count, float(t))])
         self.confirmed = np.concatenate([self.confirmed, confirmed])
         self.bboxes = np.concatenate([self.bboxes, detections.bboxes[new]])
+        self.edge_strikes = np.concatenate([self.edge_strikes, np.zeros((count, 4), np.int64)])
         self.anchors = np.concatenate([self.anchors, detections.positions[new]])
         self.origins = np.concatenate([self.origins, detections.positions[new]])
         self.measured = np.concatenate([self.measured, detections.positions[new]])
         self.path = np.concatenate([self.path, np.zeros(count)])
+        self.waypoints = np.concatenate([self.waypoints, detections.positions[new]])
         self.areas = np.concatenate([self.areas, detections.areas[new]])
 
     def snapshot(
@@ -367,10 +380,12 @@ class TrackBook:
             "born",
             "confirmed",
             "bboxes",
+            "edge_strikes",
             "anchors",
             "origins",
             "measured",
             "path",
+            "waypoints",
             "areas",
         ):
             setattr(self, name, getattr(self, name)[mask])

@@ -46,7 +46,7 @@ import numpy as np
 
 from tracker_filter.config import PRESETS
 from tracker_ptz_sim.bringup import pipeline
-from tracker_ptz_sim.bringup.graph import load_graph
+from tracker_ptz_sim.bringup.graph import load_graph, node_parameters
 from tracker_ptz_sim.evaluation import scoring
 from tracker_ptz_sim.evaluation.centre_scores import OSPA_CUTOFFS, ospa_key
 from tracker_ptz_sim.simulation import small_objects, street
@@ -58,15 +58,14 @@ from tracker_ptz_sim.simulation.scenes import (
     write_scene,
 )
 
-#: Tracker parameters config/surveillance.yaml sets (a configuration on a preset resets them).
-_SUITE_TRACKER = (
-    "lead_time",
-    "confirm_travel",
-    "confirm_straightness",
-    "selection_policy",
-    "split_merged",
-    "target_max_misses",
-)
+
+def _suite_tracker_settings() -> tuple[str, ...]:
+    """The tracker parameters config/surveillance.yaml sets on top of the tracker's preset (a
+    configuration on another preset resets them to that preset's values)."""
+    graph = load_graph("surveillance")
+    return tuple(
+        name for name in node_parameters(graph.params_files, "tracker") if name in PRESETS["multi"]
+    )
 
 
 #: The small-object scenes (seed 004), by name; their seeds (7, 8, 9) are not the ones
@@ -112,7 +111,7 @@ CONFIGURATIONS: dict[str, Configuration] = {
             "ssim_detector": {"method": "ssim"},
             # the seed's tracker preset, also for what surveillance.yaml sets on top of presets
             "tracker": {"preset": "seed000"}
-            | {name: PRESETS["seed000"][name] for name in _SUITE_TRACKER},
+            | {name: PRESETS["seed000"][name] for name in _suite_tracker_settings()},
             "ptz_controller": {"mode": "direct", "zoom_control": False},
             "ptz_camera": {"min_zoom": 1.0},
         }
