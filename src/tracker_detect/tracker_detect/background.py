@@ -23,7 +23,7 @@ silhouettes:
    then a person's fragments are joined (stacked head and legs: `merge_gap`; a hand or foot
    beside the body: `satellite_share`); with `restore_legs`, a box grows down through the legs
    that step 3 took for shadow or flicker: rows right below it that differ from the background
-   in its columns;
+   in its columns and are no other blob's;
 5. the mosaic learns the view: quickly (learning_rate) where nothing is foreground, at heal_rate
    where the view differs but does not change (ghosts fade, a stopped object joins the
    background), not at all under movers.
@@ -209,8 +209,8 @@ class BackgroundDetector:
         ]
         blobs = merge_satellites(merge_stacked(found, c.merge_gap), c.satellite_share)
         if c.restore_legs:
-            differing = self._clean(different.astype(np.uint8))
-            blobs = [_with_legs(b, differing, view) for b in blobs]
+            excluded = self._clean(different.astype(np.uint8)) & (mask == 0)
+            blobs = [_with_legs(b, excluded, view) for b in blobs]
         compared = int(np.count_nonzero(judged))
         present = presence_test(sum(b.pixel_count for b in blobs), compared, c.presence_fraction)
         return Detection(
@@ -285,19 +285,21 @@ class BackgroundDetector:
         return mask
 
 
-def _with_legs(blob: Blob, differing: np.ndarray, view: View) -> Blob:
-    """`blob` with its box grown down, at most by its own height, row after row while the view
-    differs from the background anywhere in the box's columns (`differing`, image px).
+def _with_legs(blob: Blob, excluded: np.ndarray, view: View) -> Blob:
+    """`blob` with its box grown down, at most by its own height, row after row while any of the
+    box's columns holds a pixel that differs from the background but is no object's
+    (`excluded`, image px: taken for shadow or flicker).
 
     A person's legs are lost where they look like a cast shadow (grey trousers on grey ground are
     darker with the ground's colour) or cross the learned flicker of barrier tape; their pixels
-    still differ from the background, right below the body."""
+    still differ from the background, right below the body. Another object below (a person
+    further down the image) is in the mask and stops the growth."""
     box = blob.bbox
     u0 = max(0, round((box.x - view.rect.x) / view.scale_x))
     u1 = round((box.x + box.width - view.rect.x) / view.scale_x)
     v0 = round((box.y - view.rect.y) / view.scale_y)
     v1 = round((box.y + box.height - view.rect.y) / view.scale_y)
-    below = np.asarray(differing[v1 : v1 + max(v1 - v0, 0), u0:u1].any(axis=1))
+    below = np.asarray(excluded[v1 : v1 + max(v1 - v0, 0), u0:u1].any(axis=1))
     rows = below.size if below.all() else int(np.argmin(below))
     if rows == 0:
         return blob
