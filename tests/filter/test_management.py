@@ -233,8 +233,10 @@ def test_a_track_keeps_a_detection_whose_centroid_jumped_when_their_boxes_overla
     recovery = OverlapRecovery(0.3)
     none = Association(np.zeros(0, np.int64), np.zeros(0, np.int64))
     track_boxes = np.array([_person(100.0), _person(300.0)])
-    paired = recovery.recover(none, track_boxes, np.array([_person(330.0), _person(104.0, False)]))
+    found = np.array([_person(330.0), _person(104.0, False)])
+    paired = recovery.recover(none, track_boxes, found, np.array([True, True]))
     assert paired.tracks.tolist() == [0] and paired.measurements.tolist() == [1]
+    assert len(recovery.recover(none, track_boxes, found, np.array([False, True])).tracks) == 0
 
 
 def test_box_edges_that_jump_are_kept_until_the_change_persists():

@@ -153,10 +153,12 @@ def _nested(boxes: np.ndarray) -> bool:
 
 
 class OverlapRecovery:
-    """A second association by box overlap: a track and a detection that the centroid gate kept
-    apart are paired when the track's predicted box and the detection's box overlap by at least
-    `min_iou` (the most overlapping pairs first, Hungarian). A person's centroid jumps when the
-    detector finds or loses their legs; their box still covers them."""
+    """A second association by box overlap: a confirmed track and a detection that the centroid
+    gate kept apart are paired when the track's predicted box and the detection's box overlap by
+    at least `min_iou` (the most overlapping pairs first, Hungarian). A person's centroid jumps
+    when the detector finds or loses their legs; their box still covers them. Tentative tracks
+    are left to the gate: a blob of clutter that changes shape from frame to frame would
+    otherwise collect the hits that confirm it."""
 
     def __init__(self, min_iou: float = 0.3) -> None:
         if not 0.0 < min_iou <= 1.0:
@@ -164,9 +166,15 @@ class OverlapRecovery:
         self.min_iou = min_iou
 
     def recover(
-        self, association: Association, boxes: np.ndarray, detection_boxes: np.ndarray
+        self,
+        association: Association,
+        boxes: np.ndarray,
+        detection_boxes: np.ndarray,
+        eligible: np.ndarray,
     ) -> Association:
-        free_tracks = np.ones(len(boxes), dtype=bool)
+        """`association` plus the pairs of `eligible` tracks (N,) -- their predicted `boxes`
+        (N, 4) -- and free detections whose boxes overlap by `min_iou`."""
+        free_tracks = eligible.copy()
         free_tracks[association.tracks] = False
         tracks = np.flatnonzero(free_tracks)
         measurements = association.unassigned_measurements(len(detection_boxes))
@@ -399,7 +407,7 @@ class TrackManager:
         )
         if self.recovery is not None:
             association = self.recovery.recover(
-                association, book.moved_boxes(predicted), detections.bboxes
+                association, book.moved_boxes(predicted), detections.bboxes, book.confirmed
             )
         rows, cols = association.tracks, association.measurements
         if self.box_gate is not None:
