@@ -203,8 +203,8 @@ TRACKING_PARAMETERS: tuple[ParamSpec, ...] = (
     ),
     _spec(
         "recover_overlap",
-        "pair a track and a detection the centroid gate kept apart when the track's predicted "
-        "box and the detection's box overlap by at least this IoU (0: never)",
+        "pair a confirmed track and a detection the centroid gate kept apart when the track's "
+        "predicted box and the detection's box overlap by at least this IoU (0: never)",
         0.0,
         1.0,
     ),
