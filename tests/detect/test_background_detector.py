@@ -178,22 +178,34 @@ def test_flat_blobs_are_dropped_when_min_aspect_is_set():
             assert any(b.bbox.y < 60 and b.bbox.height < b.bbox.width / 2 for b in found.blobs)
 
 
+def asphalt() -> np.ndarray:
+    """Faintly textured grey-green ground, 320 x 240, BGR."""
+    rng = np.random.default_rng(4)
+    grey = cv2.GaussianBlur(rng.integers(100, 140, (240, 320), dtype=np.uint8), (0, 0), 2)
+    return np.dstack([grey, (grey * 1.1).clip(0, 255).astype(np.uint8), grey])
+
+
+def with_cast_shadow(ground: np.ndarray, x: int, rows: slice) -> np.ndarray:
+    """A copy of `ground` darkened to 0.7 (its colour kept) in `rows`, from x + 10 to x + 60: the
+    shadow of a walker at x, cast to its right at the feet."""
+    image = ground.copy()
+    shadow = (rows, slice(x + 10, x + 60))
+    image[shadow] = (image[shadow] * 0.7).astype(np.uint8)
+    return image
+
+
 def test_cast_shadows_are_not_objects_when_shadow_ratio_is_set():
     """A red walker (24 x 50) on faintly textured grey-green ground (asphalt) casts a shadow to
     its right at the feet (the ground darkened to 0.7, its colour kept): with shadow_ratio 0.5 the blob is the
     walker; without, the shadow widens it past IoU 0.5. A dark grey coat over the same ground
     is darker *and* of another colour: still an object. (min_aspect drops the flat ghosts the
     coat leaves where it stood in the first frames.)"""
-    rng = np.random.default_rng(4)
-    grey = cv2.GaussianBlur(rng.integers(100, 140, (240, 320), dtype=np.uint8), (0, 0), 2)
-    ground = np.dstack([grey, (grey * 1.1).clip(0, 255).astype(np.uint8), grey])
+    ground = asphalt()
     with_shadows = BackgroundDetector(BackgroundConfig(shadow_ratio=0.5, min_aspect=0.5))
     without = BackgroundDetector(BackgroundConfig(min_aspect=0.5))
     for k in range(40):
-        image = ground.copy()
         x = 20 + 5 * k
-        shadow = (slice(175, 190), slice(x + 10, x + 60))
-        image[shadow] = (image[shadow] * 0.7).astype(np.uint8)
+        image = with_cast_shadow(ground, x, rows=slice(175, 190))
         image[140:190, x : x + 24] = (40, 40, 200)  # BGR: red
         image[60:100, 280 - 3 * k : 300 - 3 * k] = (25, 25, 25)  # the dark coat
         kept = with_shadows.process(CameraFrame(k * NS, image))
@@ -212,18 +224,14 @@ def test_legs_that_look_like_a_shadow_are_restored():
     the shadow test takes the trousers for shadow, so the blob is the top alone (IoU 0.4).
     `restore_legs` grows the box down through the rows below it that differ from the background
     in its columns: the whole walker, not the shadow beside the feet."""
-    rng = np.random.default_rng(4)
-    grey = cv2.GaussianBlur(rng.integers(100, 140, (240, 320), dtype=np.uint8), (0, 0), 2)
-    ground = np.dstack([grey, (grey * 1.1).clip(0, 255).astype(np.uint8), grey])
+    ground = asphalt()
     config = BackgroundConfig(shadow_ratio=0.5, min_aspect=0.5)
     top_only = BackgroundDetector(config)
     restored = BackgroundDetector(replace(config, restore_legs=True))
     halves, wholes = [], []
     for k in range(40):
-        image = ground.copy()
         x = 20 + 5 * k
-        shadow = (slice(180, 190), slice(x + 10, x + 60))
-        image[shadow] = (image[shadow] * 0.7).astype(np.uint8)
+        image = with_cast_shadow(ground, x, rows=slice(180, 190))
         image[140:160, x : x + 24] = (40, 40, 200)  # BGR: red
         image[160:190, x : x + 24] = (90, 99, 90)  # the ground's colour, a quarter darker, flat
         walker = Rect(x, 140, 24, 50)
