@@ -23,7 +23,7 @@ from tracker_filter.filters import FilterFactory
 from tracker_filter.layout import StateLayout
 from tracker_filter.observation import Detections, Need, Observation
 from tracker_filter.tracking import TrackBook, TrackSet
-from tracker_msgs_py.geometry import intersection_areas
+from tracker_msgs_py.geometry import intersection_areas, iou_matrix
 
 # --- components --------------------------------------------------------------------------------
 
@@ -180,10 +180,7 @@ class OverlapRecovery:
         measurements = association.unassigned_measurements(len(detection_boxes))
         if len(tracks) == 0 or len(measurements) == 0:
             return association
-        a, b = boxes[tracks], detection_boxes[measurements]
-        inter = intersection_areas(a, b)
-        union = (a[:, 2] * a[:, 3])[:, None] + (b[:, 2] * b[:, 3])[None, :] - inter
-        iou = np.divide(inter, union, out=np.zeros_like(inter), where=union > 0)
+        iou = iou_matrix(boxes[tracks], detection_boxes[measurements])
         chosen_rows, chosen_cols = linear_sum_assignment(-iou)
         kept = iou[chosen_rows, chosen_cols] >= self.min_iou
         if not kept.any():

@@ -40,7 +40,7 @@ from tracker_filter.colour_particle import (
 from tracker_filter.layout import StateLayout
 from tracker_filter.observation import Detections, Need, Observation
 from tracker_filter.tracking import TrackBook, TrackSet
-from tracker_msgs_py.geometry import Rect
+from tracker_msgs_py.geometry import Rect, iou_matrix
 from tracker_msgs_py.params import ParamSpec
 from tracker_msgs_py.registry import Method
 
@@ -61,15 +61,6 @@ def _view(observation: Observation) -> ImageView | None:
     if image is None or window is None or window.width <= 0:
         return None
     return ImageView((window.x, window.y), image.shape[1] / window.width)
-
-
-def _iou(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """IoU of box a (4,) with each of boxes b (N, 4), all x, y, w, h."""
-    w = np.clip(np.minimum(a[0] + a[2], b[:, 0] + b[:, 2]) - np.maximum(a[0], b[:, 0]), 0, None)
-    h = np.clip(np.minimum(a[1] + a[3], b[:, 1] + b[:, 3]) - np.maximum(a[1], b[:, 1]), 0, None)
-    inter = w * h
-    union = a[2] * a[3] + b[:, 2] * b[:, 3] - inter
-    return np.divide(inter, union, out=np.zeros(len(b)), where=union > 0)
 
 
 class ColourParticleTracker:
@@ -178,7 +169,7 @@ class ColourParticleTracker:
         boxes = estimates.bboxes.copy()
         detected = np.zeros(len(boxes), dtype=bool)
         for row in range(len(boxes) if len(detections) else 0):
-            overlap = _iou(estimates.bboxes[row], detections.bboxes)
+            overlap = iou_matrix(estimates.bboxes[row], detections.bboxes)[0]
             best = int(np.argmax(overlap))
             detected[row] = overlap[best] >= self.new_track_iou
             if detected[row]:
@@ -222,7 +213,7 @@ class ColourParticleTracker:
                 i
                 for i in range(len(detections))
                 if not len(estimates)
-                or _iou(detections.bboxes[i], estimates.bboxes).max() < self.new_track_iou
+                or iou_matrix(detections.bboxes[i], estimates.bboxes).max() < self.new_track_iou
             ]
             count = len(book)
             if new and self._start(image, t, view, detections, np.array(new), False):

@@ -72,6 +72,17 @@ def intersection_areas(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return areas
 
 
+def iou_matrix(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Intersection over union (N, M) of (N, 4) and (M, 4) x, y, width, height boxes (0 where
+    both are empty)."""
+    a = np.asarray(a, dtype=float).reshape(-1, 4)
+    b = np.asarray(b, dtype=float).reshape(-1, 4)
+    inter = intersection_areas(a, b)
+    union = (a[:, 2] * a[:, 3])[:, None] + (b[:, 2] * b[:, 3])[None, :] - inter
+    result: np.ndarray = np.divide(inter, union, out=np.zeros_like(inter), where=union > 0)
+    return result
+
+
 @dataclass(frozen=True)
 class SceneGeometry:
     """Linear (equiangular) mapping between pan/tilt angles and scene pixels."""

@@ -20,7 +20,7 @@ import numpy as np
 with contextlib.redirect_stdout(io.StringIO()):  # it prints which optional datasets it cannot load
     from trackeval.metrics import HOTA
 
-from tracker_msgs_py.geometry import Rect, intersection_areas
+from tracker_msgs_py.geometry import Rect, iou_matrix
 
 Boxes = dict[int, dict[int, Rect]]  # frame -> id -> box
 
@@ -238,11 +238,7 @@ def iou_distances(truth: np.ndarray, hypotheses: np.ndarray, max_distance: float
 
     motmetrics' own iou_matrix calls np.asfarray, which NumPy 2 removed.
     """
-    t = np.asarray(truth, dtype=float).reshape(-1, 4)
-    h = np.asarray(hypotheses, dtype=float).reshape(-1, 4)
-    inter = intersection_areas(t, h)
-    union = (t[:, 2] * t[:, 3])[:, None] + (h[:, 2] * h[:, 3])[None, :] - inter
-    distance = 1.0 - np.divide(inter, union, out=np.zeros_like(inter), where=union > 0)
+    distance = 1.0 - iou_matrix(truth, hypotheses)
     distance[distance > max_distance] = np.nan
     return distance
 
