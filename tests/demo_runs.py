@@ -52,3 +52,14 @@ def run_demo(
     result = subprocess.run(command, capture_output=True, text=True, timeout=300)
     assert result.returncode == 0, result.stdout + result.stderr
     return result.stdout
+
+
+def with_logs(result, out, lines=40):
+    """The run's problems and the last log lines of every node they name: what a failed
+    assertion shows (the test's directory is gone after a CI run)."""
+    report = list(result.problems)
+    for log in sorted((out / "logs").glob("*.log")):
+        if any(log.stem in problem for problem in result.problems):
+            tail = log.read_text(errors="replace").splitlines()[-lines:]
+            report.append(f"--- {log.name}:\n" + "\n".join(tail))
+    return "\n".join(report)

@@ -13,6 +13,7 @@ import time
 from pathlib import Path
 
 import pytest
+from demo_runs import with_logs
 from ros_process import executable
 
 pytestmark = [pytest.mark.ros, pytest.mark.slow]
@@ -67,17 +68,6 @@ def run(paths, out, during=None, respawn_limit=0, **overrides):
         respawn_limit=respawn_limit,
         shared_memory=False,  # nodes are killed here (config/fastdds_udp.xml)
     )
-
-
-def with_logs(result, out, lines=40):
-    """The run's problems and the last log lines of every node they name: what a failed
-    assertion shows (the test's directory is gone after a CI run)."""
-    report = list(result.problems)
-    for log in sorted((out / "logs").glob("*.log")):
-        if any(log.stem in problem for problem in result.problems):
-            tail = log.read_text(errors="replace").splitlines()[-lines:]
-            report.append(f"--- {log.name}:\n" + "\n".join(tail))
-    return "\n".join(report)
 
 
 def stamps_of(bag, topic):

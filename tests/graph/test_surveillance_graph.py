@@ -8,7 +8,7 @@ import subprocess
 
 import numpy as np
 import pytest
-from demo_runs import ONE_WALKER, SWEEP_RATE, VIEW_FRACTION, run_demo
+from demo_runs import ONE_WALKER, SWEEP_RATE, VIEW_FRACTION, run_demo, with_logs
 from ros_process import executable
 
 pytestmark = [pytest.mark.ros, pytest.mark.slow]
@@ -273,7 +273,8 @@ def test_killing_the_detector_stops_the_camera_and_tracking_resumes(one_walker, 
     run = demo.run_graph(
         load_graph(), paths.video, tmp_path, overrides, demo.install_space(), 300.0, during=during
     )
-    assert {name: code for name, code in run.exit_codes.items() if code != 0} == {}
+    failed = {name: code for name, code in run.exit_codes.items() if code != 0}
+    assert failed == {}, with_logs(run, tmp_path)
     assert set(events) == {"killed", "restarted"}
     ordered = list(run_report.collect(run.bag).values())
     before = ordered[: events["killed"]]

@@ -326,8 +326,9 @@ def run_graph(
     the run ends, the bag is closed, and the result says why (`complete`, `problems`).
     `during(status, nodes)` is called while the replay runs (tests use it to kill and restart
     nodes); `respawn_limit` restarts per node (0: a node that dies ends the run).
-    `shared_memory` (default: unless nodes are restarted) lets images travel through Fast DDS
-    shared memory; a killed node can starve the other readers of it (config/fastdds_udp.xml).
+    `shared_memory` (default: unless nodes may be killed or restarted, i.e. with `during` or
+    `respawn_limit`) lets images travel through Fast DDS shared memory; a killed node can starve
+    the other readers of it or stall its successor's shutdown (config/fastdds_udp.xml).
     `raw_images` records the images as they travel instead of as JPEG (a bag ~25x larger).
     `single_process` runs every node in one process on one executor (graph_host), which waits
     for the graph itself and ends at the end of the stream; no restarts. `host_executor` names its
@@ -352,7 +353,7 @@ def run_graph(
     spinner = threading.Thread(target=_spin_recorder, args=(executor, result), daemon=True)
     spinner.start()
     if shared_memory is None:
-        shared_memory = respawn_limit == 0
+        shared_memory = respawn_limit == 0 and during is None
     environment = {} if shared_memory else GraphProcesses.without_shared_memory(graph)
     nodes = GraphProcesses(graph, install_dir, out / "logs", environment)
     source_overrides = {
