@@ -5,8 +5,11 @@ and the table and results.json carry the scores on box centres."""
 from __future__ import annotations
 
 import json
+import signal
+import subprocess
 
 import pytest
+from ros_process import executable
 
 from tracker_ptz_sim.bringup import benchmark
 
@@ -39,4 +42,30 @@ def test_a_short_gmphd_run_reports_ospa_and_centre_mota(tmp_path):
     assert centres["mota"] > 0.3  # tracks on many movers even in a 40-frame clip
     table = (out / "table.md").read_text()
     assert "| centre MOTA | centre IDF1 |" in table and "OSPA c=10 px" in table
+    assert "| small_objects | gmphd | in-process | 1 |" in table
+
+
+def test_ctrl_c_ends_the_benchmark_with_the_table_of_what_was_measured(tmp_path):
+    """The in-process runs compute without polling a flag: Ctrl-C must still end the tool (it
+    was ignored until the end), with the finished runs in table.md and exit code 130."""
+    out = tmp_path / "bench"
+    argv = ["--scenes", "small_objects", "--configs", "gmphd", "--frames", "30", "--seeds", "6"]
+    process = subprocess.Popen(
+        [executable("tracker_ptz_sim", "benchmark"), *argv, "--out", str(out)],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    try:
+        for line in process.stdout:
+            if line.startswith("  in view"):  # the first run's scores: five scenes to go
+                process.send_signal(signal.SIGINT)
+                break
+        stdout, stderr = process.communicate(timeout=60)
+    finally:
+        process.kill()
+    assert process.returncode == 130, stderr
+    assert "Traceback" not in stderr
+    table = (out / "table.md").read_text()
+    assert "Interrupted by SIGINT after 1 runs: the table is partial." in table
     assert "| small_objects | gmphd | in-process | 1 |" in table

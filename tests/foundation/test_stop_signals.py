@@ -79,3 +79,50 @@ def test_a_process_that_does_not_stop_writes_its_threads_stacks_when_asked():
         _, stderr = process.communicate(timeout=10)
     assert "most recent call first" in stderr
     assert "stuck_in_teardown" in stderr  # every thread, not only the main one
+
+
+BATCH_MODULES = {
+    # Computes and never polls: the stop interrupts it where it is.
+    "computing": (
+        "import os, signal\n"
+        "def main():\n    os.kill(os.getpid(), signal.SIGTERM)\n"
+        "    while True:\n        sum(range(1000))\n"
+    ),
+    # A part that stops in order itself (a graph run) sees a flag, then the tool ends.
+    "deferred": (
+        "import os, signal\nfrom tracker_msgs_py import stop_signals\n"
+        "def main():\n    with stop_signals.deferred():\n"
+        "        os.kill(os.getpid(), signal.SIGINT)\n"
+        "        assert stop_signals.wait(5.0)\n"
+        "        print('stopped in order', flush=True)\n"
+        "    print('went on after the stop', flush=True)\n    return 0\n"
+    ),
+}
+
+
+@pytest.mark.parametrize(
+    "case, expected_stdout, expected_stderr",
+    [
+        ("computing", "", "interrupted by SIGTERM\n"),
+        ("deferred", "stopped in order\n", "interrupted by SIGINT\n"),
+    ],
+)
+def test_a_batch_tool_ends_on_a_stop_with_one_line_and_130(
+    case, expected_stdout, expected_stderr, tmp_path
+):
+    """Benchmarks and studies (guarded_main(batch=True)) stop on Ctrl-C instead of ignoring it;
+    a part inside them that stops in order (deferred) finishes its own stop first."""
+    (tmp_path / f"tool_{case}.py").write_text(BATCH_MODULES[case])
+    code = (
+        "import sys\nfrom tracker_msgs_py.stop_signals import guarded_main\n"
+        f"sys.exit(guarded_main('tool_{case}', batch=True))\n"
+    )
+    result = subprocess.run(
+        [sys.executable, "-c", code],
+        capture_output=True,
+        text=True,
+        timeout=20,
+        env={"PYTHONPATH": f"{tmp_path}:{ROOT / 'src' / 'tracker_msgs'}"},
+    )
+    assert result.returncode == stop_signals.INTERRUPTED_EXIT_CODE == 130
+    assert (result.stdout, result.stderr) == (expected_stdout, expected_stderr)

@@ -10,14 +10,21 @@ interpreter's defaults apply, as for any process.)
 
 This module imports only the standard library and no rclpy: the signal handling stays ours, so a
 node can stop its threads before its publishers and the ROS context go away.
+
+A batch tool (a benchmark, a study) has no threads or nodes to stop in order while it computes:
+inside `interruptible()` a stop raises KeyboardInterrupt where the main thread is, as Python's own
+handler would, and `guarded_main(..., batch=True)` turns that into exit code 130 with one line.
 """
 
 from __future__ import annotations
 
+import contextlib
 import faulthandler
 import importlib
 import signal
+import sys
 import threading
+from collections.abc import Iterator
 from types import FrameType
 
 STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM)
@@ -28,6 +35,8 @@ STACK_DUMP_SIGNAL = signal.SIGUSR1
 _requested = threading.Event()
 _received: list[str] = []
 _exit_at_once = False  # while guarded_main imports the node: nothing to stop yet
+_raise_at_once = False  # inside interruptible(): plain computation, nothing to stop in order
+INTERRUPTED_EXIT_CODE = 130  # a batch tool stopped by a signal, as a shell reports Ctrl-C
 
 
 def _on_signal(signum: int, _frame: FrameType | None) -> None:
@@ -35,6 +44,8 @@ def _on_signal(signum: int, _frame: FrameType | None) -> None:
     _requested.set()
     if _exit_at_once:
         raise SystemExit(0)
+    if _raise_at_once:
+        raise KeyboardInterrupt(_received[-1])
 
 
 def install() -> None:
@@ -60,11 +71,40 @@ def wait(timeout: float | None = None) -> bool:
     return _requested.wait(timeout)
 
 
-def guarded_main(module: str, function: str = "main") -> int:
+@contextlib.contextmanager
+def interruptible() -> Iterator[None]:
+    """Inside, a stop signal raises KeyboardInterrupt in the main thread at once (one that
+    arrived before raises on entry); outside, stops are a flag again."""
+    global _raise_at_once
+    if requested():
+        raise KeyboardInterrupt(received())
+    previous, _raise_at_once = _raise_at_once, True
+    try:
+        yield
+    finally:
+        _raise_at_once = previous
+
+
+@contextlib.contextmanager
+def deferred() -> Iterator[None]:
+    """Inside `interruptible()`, a part that stops in order itself (a graph run: its nodes, its
+    bag): stops are a flag again, and one that arrived raises KeyboardInterrupt on leaving."""
+    global _raise_at_once
+    previous, _raise_at_once = _raise_at_once, False
+    try:
+        yield
+    finally:
+        _raise_at_once = previous
+        if previous and requested():
+            raise KeyboardInterrupt(received())
+
+
+def guarded_main(module: str, function: str = "main", batch: bool = False) -> int:
     """Install the handlers, then import `module` and return `module.function()`.
 
     The import (rclpy, OpenCV...) is most of a node's start-up; a stop requested during it ends
-    the process with 0 at once, before anything was started.
+    the process with 0 at once, before anything was started. A `batch` tool's function runs
+    `interruptible()`: a stop ends it with one line and `INTERRUPTED_EXIT_CODE`.
     """
     global _exit_at_once
     install()
@@ -81,4 +121,11 @@ def guarded_main(module: str, function: str = "main") -> int:
         _exit_at_once = False
     if requested():
         return 0
-    return entry()
+    if not batch:
+        return entry()
+    try:
+        with interruptible():
+            return entry()
+    except KeyboardInterrupt:
+        print(f"interrupted by {received() or 'SIGINT'}", file=sys.stderr, flush=True)
+        return INTERRUPTED_EXIT_CODE

@@ -41,16 +41,16 @@ def evaluate() -> int:
 
 
 def benchmark() -> int:
-    return guarded_main("tracker_ptz_sim.bringup.benchmark")
+    return guarded_main("tracker_ptz_sim.bringup.benchmark", batch=True)
 
 
 def predictor_study() -> int:
-    return guarded_main("tracker_ptz_sim.bringup.predictor_study")
+    return guarded_main("tracker_ptz_sim.bringup.predictor_study", batch=True)
 
 
 def single_target_benchmark() -> int:
-    return guarded_main("tracker_ptz_sim.bringup.single_target_benchmark")
+    return guarded_main("tracker_ptz_sim.bringup.single_target_benchmark", batch=True)
 
 
 def phd_benchmark() -> int:
-    return guarded_main("tracker_ptz_sim.bringup.phd_benchmark")
+    return guarded_main("tracker_ptz_sim.bringup.phd_benchmark", batch=True)

@@ -45,6 +45,7 @@ from typing import Any
 import numpy as np
 
 from tracker_filter.config import PRESETS
+from tracker_msgs_py import stop_signals
 from tracker_ptz_sim.bringup import pipeline
 from tracker_ptz_sim.bringup.graph import load_graph, node_parameters
 from tracker_ptz_sim.evaluation import scoring
@@ -191,9 +192,15 @@ def run_graph(
     from tracker_ptz_sim.evaluation import run_report
     from tracker_ptz_sim.simulation.scenes import scene_video
 
-    result = demo.run_graph(
-        load_graph(graph_name), scene_video(scene_dir), out, overrides, demo.install_space(), 1800.0
-    )
+    with stop_signals.deferred():  # the runner stops the nodes and closes the bag itself
+        result = demo.run_graph(
+            load_graph(graph_name),
+            scene_video(scene_dir),
+            out,
+            overrides,
+            demo.install_space(),
+            1800.0,
+        )
     if not result.complete:
         raise RuntimeError(f"the graph run is incomplete: {'; '.join(result.problems)}")
     return scoring.trace_from_frames(run_report.collect(result.bag))
@@ -366,6 +373,37 @@ def main(argv: list[str] | None = None) -> int:
     background, described = background_image(args.background) if streets else (None, "")
     results: list[RunScores] = []
     failures: list[str] = []
+    try:
+        _run_all(args, scene_names, runs, paths, background, extra, results, failures)
+        interrupted = None
+    except KeyboardInterrupt:  # Ctrl-C: the table of what was measured so far
+        interrupted = stop_signals.received() or "SIGINT"
+    text = table(results)
+    over = f"Street scenes over: {described}; " if described else ""
+    note = f"{over}{args.out}/runs/* hold each run's tracks, scores and plots."
+    if interrupted:
+        note += f"\n\nInterrupted by {interrupted} after {len(results)} runs: the table is partial."
+    if failures:
+        note += "\n\nRuns that did not complete (left out of the table):\n" + "\n".join(failures)
+    (args.out / "table.md").write_text(text + "\n\n" + note + "\n")
+    scoring.write_json([asdict(r) for r in results], args.out / "results.json")
+    print(f"\n{text}\n\n{note}")
+    if interrupted:
+        return stop_signals.INTERRUPTED_EXIT_CODE
+    return 1 if failures else 0
+
+
+def _run_all(
+    args: argparse.Namespace,
+    scene_names: list[str],
+    runs: dict[str, list[str]],
+    paths: tuple[str, ...],
+    background: np.ndarray | None,
+    extra: dict[str, dict[str, Any]],
+    results: list[RunScores],
+    failures: list[str],
+) -> None:
+    """Every scene x configuration x path, appending to `results` and `failures` as they end."""
     for name in scene_names:
         if not runs[name]:
             continue
@@ -402,15 +440,6 @@ def main(argv: list[str] | None = None) -> int:
                         continue
                     results.append(replace(result, scene=name, seed=config.seed))
                     print(scoring.format_scores(result.scores), flush=True)
-    text = table(results)
-    over = f"Street scenes over: {described}; " if described else ""
-    note = f"{over}{args.out}/runs/* hold each run's tracks, scores and plots."
-    if failures:
-        note += "\n\nRuns that did not complete (left out of the table):\n" + "\n".join(failures)
-    (args.out / "table.md").write_text(text + "\n\n" + note + "\n")
-    scoring.write_json([asdict(r) for r in results], args.out / "results.json")
-    print(f"\n{text}\n\n{note}")
-    return 1 if failures else 0
 
 
 if __name__ == "__main__":
