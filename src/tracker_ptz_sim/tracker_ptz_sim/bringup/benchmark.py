@@ -28,6 +28,11 @@ centres (`evaluation.centre_scores`: OSPA with c = 5 and 10 px, MOTA / IDF1 with
 missed occlusions), in a second table. Writes to --out (default out/benchmark): results.json,
 table.md, and per run tracks.txt, evaluation.json and plots.png (centring error, pan/tilt, followed
 ids over time).
+
+Graph runs talk on a ROS domain of their own (`--ros-domain-id`, default: one chosen from the
+process id, never the environment's) with localhost-only discovery: a demo or another graph on
+the machine's domain would otherwise feed its messages into the lockstep replay and change the
+numbers of record.
 """
 
 from __future__ import annotations
@@ -36,6 +41,7 @@ import argparse
 import hashlib
 import json
 import math
+import os
 import sys
 import time
 from dataclasses import asdict, dataclass, field, replace
@@ -344,6 +350,11 @@ def main(argv: list[str] | None = None) -> int:
         help="street scenes' background (small-object scenes: always a generated ground)",
     )
     parser.add_argument(
+        "--ros-domain-id",
+        type=int,
+        help="ROS_DOMAIN_ID of the graph runs (default: a private one, localhost only)",
+    )
+    parser.add_argument(
         "--set",
         action="append",
         default=[],
@@ -368,6 +379,8 @@ def main(argv: list[str] | None = None) -> int:
             + ", ".join(c for c, v in CONFIGURATIONS.items() if v.scenes == SMALL_OBJECTS)
         )
     paths = PATHS if args.graph else PATHS[:1]
+    if args.graph:
+        _isolate_ros(args.ros_domain_id)
     args.out.mkdir(parents=True, exist_ok=True)
     streets = any(scene_kind(SCENES[name]) == STREET and runs[name] for name in scene_names)
     background, described = background_image(args.background) if streets else (None, "")
@@ -391,6 +404,22 @@ def main(argv: list[str] | None = None) -> int:
     if interrupted:
         return stop_signals.INTERRUPTED_EXIT_CODE
     return 1 if failures else 0
+
+
+def private_domain_id(pid: int, taken: int | None) -> int:
+    """A ROS domain in 1-101 (the range safe from Linux's ephemeral ports) other than `taken`."""
+    domain = 1 + pid % 101
+    return domain if domain != taken else 1 + (domain % 101)
+
+
+def _isolate_ros(domain_id: int | None) -> None:
+    """The graph runs' nodes and recorder use this process's environment (see module doc)."""
+    if domain_id is None:
+        taken = os.environ.get("ROS_DOMAIN_ID", "0")
+        domain_id = private_domain_id(os.getpid(), int(taken) if taken.isdigit() else 0)
+    os.environ["ROS_DOMAIN_ID"] = str(domain_id)
+    os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
+    print(f"graph runs on ROS_DOMAIN_ID {domain_id}, localhost only", flush=True)
 
 
 def _run_all(
