@@ -83,3 +83,16 @@ def test_write_evaluation_writes_scores_tracks_and_plots(tmp_path):
     assert saved["pan_tilt"]["on_object_share"] == 1.0
     assert len((tmp_path / "out" / "tracks.txt").read_text().splitlines()) == 40
     assert (tmp_path / "out" / "plots.png").read_bytes()[:4] == b"\x89PNG"
+
+
+def test_a_target_on_a_pair_keeps_following_the_same_person():
+    """Two people side by side, boxes overlapping: a target between their centres is on both,
+    and the nearer centre flips with every stride. That is one followed person, not a change per
+    flip; moving off the first one's box onto the other's alone is a change."""
+    truth = {f: {1: Rect(100, 100, 30, 60), 2: Rect(120, 100, 30, 60)} for f in range(1, 41)}
+    # Between the centres (115 and 135), alternately nearer one and the other, inside both boxes.
+    targets = {f: (123.0 if f % 2 else 127.0, 130.0) for f in range(1, 31)}
+    targets |= {f: (145.0, 130.0) for f in range(31, 41)}  # on person 2's box only
+    scores = pan_tilt_scores(truth, _trace(40, targets))
+    assert scores.on_object_share == 1.0
+    assert scores.followed_changes == 1 and scores.unexplained_changes == 1

@@ -119,17 +119,23 @@ class PanTiltScores:
 
 
 def followed_objects(truth: Boxes, targets: dict[int, tuple[float, float]]) -> dict[int, int]:
-    """Per locked frame, the ground-truth object under the target (the box containing it whose
-    centre is nearest); frames where it is on no object are left out."""
-    followed = {}
-    for frame, (x, y) in targets.items():
-        under = [
-            (math.hypot(b.center[0] - x, b.center[1] - y), i)
-            for i, b in truth.get(frame, {}).items()
-            if b.contains(x, y)
-        ]
+    """Per locked frame, the ground-truth object under the target; frames where it is on no
+    object are left out. The object followed before stays the followed one while its box still
+    contains the target: a target on two people walking side by side is on both boxes, and the
+    nearer centre flipping between them is not the camera changing whom it follows. Otherwise
+    it is the box containing the target whose centre is nearest."""
+    followed: dict[int, int] = {}
+    previous: int | None = None
+    for frame in sorted(targets):
+        x, y = targets[frame]
+        boxes = truth.get(frame, {})
+        if previous is not None and previous in boxes and boxes[previous].contains(x, y):
+            followed[frame] = previous
+            continue
+        under = [(math.hypot(b.center[0] - x, b.center[1] - y), i) for i, b in boxes.items()]
+        under = [(distance, i) for distance, i in under if boxes[i].contains(x, y)]
         if under:
-            followed[frame] = min(under)[1]
+            followed[frame] = previous = min(under)[1]
     return followed
 
 
