@@ -396,20 +396,19 @@ class TrackManager:
 
         self.bank.predict(t)
         predicted = self.layout.positions(self.bank.means)
-        detections = self.splitter.split(
-            detections, book.moved_boxes(predicted), predicted, book.confirmed
-        )
+        predicted_boxes = book.moved_boxes(predicted)
+        detections = self.splitter.split(detections, predicted_boxes, predicted, book.confirmed)
         association = self.associator.associate(
             *self.bank.measurement_prediction(), detections.positions
         )
         if self.recovery is not None:
             association = self.recovery.recover(
-                association, book.moved_boxes(predicted), detections.bboxes, book.confirmed
+                association, predicted_boxes, detections.bboxes, book.confirmed
             )
         rows, cols = association.tracks, association.measurements
         if self.box_gate is not None:
             detections = self.box_gate.gate(
-                detections, rows, cols, book.moved_boxes(predicted), book.edge_strikes
+                detections, rows, cols, predicted_boxes, book.edge_strikes
             )
         self.bank.update(rows, detections.positions[cols])
         updated = book.record_frame(rows, cols, detections, self.layout.positions(self.bank.means))
