@@ -33,21 +33,28 @@ MODULES = {
 }
 
 
-@pytest.mark.parametrize("case", sorted(MODULES))
-def test_a_stop_at_any_point_of_start_up_exits_0_at_once(case, tmp_path):
-    (tmp_path / f"node_{case}.py").write_text(MODULES[case])
+def _run_guarded(
+    tmp_path: Path, module: str, source: str, batch: bool = False
+) -> subprocess.CompletedProcess[str]:
+    """`source` saved as `module` and run by guarded_main in a fresh interpreter."""
+    (tmp_path / f"{module}.py").write_text(source)
     code = (
         "import sys\nfrom tracker_msgs_py.stop_signals import guarded_main\n"
-        f"sys.exit(guarded_main('node_{case}'))\n"
+        f"sys.exit(guarded_main('{module}', batch={batch}))\n"
     )
-    started = time.monotonic()
-    result = subprocess.run(
+    return subprocess.run(
         [sys.executable, "-c", code],
         capture_output=True,
         text=True,
         timeout=20,
         env={"PYTHONPATH": f"{tmp_path}:{ROOT / 'src' / 'tracker_msgs'}"},
     )
+
+
+@pytest.mark.parametrize("case", sorted(MODULES))
+def test_a_stop_at_any_point_of_start_up_exits_0_at_once(case, tmp_path):
+    started = time.monotonic()
+    result = _run_guarded(tmp_path, f"node_{case}", MODULES[case])
     assert result.returncode == 0, result.stderr
     assert result.stderr == "" and time.monotonic() - started < 5.0
 
@@ -112,17 +119,6 @@ def test_a_batch_tool_ends_on_a_stop_with_one_line_and_130(
 ):
     """Benchmarks and studies (guarded_main(batch=True)) stop on Ctrl-C instead of ignoring it;
     a part inside them that stops in order (deferred) finishes its own stop first."""
-    (tmp_path / f"tool_{case}.py").write_text(BATCH_MODULES[case])
-    code = (
-        "import sys\nfrom tracker_msgs_py.stop_signals import guarded_main\n"
-        f"sys.exit(guarded_main('tool_{case}', batch=True))\n"
-    )
-    result = subprocess.run(
-        [sys.executable, "-c", code],
-        capture_output=True,
-        text=True,
-        timeout=20,
-        env={"PYTHONPATH": f"{tmp_path}:{ROOT / 'src' / 'tracker_msgs'}"},
-    )
+    result = _run_guarded(tmp_path, f"tool_{case}", BATCH_MODULES[case], batch=True)
     assert result.returncode == stop_signals.INTERRUPTED_EXIT_CODE == 130
     assert (result.stdout, result.stderr) == (expected_stdout, expected_stderr)
