@@ -19,13 +19,18 @@ from tracker_msgs_py.geometry import Rect
 DT = 0.1
 WIDTH, HEIGHT, SIDE = 160, 120, 10
 WINDOW = Rect(0.0, 0.0, float(WIDTH), float(HEIGHT))  # camera px = scene px
+# the contract is the bookkeeping, not a size threshold: blob trackers are told the square is big
+# enough to start a track, and that it moves 0.6 of its size per frame (their defaults: people)
+SIZED_FOR_THE_SQUARE = {
+    "occupancy_particles": {"min_area": 50.0, "min_height": 8.0, "jitter_box_factor": 1.5}
+}
 
 
 def builds() -> list[tuple[str, object]]:
     cases: list[tuple[str, object]] = []
     for method in TRACKERS:
         for preset in ("", *method.presets):
-            values = method.defaults(preset)
+            values = method.defaults(preset) | SIZED_FOR_THE_SQUARE.get(method.name, {})
             cases.append((f"{method.name}:{preset or 'defaults'}", (method, values)))
     gated = TRACKERS.get("gated_hungarian")
     for name in FILTERS.names():  # every registered filter inside the gated-Hungarian tracker

@@ -15,6 +15,7 @@ from typing import Any
 
 from tracker_filter.config import PRESETS, SELECTION_DEFAULTS, TRACKING_PARAMETERS, TrackerConfig
 from tracker_filter.gmphd_tracker import METHOD as GM_PHD
+from tracker_filter.occupancy_tracker import METHOD as OCCUPANCY_PARTICLES
 from tracker_filter.particle_tracker import METHOD as COLOUR_PARTICLES
 from tracker_filter.tracking import Tracker
 from tracker_msgs_py.registry import Method, Registry
@@ -40,3 +41,4 @@ TRACKERS.register(
 )
 TRACKERS.register(COLOUR_PARTICLES)
 TRACKERS.register(GM_PHD)
+TRACKERS.register(OCCUPANCY_PARTICLES)
