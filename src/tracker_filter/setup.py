@@ -23,6 +23,9 @@ setup(
     ),
     license="Apache-2.0",
     entry_points={
-        "console_scripts": ["tracker = tracker_filter.entry_points:tracker"],
+        "console_scripts": [
+            "tracker = tracker_filter.entry_points:tracker",
+            "voxel_tracker = tracker_filter.entry_points:voxel_tracker",
+        ],
     },
 )

@@ -10,3 +10,7 @@ from tracker_msgs_py.stop_signals import guarded_main
 
 def tracker() -> int:
     return guarded_main("tracker_filter.tracker_node")
+
+
+def voxel_tracker() -> int:
+    return guarded_main("tracker_filter.voxel_tracker_node")
