@@ -40,6 +40,7 @@ setup(
             "predictor_study = tracker_ptz_sim.entry_points:predictor_study",
             "single_target_benchmark = tracker_ptz_sim.entry_points:single_target_benchmark",
             "phd_benchmark = tracker_ptz_sim.entry_points:phd_benchmark",
+            "voxel_benchmark = tracker_ptz_sim.entry_points:voxel_benchmark",
         ],
     },
 )

@@ -20,6 +20,7 @@ def node_parameters() -> dict[tuple[str, str], list]:
     """(README, heading before its table) -> the ParamSpecs of that node."""
     from tracker_detect.detector_node import NODE_PARAMETERS
     from tracker_detect.detectors import DETECTORS
+    from tracker_filter import voxel_tracker_node
     from tracker_filter.tracker_node import parameter_specs
     from tracker_filter.trackers import TRACKERS
     from tracker_msgs_py.params import ParamSpec
@@ -52,6 +53,12 @@ def node_parameters() -> dict[tuple[str, str], list]:
             TRACKERS.get("colour_particles").parameters
         ),
         ("tracker_filter/README.md", "### `gm_phd`"): list(TRACKERS.get("gm_phd").parameters),
+        ("tracker_filter/README.md", "### `occupancy_particles`"): list(
+            TRACKERS.get("occupancy_particles").parameters
+        ),
+        ("tracker_filter/README.md", "## Node `voxel_tracker`"): list(
+            voxel_tracker_node.PARAMETERS
+        ),
     }
 
 

@@ -74,13 +74,11 @@ class OccupancyGrid:
     def from_cells(cls, geometry: GridGeometry, cells: np.ndarray) -> OccupancyGrid:
         """The grid whose occupied cells are `cells` (P, 3) integer indices; cells outside the
         grid are dropped, repeats count once."""
-        cells = np.asarray(cells, dtype=np.int64).reshape(-1, DIMS)
-        inside = ((cells >= 0) & (cells < np.asarray(geometry.shape))).all(axis=1)
+        cells = np.ascontiguousarray(np.asarray(cells).reshape(-1, DIMS), dtype=np.int64)
         dense = np.zeros(geometry.shape, dtype=np.uint8)
-        kept = np.ascontiguousarray(cells[inside])
-        first = np.empty(len(kept), dtype=np.bool_)
-        _mark_first_occurrences(dense, kept, first)
-        return cls(geometry, kept if first.all() else kept[first], dense)
+        kept = np.empty(len(cells), dtype=np.bool_)
+        _mark_first_occurrences(dense, cells, kept)
+        return cls(geometry, cells if kept.all() else cells[kept], dense)
 
     @classmethod
     def from_mask(cls, mask: np.ndarray, geometry: GridGeometry) -> OccupancyGrid:
@@ -91,28 +89,30 @@ class OccupancyGrid:
             raise ValueError(f"mask of shape {mask.shape} for a grid of shape {geometry.shape}")
         return cls(geometry, np.argwhere(dense), dense)
 
-    def without(self, excluded: np.ndarray | None) -> OccupancyGrid:
-        """This grid with the cells where `excluded` (same shape, bool) is set cleared."""
+    def without(self, excluded: np.ndarray | None, in_place: bool = False) -> OccupancyGrid:
+        """This grid with the cells where `excluded` (same shape, bool) is set cleared (with
+        `in_place` in this grid's array: it saves copying the room)."""
         if excluded is None or not len(self.cells):
             return self
         c = self.cells
         drop = excluded[c[:, 0], c[:, 1], c[:, 2]]
         if not drop.any():
             return self
-        dense = self.dense.copy()
+        dense = self.dense if in_place else self.dense.copy()
         gone = c[drop]
         dense[gone[:, 0], gone[:, 1], gone[:, 2]] = 0
         return OccupancyGrid(self.geometry, c[~drop], dense)
 
-    def opened(self, length: int) -> OccupancyGrid:
-        """The opening with a vertical line of `length` cells (1 or less: unchanged)."""
+    def opened(self, length: int, in_place: bool = False) -> OccupancyGrid:
+        """The opening with a vertical line of `length` cells (1 or less: unchanged); with
+        `in_place`, in this grid's array."""
         if length <= 1 or not len(self.cells):
             return self
         keep = np.empty(len(self.cells), dtype=np.bool_)
         _vertical_runs(self.dense, self.cells, self.geometry.vertical, length, keep)
         if keep.all():
             return self
-        dense = self.dense.copy()
+        dense = self.dense if in_place else self.dense.copy()
         gone = self.cells[~keep]
         dense[gone[:, 0], gone[:, 1], gone[:, 2]] = 0
         return OccupancyGrid(self.geometry, self.cells[keep], dense)
@@ -122,9 +122,14 @@ class OccupancyGrid:
 def _mark_first_occurrences(  # pragma: no cover
     dense: np.ndarray, cells: np.ndarray, first: np.ndarray
 ) -> None:
-    """Sets every cell in `dense`; first[p]: cells[p] was not listed before p."""
+    """Sets every cell in `dense`; first[p]: cells[p] lies in the grid and was not listed
+    before p."""
+    nx, ny, nz = dense.shape
     for p in range(cells.shape[0]):
         i, j, k = cells[p, 0], cells[p, 1], cells[p, 2]
+        if i < 0 or j < 0 or k < 0 or i >= nx or j >= ny or k >= nz:
+            first[p] = False
+            continue
         first[p] = dense[i, j, k] == 0
         dense[i, j, k] = 1
 
@@ -181,13 +186,11 @@ def components(grid: OccupancyGrid, factor: int) -> Components:
         empty = np.zeros((0, DIMS))
         return Components(np.zeros(0, np.int64), np.zeros(0, np.int64), empty, empty, empty)
     factor = max(1, int(factor))
-    coarse_cells = cells // factor
-    coarse = np.zeros(tuple(coarse_cells.max(axis=0) + 1), dtype=np.uint8)
-    coarse[coarse_cells[:, 0], coarse_cells[:, 1], coarse_cells[:, 2]] = 1
+    coarse = np.zeros(tuple(-(-np.asarray(geometry.shape) // factor)), dtype=np.uint8)
+    _mark_coarse(cells, factor, coarse)
     labelled, count = ndimage.label(coarse, structure=np.ones((3, 3, 3), dtype=bool))
-    labels = (
-        labelled[coarse_cells[:, 0], coarse_cells[:, 1], coarse_cells[:, 2]].astype(np.int64) - 1
-    )
+    labels = np.empty(len(cells), np.int64)
+    _coarse_labels(cells, factor, labelled, labels)
     counts = np.zeros(count, np.int64)
     sums = np.zeros((count, DIMS))
     lows = np.zeros((count, DIMS), np.int64)
@@ -217,3 +220,18 @@ def _component_stats(  # pragma: no cover
             sums[label, axis] += value
             lows[label, axis] = min(lows[label, axis], value)
             highs[label, axis] = max(highs[label, axis], value)
+
+
+@numba.njit(cache=True, nogil=True)
+def _mark_coarse(cells: np.ndarray, factor: int, coarse: np.ndarray) -> None:  # pragma: no cover
+    for p in range(cells.shape[0]):
+        coarse[cells[p, 0] // factor, cells[p, 1] // factor, cells[p, 2] // factor] = 1
+
+
+@numba.njit(cache=True, nogil=True)
+def _coarse_labels(  # pragma: no cover
+    cells: np.ndarray, factor: int, labelled: np.ndarray, labels: np.ndarray
+) -> None:
+    for p in range(cells.shape[0]):
+        i, j, k = cells[p, 0] // factor, cells[p, 1] // factor, cells[p, 2] // factor
+        labels[p] = labelled[i, j, k] - 1

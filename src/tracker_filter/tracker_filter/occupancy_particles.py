@@ -190,8 +190,9 @@ class OccupancyParticleFilters:
         return len(self.ids)
 
     def step(self, grid: OccupancyGrid) -> FilterStep:
-        """One frame: filter the scene, step every filter, delete, initiate."""
-        grid = grid.without(self.exclusion_mask).opened(self.config.opening)
+        """One frame: filter the scene (in `grid`'s own array), step every filter, delete,
+        initiate."""
+        grid = grid.without(self.exclusion_mask, True).opened(self.config.opening, True)
         count = len(self)
         weights = self._weigh(grid) if count else np.zeros((0, self.config.particles))
         mass = weights.mean(axis=1) if count else np.zeros(0)

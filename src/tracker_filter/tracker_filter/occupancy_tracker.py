@@ -175,7 +175,11 @@ PARAMETERS: tuple[ParamSpec, ...] = (
         1,
         20,
     ),
-    ParamSpec("foreground_factor", False, "likelihood x n1/|C| (the thesis evaluated f = 1)"),
+    ParamSpec(
+        "foreground_factor",
+        False,
+        "likelihood x the foreground share n1 / size of C (the thesis evaluated f = 1)",
+    ),
     ParamSpec("blocking", True, "no particle inside another filter's ellipse"),
     ParamSpec(
         "block_box_factor", 0.75, "blocking ellipse semi-axes, x the other filter's box", 0.0, 10.0

@@ -39,7 +39,11 @@ PARAMETERS: tuple[ParamSpec, ...] = (
     ParamSpec("voxel_size", 0.02, "m: voxel edge of the incoming volume", 0.001, 1.0),
     ParamSpec("particles", _C.particles, "particles per person (the thesis: 300)", 1, 100000),
     ParamSpec("blocking", _C.blocking, "no particle inside another person's ellipsoid"),
-    ParamSpec("foreground_factor", _C.foreground_factor, "likelihood x n1/|C| (thesis: off)"),
+    ParamSpec(
+        "foreground_factor",
+        _C.foreground_factor,
+        "likelihood x the foreground share n1 / 27 (thesis: off)",
+    ),
     ParamSpec(
         "propagation",
         _C.propagation.value,

@@ -54,3 +54,7 @@ def single_target_benchmark() -> int:
 
 def phd_benchmark() -> int:
     return guarded_main("tracker_ptz_sim.bringup.phd_benchmark", batch=True)
+
+
+def voxel_benchmark() -> int:
+    return guarded_main("tracker_ptz_sim.bringup.voxel_benchmark", batch=True)

@@ -1,7 +1,7 @@
 """Point-set tracking metrics of seed 004: OSPA, CLEAR MOT on points, FAR, ReR, MLR, MOR (no rclpy).
 
 Per frame, ground truth and estimates are labelled points: `Points = dict[int, np.ndarray]` maps
-an id to its (2,) position.
+an id to its (2,) position (or (3,): every point of a run has the same dimension).
 
 - OSPA (Schuhmacher et al. 2008), order p and cut-off c, for sets X (m points) and Y (n), m <= n:
   d_p^(c)(X, Y) = ((1/n) [min_pi sum_{i<=m} d^(c)(x_i, y_pi(i))^p + c^p (n - m)])^(1/p),
@@ -45,10 +45,10 @@ def ospa(truth: np.ndarray, estimates: np.ndarray, cutoff: float, order: float =
     return float((total / n) ** (1.0 / order))
 
 
-def as_arrays(points: Points) -> tuple[list[int], np.ndarray]:
-    """The ids in order and their points (N, 2)."""
+def as_arrays(points: Points, dim: int = 2) -> tuple[list[int], np.ndarray]:
+    """The ids in order and their points (N, dim)."""
     ids = sorted(points)
-    return ids, np.array([points[i] for i in ids], dtype=float).reshape(len(ids), 2)
+    return ids, np.array([points[i] for i in ids], dtype=float).reshape(len(ids), dim)
 
 
 def true_runs(flags: Sequence[bool] | np.ndarray) -> list[tuple[int, int]]:
@@ -73,6 +73,9 @@ class PointScores:
     missed_occlusions: int
     ospa: float  # mean over frames
     frames: int
+    objects: int = 0  # true targets summed over frames (CLEAR MOT's sum of g)
+    misses: int = 0
+    false_positives: int = 0
 
 
 def score_points(
@@ -87,15 +90,17 @@ def score_points(
     (true id, first frame, last frame) of each occlusion, frames as list indices."""
     accumulator = motmetrics.MOTAccumulator(auto_id=True)
     ospas = []
+    dim = next((len(p) for f in truth + estimates for p in f.values()), 2)  # 2-D or 3-D points
     for frame_truth, frame_estimates in zip(truth, estimates, strict=True):
-        t_ids, t_points = as_arrays(frame_truth)
-        e_ids, e_points = as_arrays(frame_estimates)
+        t_ids, t_points = as_arrays(frame_truth, dim)
+        e_ids, e_points = as_arrays(frame_estimates, dim)
         squared = motmetrics.distances.norm2squared_matrix(
             t_points, e_points, max_d2=match_distance**2
         )
         accumulator.update(t_ids, e_ids, squared)
         ospas.append(ospa(t_points, e_points, ospa_cutoff))
-    names = ["mota", "motp", "idf1", "num_switches", "num_frames"]
+    names = ["mota", "motp", "idf1", "num_switches", "num_frames", "num_objects", "num_misses"]
+    names.append("num_false_positives")
     row = motmetrics.metrics.create().compute(accumulator, metrics=names).iloc[0]
     matching = _matching(accumulator, len(truth))
     target_frames = sum(len(f) for f in truth)
@@ -115,6 +120,9 @@ def score_points(
         missed_occlusions=missed,
         ospa=float(np.mean(ospas)) if ospas else 0.0,
         frames=int(row["num_frames"]),
+        objects=int(row["num_objects"]),
+        misses=int(row["num_misses"]),
+        false_positives=int(row["num_false_positives"]),
     )
 
 
