@@ -87,16 +87,17 @@ def test_the_node_tracks_two_people_in_the_room_frame_and_survives_a_bad_cloud()
         bad = cloud(person(1.0, 1.0), 0)
         bad.fields = bad.fields[:2]
         h.publish("occupancy", bad)  # no z: one log line, no output, the node goes on
-        for k in range(1, 11):
-            both = np.concatenate([person(1.0 + 0.02 * k, 1.0), person(3.0, 4.0)])
+        for k in range(1, 16):  # both walk 0.45 m: people (a chair never moves)
+            both = np.concatenate([person(1.0 + 0.03 * k, 1.0), person(3.0, 4.0 - 0.03 * k)])
             h.publish("occupancy", cloud(both, k))
             h.spin_until(lambda k=k: len(h.received["tracks"]) >= k, timeout=10.0)
         last = h.received["tracks"][-1]
         assert last.header.frame_id == "room"
         assert [t.status for t in last.tracks] == [Track.STATUS_CONFIRMED] * 2
         assert all(t.state_layout == "x y z" for t in last.tracks)
-        positions = sorted((t.state[0], t.state[1], t.state[2]) for t in last.tracks)
-        assert positions[0] == pytest.approx((1.2, 1.0, 0.85), abs=0.15)
-        assert positions[1] == pytest.approx((3.0, 4.0, 0.85), abs=0.15)
+        positions = np.array(sorted((t.state[0], t.state[1], t.state[2]) for t in last.tracks))
+        assert positions[:, :2] == pytest.approx(np.array([[1.45, 1.0], [3.0, 3.55]]), abs=0.15)
+        # the mean of a standing body's surface: the head's top is one, the soles on the floor not
+        assert positions[:, 2] == pytest.approx([0.85, 0.85], abs=0.35)
     finally:
         h.close()

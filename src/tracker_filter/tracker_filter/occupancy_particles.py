@@ -8,16 +8,19 @@ frame, for every filter j at once:
     particle per cell; a particle whose cell is taken moves to the nearest free cell (the
     "ranking" variant: the nearest free foreground cell, else the nearest free one);
 (b) the surface-assimilation likelihood (eq. 3.8), over the neighbourhood C of the particle's cell
-    (3 x 3 x 3, |C| = 27; 3 x 3 on a mask), n1 / n0 its foreground / background cells (cells
-    outside the grid are background):
+    (3 x 3 x 3, |C| = 27; 3 x 3 on a mask), n1 / n0 its foreground / background cells (a cell
+    outside the grid counts as the nearest one inside: a person standing on the grid's floor has
+    no surface there; the thesis does not say, and as background it draws every cloud to the
+    feet):
         w = f(n1) * (1 - |n1 - n0| / |C|),   f = 1 (as evaluated) or f = n1 / |C|;
 (c) blocking: w = 0 for a particle inside the ellipsoid around another filter's previous
     estimate, ((dx/a)^2 + (dy/b)^2 + (dz/c)^2 <= 1; the thesis's a = 30, b = 40 cm, c = that
-    filter's centroid height);
+    filter's centroid height), or (`block_shape` "cylinder", the default) inside the same
+    ellipse at every height (two people never share a column of the room): the ellipsoid
+    narrows towards the floor, so a filter next to another keeps its partner's legs, sinks
+    towards them, its own ellipsoid flattens with its estimate, and the two swap;
 (d) estimate: the weighted mean of the particles;
-(e) systematic resampling, each particle then jittered by U[-D/2, D/2] per axis (and, with
-    `drift`, not the thesis's, moved by the estimate's last step: a walker on video moves a
-    sixth of their width per frame, where the thesis's people moved a tenth at 25 fps),
+(e) systematic resampling, each particle then jittered by U[-D/2, D/2] per axis,
     D = extent / N^(1/d) (d the grid's dimensions; the vertical axis doubled: "normal"), or
     the "expanded" rule D = 3.9 sqrt(h) N^(1/3) exp(-N h / 20000) cm, h the voxel edge in cm.
 
@@ -58,6 +61,11 @@ class Propagation(Enum):
     RANKING = "ranking"  # the nearest free foreground cell first (the thesis: worse)
 
 
+class BlockShape(Enum):
+    ELLIPSOID = "ellipsoid"  # the thesis's: (dx/a)^2 + (dy/b)^2 + (dz/c)^2 <= 1
+    CYLINDER = "cylinder"  # the ellipse (dx/a)^2 + (dy/b)^2 <= 1 at every height
+
+
 class Jitter(Enum):
     NORMAL = "normal"  # D = extent / N^(1/d), vertical doubled
     EXPANDED = "expanded"  # D = 3.9 sqrt(h) N^(1/3) exp(-N h / 20000) cm (the thesis: worse)
@@ -73,13 +81,13 @@ class OccupancyFilterConfig:
     foreground_factor: bool = False  # f = n1 / |C| instead of 1
     blocking: bool = True
     block_axes: tuple[float, float, float] = (0.30, 0.40, 0.0)  # 0: the estimate's height
+    block_shape: BlockShape = BlockShape.CYLINDER
     block_box_factor: float = 0.0  # > 0: semi-axes = this x the filter's box (once it has one)
     propagation: Propagation = Propagation.NORMAL
     jitter: Jitter = Jitter.NORMAL
     jitter_extent: tuple[float, float, float] | None = None  # None: the grid's size
     vertical_jitter_factor: float = 2.0
     jitter_box_factor: float = 0.0  # > 0: D = this x the filter's box, once it has one
-    drift: bool = False  # ours, off as in the thesis: move the cloud by the estimate's last step
     opening: int = 5  # vertical opening, cells (1: off)
     component_cell: float = 0.08  # components are labelled on cells about this large
     min_blob: float = 30.0  # cells x cell edge
@@ -125,6 +133,7 @@ class FilterStep:
     deleted: np.ndarray
     started: np.ndarray
     frames: np.ndarray  # frames each filter has lived
+    travel: np.ndarray  # farthest each estimate has been from where it started, on the floor
     components: Components
     grid: OccupancyGrid  # the filtered grid the filters saw
 
@@ -183,6 +192,8 @@ class OccupancyParticleFilters:
         self.estimates = np.zeros((0, 3))
         self.extents = np.zeros((0, 3))  # each filter's last box size (NaN: none yet)
         self.frames = np.zeros(0, np.int64)
+        self.origins = np.zeros((0, 3))  # where each filter started
+        self.travel = np.zeros(0)  # farthest its estimate has been from there, on the floor
         self.starved = np.zeros(0, np.int64)
         self.overlapping = np.zeros(0, np.int64)
 
@@ -197,14 +208,14 @@ class OccupancyParticleFilters:
         weights = self._weigh(grid) if count else np.zeros((0, self.config.particles))
         mass = weights.mean(axis=1) if count else np.zeros(0)
         estimates, covariances = self._estimate(weights)
-        moved = estimates - self.estimates
         self.estimates = estimates
         self._resample(weights, grid.geometry)
-        if self.config.drift:
-            self.particles += moved[:, None]
         self.frames += 1
         deleted = self._deletion(mass, grid.geometry)
-        entered = (self.ids.copy(), self.frames.copy())
+        away = self.estimates - self.origins
+        away[:, grid.geometry.vertical] = 0.0
+        self.travel = np.maximum(self.travel, np.linalg.norm(away, axis=1))
+        entered = (self.ids.copy(), self.frames.copy(), self.travel.copy())
         found = components(grid, self._component_factor(grid.geometry))
         self._drop(deleted)
         started = self._initiate(grid, found)
@@ -251,10 +262,19 @@ class OccupancyParticleFilters:
         centres = self.estimates
         axes = self._semi_axes(centres, geometry)
         scaled = (points[:, :, None, :] - centres[None, None, :, :]) / axes[None, None]
-        inside = (scaled**2).sum(axis=-1) <= 1.0  # (M, N, M)
+        inside = self._inside(scaled, geometry.vertical)  # (M, N, M)
         own = np.eye(len(centres), dtype=bool)[:, None, :]
         result: np.ndarray = (inside & ~own).any(axis=-1)
         return result
+
+    def _inside(self, scaled: np.ndarray, vertical: int) -> np.ndarray:
+        """Whether offsets (..., 3), divided by the semi-axes, lie in the blocking shape."""
+        squared = scaled**2
+        if self.config.block_shape is BlockShape.ELLIPSOID:
+            result: np.ndarray = squared.sum(axis=-1) <= 1.0
+            return result
+        inside: np.ndarray = squared.sum(axis=-1) - squared[..., vertical] <= 1.0
+        return inside
 
     # -- (d), (e): estimate and resampling -----------------------------------------------------
 
@@ -302,7 +322,7 @@ class OccupancyParticleFilters:
             scaled = (self.estimates[:, None] - self.estimates[None]) / (
                 axes[None] * config.overlap_scale
             )
-            inside = (scaled**2).sum(axis=-1) <= 1.0  # [j, m]: j inside m's ellipsoid
+            inside = self._inside(scaled, geometry.vertical)  # [j, m]: j inside m's
             np.fill_diagonal(inside, False)
             younger = self.ids[:, None] > self.ids[None, :]
             self.overlapping = np.where((inside & younger).any(axis=1), self.overlapping + 1, 0)
@@ -317,6 +337,8 @@ class OccupancyParticleFilters:
             "estimates",
             "extents",
             "frames",
+            "origins",
+            "travel",
             "starved",
             "overlapping",
         ):
@@ -366,7 +388,8 @@ class OccupancyParticleFilters:
             self.estimates = np.concatenate([self.estimates, centre[None]])
             size = found.highs[label] - found.lows[label]
             self.extents = np.concatenate([self.extents, size[None]])
-            for name in ("frames", "starved", "overlapping"):
+            self.origins = np.concatenate([self.origins, centre[None]])
+            for name in ("frames", "travel", "starved", "overlapping"):
                 setattr(self, name, np.append(getattr(self, name), 0))
             started += 1
         return started
@@ -377,14 +400,14 @@ class OccupancyParticleFilters:
         self,
         grid: OccupancyGrid,
         found: Components,
-        entered: tuple[np.ndarray, np.ndarray],
+        entered: tuple[np.ndarray, np.ndarray, np.ndarray],
         estimates: np.ndarray,
         covariances: np.ndarray,
         mass: np.ndarray,
         deleted: np.ndarray,
         started: int,
     ) -> FilterStep:
-        ids, frames = entered
+        ids, frames, travel = entered
         new = slice(len(self) - started, len(self))
         all_estimates = np.concatenate([estimates, self.estimates[new]])
         all_covariances = np.concatenate(
@@ -406,6 +429,7 @@ class OccupancyParticleFilters:
             deleted=np.concatenate([deleted, np.zeros(started, bool)]),
             started=np.concatenate([np.zeros(len(ids), bool), np.ones(started, bool)]),
             frames=np.concatenate([frames, np.zeros(started, np.int64)]),
+            travel=np.concatenate([travel, np.zeros(started)]),
             components=found,
             grid=grid,
         )
@@ -502,17 +526,24 @@ def _snap_unique(  # pragma: no cover
 def _surface_weights(  # pragma: no cover
     cells: np.ndarray, dense: np.ndarray, radius: np.ndarray, foreground: bool, out: np.ndarray
 ) -> None:
-    """Step (b): eq. 3.8 at every cell of `cells` (P, 3)."""
+    """Step (b): eq. 3.8 at every cell of `cells` (P, 3). A particle outside the grid weighs 0;
+    a neighbour outside it counts as the nearest cell inside (the floor is not a person's
+    surface, nor is the edge of a camera's view)."""
     nx, ny, nz = dense.shape
     rx, ry, rz = radius[0], radius[1], radius[2]
     size = (2 * rx + 1) * (2 * ry + 1) * (2 * rz + 1)
     for p in range(cells.shape[0]):
         i, j, k = cells[p, 0], cells[p, 1], cells[p, 2]
+        if i < 0 or j < 0 or k < 0 or i >= nx or j >= ny or k >= nz:
+            out[p] = 0.0
+            continue
         n1 = 0
-        for a in range(max(i - rx, 0), min(i + rx + 1, nx)):
-            for b in range(max(j - ry, 0), min(j + ry + 1, ny)):
-                for c in range(max(k - rz, 0), min(k + rz + 1, nz)):
-                    n1 += dense[a, b, c]
+        for a in range(i - rx, i + rx + 1):
+            ca = min(max(a, 0), nx - 1)
+            for b in range(j - ry, j + ry + 1):
+                cb = min(max(b, 0), ny - 1)
+                for c in range(k - rz, k + rz + 1):
+                    n1 += dense[ca, cb, min(max(c, 0), nz - 1)]
         weight = 1.0 - abs(2 * n1 - size) / size
         out[p] = weight * n1 / size if foreground else weight
 

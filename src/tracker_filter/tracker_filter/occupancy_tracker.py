@@ -37,6 +37,7 @@ from tracker_filter.layout import StateLayout
 from tracker_filter.observation import Detections, Need, Observation
 from tracker_filter.occupancy_grid import GridGeometry, OccupancyGrid
 from tracker_filter.occupancy_particles import (
+    BlockShape,
     FilterStep,
     Jitter,
     OccupancyFilterConfig,
@@ -204,7 +205,6 @@ PARAMETERS: tuple[ParamSpec, ...] = (
         0.0,
         10.0,
     ),
-    ParamSpec("drift", False, "move each cloud by its estimate's last step (not the thesis's)"),
     ParamSpec("opening", 5, "vertical opening of the mask, rows (1: off)", 1, 100),
     ParamSpec("min_area", 400.0, "px^2 a blob needs to start a filter", 0.0, 1e7),
     ParamSpec("min_height", 40.0, "px a blob needs to be tall to start a filter", 0.0, 1e5),
@@ -224,12 +224,12 @@ def build(values: Mapping[str, Any], first_id: int = 1) -> OccupancyTracker:
         foreground_factor=values["foreground_factor"],
         blocking=values["blocking"],
         block_axes=(15.0, 40.0, 1.0),  # px, until a filter has a box
+        block_shape=BlockShape.ELLIPSOID,  # an ellipse: in an image "up" is also "farther"
         block_box_factor=values["block_box_factor"],
         propagation=Propagation(values["propagation"]),
         jitter=Jitter(values["jitter"]),
         vertical_jitter_factor=1.0,
         jitter_box_factor=values["jitter_box_factor"],
-        drift=values["drift"],
         opening=values["opening"],
         component_cell=values["component_cell"],
         min_height=values["min_height"],

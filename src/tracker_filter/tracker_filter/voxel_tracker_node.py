@@ -66,7 +66,15 @@ PARAMETERS: tuple[ParamSpec, ...] = (
         "starve_weight", _C.starve_weight, "mean weight below which a frame starves", 0.0, 1.0
     ),
     ParamSpec("starve_frames", _C.starve_frames, "starved frames before deletion", 1, 10000),
-    ParamSpec("confirm_frames", 3, "frames a new filter is tentative", 0, 10000),
+    ParamSpec("confirm_frames", 3, "frames a new filter is tentative at least", 0, 10000),
+    ParamSpec(
+        "confirm_travel",
+        0.3,
+        "m on the floor a filter must once have moved from its start to be a person (furniture "
+        "never walks)",
+        0.0,
+        100.0,
+    ),
     ParamSpec("seed", _C.seed, "random seed (a replay gives the same tracks)", 0, 2**31 - 1),
     ParamSpec("reliable_input", False, "reliable QoS for the clouds (replays)", read_only=True),
 )
@@ -89,7 +97,12 @@ def build_tracker(values: dict[str, Any]) -> VoxelTracker:
         starve_frames=values["starve_frames"],
         seed=values["seed"],
     )
-    return VoxelTracker(OccupancyParticleFilters(config), geometry, values["confirm_frames"])
+    return VoxelTracker(
+        OccupancyParticleFilters(config),
+        geometry,
+        values["confirm_frames"],
+        values["confirm_travel"],
+    )
 
 
 def track_to_msg(track: Track3D) -> Track:

@@ -66,6 +66,7 @@ ROOM_SIZE_M = (4.0, 5.0, 2.1)  # x, y, z extent of the thesis's room, metres
 WALL_MARGIN_M = 0.3  # people's centroids stay this far from the walls
 EVENT_MARGIN_M = 0.5  # scripted events stay this far from the walls
 BLOB_WALL_CLEARANCE_M = 0.4  # spurious blobs' footprints stay this far from the walls
+PATH_CLEARANCE_M = 0.35  # ... and this far from every person's centroid path, when they can
 CONTACT_DISTANCE_M = 0.6  # contact_intervals: horizontal centroid distance below this
 SPEED_RANGE = (0.3, 1.2)  # m/s, free walks
 MAX_PEOPLE = 6
@@ -885,28 +886,38 @@ def _placed_blobs(
     config: VoxelSceneConfig,
 ) -> list[tuple[str, tuple[_Box, ...], FloatArray, float]]:
     """(kind, boxes, footprint centre, yaw) of each spurious blob: kinds in _BLOB_KINDS order,
-    footprints away from the walls and from one another (each placement depends only on the
-    earlier ones)."""
+    footprints away from the walls, from one another and from everyone's path (people walk
+    around furniture; each placement depends only on the earlier ones and the paths)."""
     rng = np.random.default_rng(_streams(config.seed)[1])
+    paths = _plan(_people_key(config)).xy.reshape(-1, 2)
     placed: list[tuple[str, tuple[_Box, ...], FloatArray, float]] = []
     footprints: list[tuple[FloatArray, float]] = []
     for n in range(config.spurious):
         kind, radius, boxes = _BLOB_KINDS[n % len(_BLOB_KINDS)]
-        centre = _free_spot(radius, footprints, rng)
+        centre = _free_spot(radius, footprints, paths, rng)
         footprints.append((centre, radius))
         placed.append((kind, boxes, centre, rng.uniform(0.0, 2.0 * math.pi)))
     return placed
 
 
 def _free_spot(
-    radius: float, taken: list[tuple[FloatArray, float]], rng: np.random.Generator
+    radius: float,
+    taken: list[tuple[FloatArray, float]],
+    paths: FloatArray,
+    rng: np.random.Generator,
 ) -> FloatArray:
-    """A footprint centre BLOB_WALL_CLEARANCE_M from the walls and 0.3 m clear of ``taken``
-    (the last draw if none is found in 200)."""
+    """A footprint centre BLOB_WALL_CLEARANCE_M from the walls, 0.3 m clear of ``taken`` and
+    PATH_CLEARANCE_M clear of every point of ``paths`` (P, 2) (of 200 draws clear of ``taken``,
+    the one farthest from the paths when none is clear of them)."""
     lo, hi = _walk_box(BLOB_WALL_CLEARANCE_M + radius)
-    centre = rng.uniform(lo, hi)
+    best, best_gap = rng.uniform(lo, hi), -np.inf
     for _ in range(200):
-        if all(np.linalg.norm(centre - c) >= radius + r + 0.3 for c, r in taken):
-            break
         centre = rng.uniform(lo, hi)
-    return centre
+        if any(np.linalg.norm(centre - c) < radius + r + 0.3 for c, r in taken):
+            continue
+        gap = float(np.min(np.linalg.norm(paths - centre, axis=1))) - radius if len(paths) else 0
+        if gap > best_gap:
+            best, best_gap = centre, gap
+        if gap >= PATH_CLEARANCE_M:
+            break
+    return best
