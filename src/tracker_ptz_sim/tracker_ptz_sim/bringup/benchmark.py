@@ -127,6 +127,8 @@ CONFIGURATIONS: dict[str, Configuration] = {
     "colour": Configuration("colour"),
     # seed 003: the surveillance graph with one colour particle filter per target as its tracker
     "particles": Configuration(overrides={"tracker": {"method": "colour_particles"}}),
+    # seed 002: one particle filter per person on the detector's motion mask
+    "occupancy": Configuration(overrides={"tracker": {"method": "occupancy_particles"}}),
     # seed 004: a fixed camera over many small movers, MOG2 and the GM-PHD tracker
     "gmphd": Configuration("small_objects", scenes=SMALL_OBJECTS),
     # seed 004's GM-PHD tracker on the surveillance graph's SSIM blobs, under the moving camera
