@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from tracker_filter.observation import Observation
+from tracker_filter.observation import Detections, Observation
 from tracker_filter.occupancy_grid import GridGeometry, OccupancyGrid, components
 from tracker_filter.occupancy_particles import (
     OccupancyFilterConfig,
@@ -161,7 +161,11 @@ def test_on_masks_two_walkers_passing_each_other_keep_their_tracks_and_boxes(see
         for x, y, w, h in truth:
             u, v = int((x - window.x) * 2), int((y - window.y) * 2)
             mask[v : v + 2 * h, max(u, 0) : u + 2 * w] = 1
-        tracks = tracker.step(Observation(0.1 * k, mask=mask, window=window))
+        boxes = np.array(truth, dtype=float)  # the detector's blobs
+        detections = Detections(
+            boxes[:, :2] + boxes[:, 2:] / 2, boxes[:, 2] * boxes[:, 3], boxes, np.ones(2)
+        )
+        tracks = tracker.step(Observation(0.1 * k, detections, mask=mask, window=window))
         confirmed = tracks.status != TrackStatus.TENTATIVE
         for person, box in enumerate(truth):
             overlap = iou_matrix(np.array(box, float), tracks.bboxes[confirmed])[0]

@@ -94,7 +94,7 @@ class OccupancyFilterConfig:
     min_height: float = 0.60
     exclusion: float = 0.60
     exclusion_on_floor: bool = True  # measure `exclusion` without the vertical axis
-    exclusion_by_box: bool = False  # instead: no filter may lie in the blob's box
+    initiation: bool = True  # start filters on blobs (off: the caller uses `start`)
     starve_weight: float = 0.01
     starve_frames: int = 10
     overlap_frames: int = 3
@@ -264,7 +264,7 @@ class OccupancyParticleFilters:
         scaled = (points[:, :, None, :] - centres[None, None, :, :]) / axes[None, None]
         inside = self._inside(scaled, geometry.vertical)  # (M, N, M)
         own = np.eye(len(centres), dtype=bool)[:, None, :]
-        result: np.ndarray = (inside & ~own).any(axis=-1)
+        result: np.ndarray = np.any(inside & ~own, axis=-1)
         return result
 
     def _inside(self, scaled: np.ndarray, vertical: int) -> np.ndarray:
@@ -355,21 +355,14 @@ class OccupancyParticleFilters:
         return result
 
     def _excluded(self, found: Components, label: int, geometry: GridGeometry) -> bool:
-        """A filter is near blob `label`: within `exclusion` of its centre of mass, or (with
-        `exclusion_by_box`) inside its box widened by half the jitter."""
-        if self.config.exclusion_by_box:
-            reach = jitter_widths(self.config, geometry) / 2.0
-            inside = (self.estimates >= found.lows[label] - reach) & (
-                self.estimates <= found.highs[label] + reach
-            )
-            return bool(inside.all(axis=1).any())
+        """A filter is within `exclusion` of blob `label`'s centre of mass."""
         centre = found.centroids[label][None]
         distance = self._floor_distance(centre, self.estimates, geometry.vertical)
         return bool(distance.min() < self.config.exclusion)
 
     def _initiate(self, grid: OccupancyGrid, found: Components) -> int:
         config, geometry = self.config, grid.geometry
-        if not len(found):
+        if not len(found) or not config.initiation:
             return 0
         v = geometry.vertical
         people = (found.counts * geometry.cell[0] > config.min_blob) & (
@@ -379,20 +372,26 @@ class OccupancyParticleFilters:
         for label in np.flatnonzero(people)[np.argsort(-found.counts[people], kind="stable")]:
             if len(self) and self._excluded(found, label, geometry):
                 continue
-            centre = found.centroids[label]
             cells = grid.cells[found.labels == label]
-            drawn = self.rng.choice(len(cells), config.particles, len(cells) < config.particles)
-            self.ids = np.append(self.ids, self.next_id)
-            self.next_id += 1
-            self.particles = np.concatenate([self.particles, geometry.centres(cells[drawn])[None]])
-            self.estimates = np.concatenate([self.estimates, centre[None]])
             size = found.highs[label] - found.lows[label]
-            self.extents = np.concatenate([self.extents, size[None]])
-            self.origins = np.concatenate([self.origins, centre[None]])
-            for name in ("frames", "travel", "starved", "overlapping"):
-                setattr(self, name, np.append(getattr(self, name), 0))
+            self.start(geometry.centres(cells), found.centroids[label], size)
             started += 1
         return started
+
+    def start(self, points: np.ndarray, centre: np.ndarray, extent: np.ndarray) -> int:
+        """A new filter at `centre` (3,), its particles drawn from `points` (P > 0, 3) (a
+        blob's cells), `extent` (3,) its blob's size; its id."""
+        n = self.config.particles
+        drawn = points[self.rng.choice(len(points), n, len(points) < n)]
+        self.ids = np.append(self.ids, self.next_id)
+        self.next_id += 1
+        self.particles = np.concatenate([self.particles, drawn[None]])
+        self.estimates = np.concatenate([self.estimates, centre[None]])
+        self.extents = np.concatenate([self.extents, extent[None]])
+        self.origins = np.concatenate([self.origins, centre[None]])
+        for name in ("frames", "travel", "starved", "overlapping"):
+            setattr(self, name, np.append(getattr(self, name), 0))
+        return int(self.ids[-1])
 
     # -- the report ----------------------------------------------------------------------------
 

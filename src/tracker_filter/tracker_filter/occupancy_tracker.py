@@ -28,7 +28,7 @@ motion model).
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import replace
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -38,7 +38,6 @@ from tracker_filter.observation import Detections, Need, Observation
 from tracker_filter.occupancy_grid import GridGeometry, OccupancyGrid
 from tracker_filter.occupancy_particles import (
     BlockShape,
-    FilterStep,
     Jitter,
     OccupancyFilterConfig,
     OccupancyParticleFilters,
@@ -49,6 +48,21 @@ from tracker_msgs_py.params import ParamSpec
 from tracker_msgs_py.registry import Method
 
 LAYOUT = StateLayout.from_names("x y w h")
+
+
+@dataclass(frozen=True)
+class BlobRules:
+    """How the detector's blobs start, measure and confirm filters (px, scene)."""
+
+    min_area: float = 400.0  # px^2 a blob needs to start a filter
+    min_height: float = 40.0  # px
+    box_margin: float = 0.25  # x its size: how far outside a blob's box a filter still owns it
+    confirm_hits: int = 3
+    confirm_travel: float = 12.0  # px
+    confirm_straightness: float = 0.7  # net distance / path: tape flutters in place
+    straightness_step: float = 6.0  # px between the path's waypoints
+
+
 BOX_VARIANCE = 4.0  # px^2 reported for w and h (a component's box, not an estimate)
 
 
@@ -64,7 +78,8 @@ def mask_geometry(observation: Observation) -> GridGeometry | None:
 
 
 class OccupancyTracker:
-    """Seed 002's filters on motion masks, bookkept by a `TrackBook`."""
+    """Seed 002's filters on motion masks, started on and boxed by the detector's blobs,
+    bookkept by a `TrackBook`."""
 
     needs = frozenset({Need.MASK, Need.WINDOW})
     layout = LAYOUT
@@ -72,19 +87,12 @@ class OccupancyTracker:
     def __init__(
         self,
         config: OccupancyFilterConfig,
-        min_area: float = 400.0,
-        confirm_hits: int = 3,
-        confirm_travel: float = 12.0,
+        rules: BlobRules,
         first_id: int = 1,
     ) -> None:
-        self.config, self.min_area = config, min_area
-        self.confirm_hits, self.confirm_travel = confirm_hits, confirm_travel
-        self.book = TrackBook(first_id)
-        self.filters = self._filters(first_id)
-        self.geometry: GridGeometry | None = None
-
-    def _filters(self, first_id: int) -> OccupancyParticleFilters:
-        return OccupancyParticleFilters(self.config, first_id=first_id)
+        self.config, self.rules = replace(config, initiation=False), rules
+        self.book = TrackBook(first_id, path_step=rules.straightness_step)
+        self.filters = OccupancyParticleFilters(self.config, first_id=first_id)
 
     @property
     def next_id(self) -> int:
@@ -92,79 +100,106 @@ class OccupancyTracker:
 
     def reset(self, reset_ids: bool = False) -> int:
         count = self.book.reset(reset_ids)
-        self.filters = self._filters(self.book.next_id)
+        self.filters = OccupancyParticleFilters(self.config, first_id=self.book.next_id)
         return count
 
     def step(self, observation: Observation) -> TrackSet:
         t, book = observation.time, self.book
         book.check_time(t)
         geometry = mask_geometry(observation)
+        detections, rejected = observation.detections.validated()
         if geometry is None or observation.mask is None:
-            return self._missed(t)
-        if geometry.cell != getattr(self.geometry, "cell", None):
-            # blobs are cells x cell edge: the area threshold in cells follows the zoom
-            self.filters.config = replace(self.config, min_blob=self.min_area / geometry.cell[0])
-        self.geometry = geometry
-        result = self.filters.step(OccupancyGrid.from_mask(observation.mask, geometry))
-        return self._record(t, result)
-
-    def _missed(self, t: float) -> TrackSet:
-        book = self.book
-        rows = np.zeros(0, np.int64)
-        updated = book.record_frame(rows, rows, Detections.empty(), self._positions())
+            return self._missed(t, rejected)
+        grid = OccupancyGrid.from_mask(observation.mask, geometry)
+        result = self.filters.step(grid)
+        owner = _owners(result.estimates, detections.bboxes, self.rules.box_margin)
+        measured = (result.mass >= self.config.starve_weight) & (owner >= 0)
+        boxes = np.zeros((len(owner), 4))
+        boxes[measured] = detections.bboxes[owner[measured]]
+        # a hit is measured by its blob: its centre, not the cloud's mean, which trails a
+        # walker (no motion model)
+        positions = np.where(
+            measured[:, None], boxes[:, :2] + boxes[:, 2:] / 2, result.estimates[:, :2]
+        )
+        found = Detections(positions, boxes[:, 2] * boxes[:, 3], boxes, result.mass)
+        rows = np.flatnonzero(measured)
+        updated = book.record_frame(rows, rows, found, positions)
+        rules = self.rules
+        book.confirm(
+            (book.hits >= rules.confirm_hits)
+            & (book.measured_travel() >= rules.confirm_travel)
+            & (book.straightness() >= rules.confirm_straightness)
+        )
+        new = self._start(grid, detections, owner[~result.deleted])
+        book.add(t, detections, new, np.zeros(len(new), bool))
+        added = len(new)
+        means = self._means(np.concatenate([positions, detections.positions[new]]))
+        covariances = self._covariances(result.covariances, added)
+        lost = np.concatenate([result.deleted, np.zeros(added, bool)])
         tracks = book.snapshot(
-            t, LAYOUT, self._means(self._positions()), self._covariances(None), updated,
-            np.zeros(len(book), bool), {},
+            t, LAYOUT, means, covariances, np.concatenate([updated, np.ones(added, bool)]),
+            lost, rejected,
         )  # fmt: skip
+        book.keep(~lost)
         book.finish(t)
         return tracks
 
-    def _positions(self) -> np.ndarray:
-        return self.filters.estimates[:, :2].copy()
+    def _start(self, grid: OccupancyGrid, detections: Detections, owner: np.ndarray) -> np.ndarray:
+        """Start a filter on every person-sized blob no filter holds; their detection indices."""
+        boxes, rules = detections.bboxes, self.rules
+        big = (boxes[:, 2] * boxes[:, 3] >= rules.min_area) & (boxes[:, 3] >= rules.min_height)
+        free = big & ~np.isin(np.arange(len(detections)), owner)
+        started = []
+        points = grid.geometry.centres(grid.cells)[:, :2]
+        for i in np.flatnonzero(free):
+            x, y, w, h = boxes[i]
+            inside = (
+                (points[:, 0] >= x) & (points[:, 0] <= x + w) & (points[:, 1] >= y)
+                & (points[:, 1] <= y + h)
+            )  # fmt: skip
+            if not inside.any():
+                continue
+            cells = grid.geometry.centres(grid.cells[inside])
+            centre = np.array([x + w / 2, y + h / 2, cells[0, 2]])
+            self.filters.start(cells, centre, np.array([w, h, 0.0]))
+            started.append(i)
+        return np.array(started, dtype=np.int64)
+
+    def _missed(self, t: float, rejected: dict[str, int]) -> TrackSet:
+        book = self.book
+        rows = np.zeros(0, np.int64)
+        positions = self.filters.estimates[:, :2].copy()
+        updated = book.record_frame(rows, rows, Detections.empty(), positions)
+        covariances = np.tile(np.eye(LAYOUT.dim) * BOX_VARIANCE, (len(book), 1, 1))
+        tracks = book.snapshot(
+            t, LAYOUT, self._means(positions), covariances, updated,
+            np.zeros(len(book), bool), rejected,
+        )  # fmt: skip
+        book.finish(t)
+        return tracks
 
     def _means(self, positions: np.ndarray) -> np.ndarray:
         return np.column_stack([positions, self.book.bboxes[:, 2:]])
 
-    def _covariances(self, result: FilterStep | None) -> np.ndarray:
-        out = np.tile(np.eye(LAYOUT.dim) * BOX_VARIANCE, (len(self.book), 1, 1))
-        if result is not None:
-            out[:, :2, :2] = result.covariances[:, :2, :2] + 1e-9 * np.eye(2)
+    def _covariances(self, particles: np.ndarray, added: int) -> np.ndarray:
+        out = np.tile(np.eye(LAYOUT.dim) * BOX_VARIANCE, (len(particles) + added, 1, 1))
+        out[: len(particles), :2, :2] = particles[:, :2, :2] + 1e-9 * np.eye(2)
         return out
 
-    def _record(self, t: float, result: FilterStep) -> TrackSet:
-        book, entering = self.book, ~result.started
-        boxes = _boxes(result)
-        # a hit is measured by its part of the blob: its centre, not the cloud's mean, which
-        # trails a walker (no motion model)
-        positions = np.where(
-            result.measured[:, None], boxes[:, :2] + boxes[:, 2:] / 2, result.estimates[:, :2]
-        )
-        found = Detections(positions, boxes[:, 2] * boxes[:, 3], boxes, result.mass)
-        rows = np.flatnonzero(result.measured & entering)
-        updated = book.record_frame(rows, rows, found, positions[entering])
-        book.confirm(
-            (book.hits >= self.confirm_hits) & (book.measured_travel() >= self.confirm_travel)
-        )
-        new = np.flatnonzero(result.started)
-        book.add(t, found, new, np.zeros(len(new), bool))
-        updated = np.concatenate([updated, np.ones(len(new), bool)])
-        tracks = book.snapshot(
-            t, LAYOUT, self._means(positions), self._covariances(result), updated,
-            result.deleted, {},
-        )  # fmt: skip
-        book.keep(~result.deleted)
-        book.finish(t)
-        return tracks
 
-
-def _boxes(result: FilterStep) -> np.ndarray:
-    """(R, 4) x, y, width, height px of every filter's box; a filter without one (it lies in no
-    component) gets a 1 px box at its estimate, which no hit ever records."""
-    lows, highs = result.lows[:, :2], result.highs[:, :2]
-    missing = ~np.isfinite(lows).all(axis=1)
-    lows = np.where(missing[:, None], result.estimates[:, :2] - 0.5, lows)
-    highs = np.where(missing[:, None], result.estimates[:, :2] + 0.5, highs)
-    return np.column_stack([lows, highs - lows])
+def _owners(estimates: np.ndarray, boxes: np.ndarray, margin: float) -> np.ndarray:
+    """Per estimate (M, >=2), the detection box (N, 4) it lies in, widened by `margin` x its
+    size (the cloud trails a walker), the nearest centre of several; -1 for none."""
+    if not len(boxes) or not len(estimates):
+        return np.full(len(estimates), -1, np.int64)
+    low = boxes[:, :2] - margin * boxes[:, 2:]
+    high = boxes[:, :2] + (1 + margin) * boxes[:, 2:]
+    points = estimates[:, None, :2]
+    inside = ((points >= low[None]) & (points <= high[None])).all(axis=-1)
+    distance = np.linalg.norm(points - (boxes[None, :, :2] + boxes[None, :, 2:] / 2), axis=-1)
+    nearest = np.argmin(np.where(inside, distance, np.inf), axis=1)
+    result: np.ndarray = np.where(np.any(inside, axis=1), nearest, -1)
+    return result
 
 
 PARAMETERS: tuple[ParamSpec, ...] = (
@@ -206,45 +241,52 @@ PARAMETERS: tuple[ParamSpec, ...] = (
         10.0,
     ),
     ParamSpec("opening", 5, "vertical opening of the mask, rows (1: off)", 1, 100),
-    ParamSpec("min_area", 400.0, "px^2 a blob needs to start a filter", 0.0, 1e7),
-    ParamSpec("min_height", 40.0, "px a blob needs to be tall to start a filter", 0.0, 1e5),
-    ParamSpec("component_cell", 4.0, "px: blobs closer than this are one", 0.0, 1e3),
+    ParamSpec("min_area", 400.0, "px^2 a detector blob needs to start a filter", 0.0, 1e7),
+    ParamSpec("min_height", 40.0, "px a detector blob needs to be tall to start one", 0.0, 1e5),
+    ParamSpec(
+        "box_margin", 0.25, "x a blob's size: how far outside its box a filter owns it", 0.0, 10.0
+    ),
     ParamSpec("starve_weight", 0.01, "mean surface weight below which a frame starves", 0.0, 1.0),
     ParamSpec("starve_frames", 10, "starved frames after which a filter is deleted", 1, 10000),
     ParamSpec("confirm_hits", 3, "hits before a filter is a confirmed track", 1, 1000),
     ParamSpec("confirm_travel", 12.0, "px those hits must have moved", 0.0, 1e4),
+    ParamSpec(
+        "confirm_straightness", 0.7, "... and that directly (net / path; tape flutters)", 0.0, 1.0
+    ),
+    ParamSpec("straightness_step", 6.0, "px between the waypoints of that path", 0.0, 1e3),
     ParamSpec("seed", 0, "random seed (a replay gives the same tracks)", 0, 2**31 - 1),
 )
 
 
 def build(values: Mapping[str, Any], first_id: int = 1) -> OccupancyTracker:
+    radius = values["surface_radius"]
     config = OccupancyFilterConfig(
         particles=values["particles"],
-        radius=(values["surface_radius"], values["surface_radius"], 0),
+        radius=(radius, radius, 0),
         foreground_factor=values["foreground_factor"],
         blocking=values["blocking"],
-        block_axes=(15.0, 40.0, 1.0),  # px, until a filter has a box
         block_shape=BlockShape.ELLIPSOID,  # an ellipse: in an image "up" is also "farther"
+        block_axes=(15.0, 40.0, 1.0),  # px, until a filter has a box
         block_box_factor=values["block_box_factor"],
         propagation=Propagation(values["propagation"]),
         jitter=Jitter(values["jitter"]),
         vertical_jitter_factor=1.0,
         jitter_box_factor=values["jitter_box_factor"],
         opening=values["opening"],
-        component_cell=values["component_cell"],
-        min_height=values["min_height"],
-        exclusion_by_box=True,
         starve_weight=values["starve_weight"],
         starve_frames=values["starve_frames"],
         seed=values["seed"],
     )
-    return OccupancyTracker(
-        config,
+    rules = BlobRules(
         min_area=values["min_area"],
+        min_height=values["min_height"],
+        box_margin=values["box_margin"],
         confirm_hits=values["confirm_hits"],
         confirm_travel=values["confirm_travel"],
-        first_id=first_id,
+        confirm_straightness=values["confirm_straightness"],
+        straightness_step=values["straightness_step"],
     )
+    return OccupancyTracker(config, rules, first_id)
 
 
 METHOD: Method[Any] = Method(

@@ -153,7 +153,7 @@ def configurations(quick: bool) -> list[tuple[str, OccupancyFilterConfig, float]
         rows += [
             ("ranking propagation", replace(base, propagation=Propagation.RANKING), 0.02),
             ("expanded jitter", replace(base, jitter=Jitter.EXPANDED), 0.02),
-            ("f = n1 / |C|", replace(base, foreground_factor=True), 0.02),
+            ("f = n1 / size of C", replace(base, foreground_factor=True), 0.02),
         ]
     return rows
 
