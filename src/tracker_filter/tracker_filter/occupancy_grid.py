@@ -178,13 +178,18 @@ class Components:
     def __len__(self) -> int:
         return len(self.counts)
 
+    @classmethod
+    def none(cls) -> Components:
+        """No components (a grid without occupied cells, or one not labelled)."""
+        empty = np.zeros((0, DIMS))
+        return cls(np.zeros(0, np.int64), np.zeros(0, np.int64), empty, empty, empty)
+
 
 def components(grid: OccupancyGrid, factor: int) -> Components:
     """The 26-connected components of `grid`, labelled on cells of `factor` x the grid's cell."""
     cells, geometry = grid.cells, grid.geometry
     if not len(cells):
-        empty = np.zeros((0, DIMS))
-        return Components(np.zeros(0, np.int64), np.zeros(0, np.int64), empty, empty, empty)
+        return Components.none()
     factor = max(1, int(factor))
     coarse = np.zeros(tuple(-(-np.asarray(geometry.shape) // factor)), dtype=np.uint8)
     _mark_coarse(cells, factor, coarse)

@@ -94,7 +94,7 @@ class OccupancyFilterConfig:
     min_height: float = 0.60
     exclusion: float = 0.60
     exclusion_on_floor: bool = True  # measure `exclusion` without the vertical axis
-    initiation: bool = True  # start filters on blobs (off: the caller uses `start`)
+    initiation: bool = True  # start and box filters on blobs (off: the caller uses `start`)
     starve_weight: float = 0.01
     starve_frames: int = 10
     overlap_frames: int = 3
@@ -216,7 +216,11 @@ class OccupancyParticleFilters:
         away[:, grid.geometry.vertical] = 0.0
         self.travel = np.maximum(self.travel, np.linalg.norm(away, axis=1))
         entered = (self.ids.copy(), self.frames.copy(), self.travel.copy())
-        found = components(grid, self._component_factor(grid.geometry))
+        found = (  # without initiation the caller boxes its filters itself
+            components(grid, self._component_factor(grid.geometry))
+            if self.config.initiation
+            else Components.none()
+        )
         self._drop(deleted)
         started = self._initiate(grid, found)
         return self._report(grid, found, entered, estimates, covariances, mass, deleted, started)
@@ -471,6 +475,26 @@ class OccupancyParticleFilters:
                     lows[row] = origin + cell_lows[row] * cell
                     highs[row] = origin + (cell_highs[row] + 1) * cell
         return lows, highs
+
+
+def split_cells(
+    geometry: GridGeometry, cells: np.ndarray, estimates: np.ndarray, scale: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """Bounds (K, 3) lows / highs, world units, of the cells (P, 3) nearest each of `estimates`
+    (K, 3), distances divided by `scale` (K, 3) per estimate (NaN: an estimate got none)."""
+    count = len(estimates)
+    cell_lows = np.full((count, 3), np.iinfo(np.int64).max, np.int64)
+    cell_highs = np.full((count, 3), -1, np.int64)
+    zeros = np.zeros(len(cells), np.int64)
+    _split_boxes(
+        geometry.centres(cells), zeros, np.zeros(count, np.int64), estimates, scale,
+        cell_lows, cell_highs, cells,
+    )  # fmt: skip
+    cell, origin = np.asarray(geometry.cell), np.asarray(geometry.origin)
+    got = cell_highs[:, :1] >= 0
+    lows = np.where(got, origin + cell_lows * cell, np.nan)
+    highs = np.where(got, origin + (cell_highs + 1) * cell, np.nan)
+    return lows, highs
 
 
 def _neighbour_offsets(shape: tuple[int, int, int], reach: int = 2) -> np.ndarray:

@@ -42,6 +42,7 @@ from tracker_filter.occupancy_particles import (
     OccupancyFilterConfig,
     OccupancyParticleFilters,
     Propagation,
+    split_cells,
 )
 from tracker_filter.tracking import TrackBook, TrackSet
 from tracker_msgs_py.params import ParamSpec
@@ -114,14 +115,17 @@ class OccupancyTracker:
         result = self.filters.step(grid)
         owner = _owners(result.estimates, detections.bboxes, self.rules.box_margin)
         measured = (result.mass >= self.config.starve_weight) & (owner >= 0)
-        boxes = np.zeros((len(owner), 4))
-        boxes[measured] = detections.bboxes[owner[measured]]
+        points = grid.geometry.centres(grid.cells)[:, :2]  # the mask's pixels, scene px
+        boxes = self._boxes(grid, points, detections.bboxes, owner, measured, result.estimates)
         # a hit is measured by its blob: its centre, not the cloud's mean, which trails a
         # walker (no motion model)
         positions = np.where(
             measured[:, None], boxes[:, :2] + boxes[:, 2:] / 2, result.estimates[:, :2]
         )
         found = Detections(positions, boxes[:, 2] * boxes[:, 3], boxes, result.mass)
+        alive = ~result.deleted  # the filters' rows after the step
+        sizes = np.column_stack([boxes[alive, 2:], np.zeros(alive.sum())])
+        self.filters.extents = np.where(measured[alive, None], sizes, self.filters.extents)
         rows = np.flatnonzero(measured)
         updated = book.record_frame(rows, rows, found, positions)
         rules = self.rules
@@ -130,7 +134,7 @@ class OccupancyTracker:
             & (book.measured_travel() >= rules.confirm_travel)
             & (book.straightness() >= rules.confirm_straightness)
         )
-        new = self._start(grid, detections, owner[~result.deleted])
+        new = self._start(grid, points, detections, owner[~result.deleted])
         book.add(t, detections, new, np.zeros(len(new), bool))
         added = len(new)
         means = self._means(np.concatenate([positions, detections.positions[new]]))
@@ -144,19 +148,45 @@ class OccupancyTracker:
         book.finish(t)
         return tracks
 
-    def _start(self, grid: OccupancyGrid, detections: Detections, owner: np.ndarray) -> np.ndarray:
+    def _boxes(
+        self,
+        grid: OccupancyGrid,
+        points: np.ndarray,
+        blobs: np.ndarray,
+        owner: np.ndarray,
+        measured: np.ndarray,
+        estimates: np.ndarray,
+    ) -> np.ndarray:
+        """(M, 4) each measured filter's blob box; a blob several filters own (people walking
+        together: one blob) is split among them, each mask pixel in it going to the nearest
+        estimate (distances in units of each filter's box)."""
+        boxes = np.zeros((len(owner), 4))
+        boxes[measured] = blobs[owner[measured]]
+        shared = np.bincount(owner[measured], minlength=len(blobs)) > 1
+        extents = self.book.bboxes[:, 2:]  # each filter's last measured box
+        for blob in np.flatnonzero(shared):
+            rows = np.flatnonzero(measured & (owner == blob))
+            inside = _in_box(points, blobs[blob])
+            if not inside.any():
+                continue
+            scale = np.ones((len(rows), 3))
+            scale[:, :2] = np.maximum(extents[rows], 1.0)
+            lows, highs = split_cells(grid.geometry, grid.cells[inside], estimates[rows], scale)
+            got = np.isfinite(lows[:, 0])
+            boxes[rows[got]] = np.column_stack([lows[got, :2], (highs - lows)[got, :2]])
+        return boxes
+
+    def _start(
+        self, grid: OccupancyGrid, points: np.ndarray, detections: Detections, owner: np.ndarray
+    ) -> np.ndarray:
         """Start a filter on every person-sized blob no filter holds; their detection indices."""
         boxes, rules = detections.bboxes, self.rules
         big = (boxes[:, 2] * boxes[:, 3] >= rules.min_area) & (boxes[:, 3] >= rules.min_height)
         free = big & ~np.isin(np.arange(len(detections)), owner)
         started = []
-        points = grid.geometry.centres(grid.cells)[:, :2]
         for i in np.flatnonzero(free):
             x, y, w, h = boxes[i]
-            inside = (
-                (points[:, 0] >= x) & (points[:, 0] <= x + w) & (points[:, 1] >= y)
-                & (points[:, 1] <= y + h)
-            )  # fmt: skip
+            inside = _in_box(points, boxes[i])
             if not inside.any():
                 continue
             cells = grid.geometry.centres(grid.cells[inside])
@@ -185,6 +215,16 @@ class OccupancyTracker:
         out = np.tile(np.eye(LAYOUT.dim) * BOX_VARIANCE, (len(particles) + added, 1, 1))
         out[: len(particles), :2, :2] = particles[:, :2, :2] + 1e-9 * np.eye(2)
         return out
+
+
+def _in_box(points: np.ndarray, box: np.ndarray) -> np.ndarray:
+    """Which points (P, 2) lie in the box x, y, width, height."""
+    x, y, w, h = box
+    result: np.ndarray = (
+        (points[:, 0] >= x) & (points[:, 0] <= x + w) & (points[:, 1] >= y)
+        & (points[:, 1] <= y + h)
+    )  # fmt: skip
+    return result
 
 
 def _owners(estimates: np.ndarray, boxes: np.ndarray, margin: float) -> np.ndarray:
