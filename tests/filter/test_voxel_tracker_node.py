@@ -3,6 +3,8 @@ contract (fields at any offset, float32 or float64, either byte order) and bad c
 
 from __future__ import annotations
 
+import time
+
 import numpy as np
 import pytest
 
@@ -11,6 +13,7 @@ from tracker_filter.voxel_tracking import CloudError, cloud_points
 rclpy = pytest.importorskip("rclpy")
 
 from node_harness import NodeHarness  # noqa: E402
+from rclpy.executors import SingleThreadedExecutor  # noqa: E402
 from sensor_msgs.msg import PointCloud2, PointField  # noqa: E402
 from std_msgs.msg import Header  # noqa: E402
 
@@ -101,3 +104,46 @@ def test_the_node_tracks_two_people_in_the_room_frame_and_survives_a_bad_cloud()
         assert positions[:, 2] == pytest.approx([0.85, 0.85], abs=0.35)
     finally:
         h.close()
+
+
+@pytest.mark.ros
+def test_the_installed_executable_runs_with_the_shipped_params_file(tmp_path):
+    """`ros2 run tracker_filter voxel_tracker --ros-args --params-file voxel_tracker.yaml` (the
+    launch file's defaults) tracks a person walking through its room."""
+    from pathlib import Path
+
+    from ros_process import INSTALL, RosProcess
+
+    params = (
+        INSTALL / "tracker_filter" / "share" / "tracker_filter" / "config" / "voxel_tracker.yaml"
+    )
+    assert Path(params).exists()
+    node = RosProcess(
+        "tracker_filter", "voxel_tracker", "--ros-args", "--params-file", str(params),
+        "-p", f"voxel_size:={VOXEL}", log_dir=tmp_path,
+    )  # fmt: skip
+    context = rclpy.Context()
+    rclpy.init(context=context)
+    peer = rclpy.create_node("voxel_peer", context=context)
+    executor = SingleThreadedExecutor(context=context)
+    executor.add_node(peer)
+    received: list = []
+    try:
+        publisher = peer.create_publisher(PointCloud2, "occupancy", 10)
+        peer.create_subscription(TrackArray, "tracks", received.append, 10)
+        # a liveness deadline, not a speed target: with numba's cache cold the first cloud
+        # compiles the kernels (seconds on a loaded machine)
+        deadline = time.monotonic() + 60.0
+        k = 0
+        while not any(t.status == Track.STATUS_CONFIRMED for m in received for t in m.tracks):
+            assert time.monotonic() < deadline, node.output()
+            k += 1
+            publisher.publish(cloud(person(1.0 + 0.05 * k, 2.0), k))
+            executor.spin_once(timeout_sec=0.1)
+        assert received[-1].tracks[0].state_layout == "x y z"
+    finally:
+        executor.shutdown()
+        peer.destroy_node()
+        rclpy.shutdown(context=context)
+        assert node.interrupt(timeout=5.0) == 0, node.output()
+        node.kill()

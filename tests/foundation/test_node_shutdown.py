@@ -26,6 +26,7 @@ TOOLS = {
     "predictor_study",
     "single_target_benchmark",
     "phd_benchmark",
+    "voxel_benchmark",
 }
 
 
