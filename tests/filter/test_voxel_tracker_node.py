@@ -8,7 +8,14 @@ import time
 import numpy as np
 import pytest
 
-from tracker_filter.voxel_tracking import CloudError, cloud_points
+from tracker_filter.occupancy_particles import OccupancyFilterConfig, OccupancyParticleFilters
+from tracker_filter.voxel_tracking import (
+    CloudError,
+    VoxelTracker,
+    cloud_points,
+    exclusion_mask,
+    room_geometry,
+)
 
 rclpy = pytest.importorskip("rclpy")
 
@@ -75,6 +82,17 @@ def test_a_cloud_without_z_or_with_integer_fields_is_refused_by_name():
         cloud_points({"x": (0, 7), "y": (4, 7)}, 12, bytes(12), 1)
     with pytest.raises(CloudError, match="datatype 5"):
         cloud_points({"x": (0, 5), "y": (4, 7), "z": (8, 7)}, 12, bytes(12), 1)
+
+
+def test_a_person_in_the_door_box_never_starts_a_filter():
+    room = room_geometry([0.0, 0.0, 0.0], [4.0, 5.0, 2.1], VOXEL)
+    door = exclusion_mask(room, [0.5, 0.5, 0.0, 1.5, 1.5, 2.1])
+    tracker = VoxelTracker(OccupancyParticleFilters(OccupancyFilterConfig(), door), room)
+    tracks, _ = tracker.step(np.concatenate([person(1.0, 1.0), person(3.0, 3.0)]), 0.0)
+    assert [round(float(t.mean[0]), 1) for t in tracks] == [3.0]  # only the one outside
+    assert exclusion_mask(room, [0.0] * 6) is None  # the parameter's default: no door
+    with pytest.raises(ValueError, match="6 numbers"):
+        exclusion_mask(room, [0.0, 1.0])
 
 
 @pytest.mark.ros

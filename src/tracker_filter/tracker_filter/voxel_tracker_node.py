@@ -25,6 +25,7 @@ from tracker_filter.voxel_tracking import (
     Track3D,
     VoxelTracker,
     cloud_points,
+    exclusion_mask,
     room_geometry,
 )
 from tracker_msgs.msg import Rect, Track, TrackArray
@@ -36,6 +37,11 @@ _C = OccupancyFilterConfig()
 PARAMETERS: tuple[ParamSpec, ...] = (
     ParamSpec("room_min", [0.0, 0.0, 0.0], "m: the room's corner (x, y, z; z = the floor)"),
     ParamSpec("room_max", [4.0, 5.0, 2.1], "m: the opposite corner (the thesis's room)"),
+    ParamSpec(
+        "exclusion_boxes",
+        [0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+        "m: boxes forced to background (doors), x0 y0 z0 x1 y1 z1 each (the default is empty)",
+    ),
     ParamSpec("voxel_size", 0.02, "m: voxel edge of the incoming volume", 0.001, 1.0),
     ParamSpec("particles", _C.particles, "particles per person (the thesis: 300)", 1, 100000),
     ParamSpec("blocking", _C.blocking, "no particle inside another person's ellipsoid"),
@@ -98,7 +104,7 @@ def build_tracker(values: dict[str, Any]) -> VoxelTracker:
         seed=values["seed"],
     )
     return VoxelTracker(
-        OccupancyParticleFilters(config),
+        OccupancyParticleFilters(config, exclusion_mask(geometry, values["exclusion_boxes"])),
         geometry,
         values["confirm_frames"],
         values["confirm_travel"],

@@ -9,7 +9,7 @@ The message contract of the `voxel_tracker` node, in plain data so it is testabl
   dropped (counted, one log line). A multi-camera reconstruction (visual hull, space carving)
   publishes exactly its foreground voxels.
 - the room: `room_min` / `room_max` (metres) and `voxel_size` fix the grid; a point belongs to the
-  voxel floor((p - room_min) / voxel_size).
+  voxel floor((p - room_min) / voxel_size); `exclusion_boxes` (the doors) are forced to background.
 - output: tracker_msgs/TrackArray in the cloud's frame, a Track per filter with state_layout
   "x y z" (metres), x / y the floor position, covariance 3 x 3 of the particles, bbox the
   person's footprint (metres), existence the filter's mean surface weight, and statuses as every
@@ -89,6 +89,26 @@ def room_geometry(room_min: list[float], room_max: list[float], voxel: float) ->
     return GridGeometry(
         (int(shape[0]), int(shape[1]), int(shape[2])), (voxel,) * 3, tuple(low.tolist()), 2
     )
+
+
+def exclusion_mask(geometry: GridGeometry, boxes: list[float]) -> np.ndarray | None:
+    """The door mask: True on every voxel whose centre lies in one of `boxes`, given as
+    x0 y0 z0 x1 y1 z1 metres each (a box of no volume excludes nothing); None when none does.
+    Raises ValueError when the numbers are not whole boxes."""
+    values = np.asarray(boxes, dtype=float)
+    if values.size % 6:
+        raise ValueError(
+            f"exclusion boxes take 6 numbers each (x0 y0 z0 x1 y1 z1), got {values.size}"
+        )
+    axes = [
+        geometry.origin[a] + (np.arange(geometry.shape[a]) + 0.5) * geometry.cell[a]
+        for a in range(3)
+    ]
+    mask = np.zeros(geometry.shape, dtype=bool)
+    for low, high in values.reshape(-1, 2, 3):
+        inside = [(axes[a] >= low[a]) & (axes[a] <= high[a]) for a in range(3)]
+        mask |= inside[0][:, None, None] & inside[1][None, :, None] & inside[2][None, None, :]
+    return mask if mask.any() else None
 
 
 @dataclass
