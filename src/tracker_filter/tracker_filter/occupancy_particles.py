@@ -437,6 +437,14 @@ class OccupancyParticleFilters:
             grid=grid,
         )
 
+    def blob_boxes(
+        self, grid: OccupancyGrid, estimates: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Per estimate (M, 3), lows / highs (M, 3) of its part of the blob it lies in (NaN:
+        none); for a caller that does its own initiation."""
+        found = components(grid, self._component_factor(grid.geometry))
+        return self._boxes(grid, found, estimates)
+
     def _boxes(
         self, grid: OccupancyGrid, found: Components, estimates: np.ndarray
     ) -> tuple[np.ndarray, np.ndarray]:

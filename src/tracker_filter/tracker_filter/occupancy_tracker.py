@@ -123,9 +123,7 @@ class OccupancyTracker:
             measured[:, None], boxes[:, :2] + boxes[:, 2:] / 2, result.estimates[:, :2]
         )
         found = Detections(positions, boxes[:, 2] * boxes[:, 3], boxes, result.mass)
-        alive = ~result.deleted  # the filters' rows after the step
-        sizes = np.column_stack([boxes[alive, 2:], np.zeros(alive.sum())])
-        self.filters.extents = np.where(measured[alive, None], sizes, self.filters.extents)
+        self._resize(grid, result.estimates[~result.deleted], boxes, measured, ~result.deleted)
         rows = np.flatnonzero(measured)
         updated = book.record_frame(rows, rows, found, positions)
         rules = self.rules
@@ -147,6 +145,27 @@ class OccupancyTracker:
         book.keep(~lost)
         book.finish(t)
         return tracks
+
+    def _resize(
+        self,
+        grid: OccupancyGrid,
+        estimates: np.ndarray,
+        boxes: np.ndarray,
+        measured: np.ndarray,
+        alive: np.ndarray,
+    ) -> None:
+        """Each filter's size (its blocking ellipse and jitter follow it): its blob's box when
+        it owns one, else its part of the mask's connected blob around its estimate (a person
+        the detector missed or merged), else the size it had."""
+        sizes = np.column_stack([boxes[alive, 2:], np.ones(alive.sum())])
+        extents = np.where(measured[alive, None], sizes, self.filters.extents)
+        loose = ~measured[alive]
+        if loose.any():
+            lows, highs = self.filters.blob_boxes(grid, estimates)
+            blob = highs - lows
+            use = loose & np.isfinite(blob[:, 0])
+            extents[use] = blob[use]
+        self.filters.extents = extents
 
     def _boxes(
         self,
