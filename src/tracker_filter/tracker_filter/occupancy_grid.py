@@ -110,12 +110,10 @@ class OccupancyGrid:
             return self
         keep = np.empty(len(self.cells), dtype=np.bool_)
         _vertical_runs(self.dense, self.cells, self.geometry.vertical, length, keep)
-        if keep.all():
-            return self
         dense = self.dense if in_place else self.dense.copy()
-        gone = self.cells[~keep]
-        dense[gone[:, 0], gone[:, 1], gone[:, 2]] = 0
-        return OccupancyGrid(self.geometry, self.cells[keep], dense)
+        cells = np.empty_like(self.cells)
+        kept = _clear_dropped(dense, self.cells, keep, cells)
+        return OccupancyGrid(self.geometry, cells[:kept], dense)
 
 
 @numba.njit(cache=True, nogil=True)
@@ -132,6 +130,21 @@ def _mark_first_occurrences(  # pragma: no cover
             continue
         first[p] = dense[i, j, k] == 0
         dense[i, j, k] = 1
+
+
+@numba.njit(cache=True, nogil=True)
+def _clear_dropped(  # pragma: no cover
+    dense: np.ndarray, cells: np.ndarray, keep: np.ndarray, out: np.ndarray
+) -> int:
+    """Clears the cells not kept in `dense` and copies the kept ones to `out`; how many."""
+    kept = 0
+    for p in range(cells.shape[0]):
+        if keep[p]:
+            out[kept] = cells[p]
+            kept += 1
+        else:
+            dense[cells[p, 0], cells[p, 1], cells[p, 2]] = 0
+    return kept
 
 
 @numba.njit(cache=True, nogil=True)

@@ -473,10 +473,12 @@ class OccupancyParticleFilters:
             cell_highs = np.full((count, 3), -1, np.int64)
             scale = self._semi_axes(estimates, grid.geometry)
             scale[~np.isfinite(scale)] = 1.0
-            points = grid.geometry.centres(grid.cells)
+            origin = np.asarray(grid.geometry.origin, dtype=float)
+            cell_size = np.asarray(grid.geometry.cell, dtype=float)
             _split_boxes(
-                points, found.labels, owner, estimates, scale, cell_lows, cell_highs, grid.cells
-            )
+                origin, cell_size, found.labels, owner, estimates, scale, cell_lows, cell_highs,
+                grid.cells,
+            )  # fmt: skip
             cell, origin = np.asarray(grid.geometry.cell), np.asarray(grid.geometry.origin)
             for row in split:
                 if cell_highs[row, 0] >= 0:
@@ -495,8 +497,8 @@ def split_cells(
     cell_highs = np.full((count, 3), -1, np.int64)
     zeros = np.zeros(len(cells), np.int64)
     _split_boxes(
-        geometry.centres(cells), zeros, np.zeros(count, np.int64), estimates, scale,
-        cell_lows, cell_highs, cells,
+        np.asarray(geometry.origin, dtype=float), np.asarray(geometry.cell, dtype=float), zeros,
+        np.zeros(count, np.int64), estimates, scale, cell_lows, cell_highs, cells,
     )  # fmt: skip
     cell, origin = np.asarray(geometry.cell), np.asarray(geometry.origin)
     got = cell_highs[:, :1] >= 0
@@ -581,7 +583,8 @@ def _surface_weights(  # pragma: no cover
 
 @numba.njit(cache=True, nogil=True)
 def _split_boxes(  # pragma: no cover
-    points: np.ndarray,
+    origin: np.ndarray,
+    cell: np.ndarray,
     labels: np.ndarray,
     owner: np.ndarray,
     estimates: np.ndarray,
@@ -591,15 +594,17 @@ def _split_boxes(  # pragma: no cover
     cells: np.ndarray,
 ) -> None:
     """Each cell of a component shared by several estimates goes to the nearest (distance
-    scaled by `scale`); lows / highs (M, 3) collect each estimate's cell bounds."""
-    for p in range(points.shape[0]):
+    between the cell's centre and the estimate, scaled by `scale`); lows / highs (M, 3) collect
+    each estimate's cell bounds."""
+    for p in range(cells.shape[0]):
         best, nearest = -1, np.inf
         for m in range(estimates.shape[0]):
             if owner[m] != labels[p]:
                 continue
             d = 0.0
             for axis in range(3):
-                d += ((points[p, axis] - estimates[m, axis]) / scale[m, axis]) ** 2
+                centre = origin[axis] + (cells[p, axis] + 0.5) * cell[axis]
+                d += ((centre - estimates[m, axis]) / scale[m, axis]) ** 2
             if d < nearest:
                 best, nearest = m, d
         if best < 0:
