@@ -7,22 +7,23 @@ placed in the scene through the window (`OccupancyGrid.from_mask`), and the seed
 over 7 x 7 camera pixels (the thesis's 3 x 3 voxels hold a 2 cm shell of a 40 cm person; 3 x 3
 pixels of a 30 px one leave too few particles on its outline for a steady mean), blocking
 ellipses sized by each other filter's box (`block_box_factor` x its width and height: the
-thesis's 30 x 40 cm ellipsoid is about a person's size), jitter
-D = `jitter_box_factor` x the filter's box (the thesis's D = room / N^(1/3) is about 1.5 people
-wide; a D of the view's size / sqrt(N) leaves the cloud on one piece of a person's outline, one
-as wide as the person lets it reach the next person),
-the vertical opening of `opening` rows, initiation from connected components of at least
-`min_area` px^2 and `min_height` px whose box holds no filter (an image has no floor to measure
-the thesis's 60 cm on).
+thesis's 30 x 40 cm ellipsoid is about a person's size), jitter D = `jitter_box_factor` x the
+filter's box (the thesis's D = room / N^(1/3) is about 1.5 people wide; a D of the view's size /
+sqrt(N) leaves the cloud on one piece of a person's outline, one as wide as the person lets it
+reach the next person), the vertical opening of `opening` rows.
 
-A filter is a hit in a frame when its surface mass is above `starve_weight` and its estimate
-lies in a component; it reports that component's box (its part of it, when the component holds
-several filters: two people in one blob) and the box's centre as its position (the cloud's mean
-trails a walker: the filters have no motion model). Confirmed after `confirm_hits` hits that moved
-`confirm_travel` px (a flutter in place never is); LOST when the core deletes it (starved or on
-another's person). A frame without its mask or window is a miss for every filter, which do not
-move. State layout "x y w h": the estimate and the box's size; no velocity (the filters have no
-motion model).
+The detector's blobs do what the thesis's connected components do in 3-D, better on video (a
+person's mask joins flicker and neighbours into blobs twice their size; the detector splits and
+filters them): a filter owns the blob its estimate lies in (within `box_margin` x the blob's
+size: the cloud trails a walker), and reports that blob's box and its centre as its position; a
+blob several filters own (people walking together) is split between them, each mask pixel going
+to the nearest estimate. A blob of at least `min_area` px^2 and `min_height` px that no filter
+owns starts one, its particles on the blob's mask pixels. A filter that owns no blob takes its
+size from its part of the mask's connected blob around it. Confirmed after `confirm_hits` hits
+that moved `confirm_travel` px with a straightness of at least `confirm_straightness` (tape
+flutters in place); LOST when the core deletes it (starved, or on another filter's person). A
+frame without its mask or window is a miss for every filter, which do not move. State layout
+"x y w h": the position and the box's size; no velocity (the filters have no motion model).
 """
 
 from __future__ import annotations

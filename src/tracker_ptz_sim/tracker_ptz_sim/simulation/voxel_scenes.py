@@ -32,12 +32,15 @@ guided to its start (position and velocity, in time: the random walk fades out o
 contact and the first crossing fit in 10 s (250 frames at 25 fps); shorter sequences get the
 events that fit, and the schedule depends on ``frames`` (a shorter scene is not a prefix of a
 longer one). Unscripted encounters remain possible but rare (with 6 people, two bodies overlap
-outside events in 1-2 % of the frames). People ignore the furniture (they may walk through it).
+outside events in 1-2 % of the frames). People do not see the furniture; it is placed where nobody
+walks instead (below).
 
 Noise, per frame: ``hole_rate`` of the people's voxels are dropped at random (reconstruction
 holes), and each cell of the room is switched on with probability ``salt_rate`` (their count drawn
 from a binomial over the room's cells, then random cells). Static spurious blobs are present in
-every frame, unchanged, at random places and yaws at least 0.4 m from the walls, in this order: a
+every frame, unchanged, at random places and yaws at least 0.4 m from the walls and, where such a
+place exists, 0.35 m plus their radius from every person's path (people walk around furniture; a
+person walking through a chair merges with it, which no reconstruction shows), in this order: a
 chair as a visual hull sees it (the space under the seat is not carved; it passes the seed's
 person test "voxels x voxel edge (cm) > 3000 and vertical extent >= 60 cm"), a jacket hanging from
 1.05 m down to 0.5 m (enough voxels, too short: it fails), a carved chair (seat slab, back and legs:
