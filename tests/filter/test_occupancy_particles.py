@@ -62,6 +62,13 @@ def test_vertical_opening_keeps_runs_of_five_and_drops_thin_clutter():
     assert grid.dense.sum() == 5
 
 
+def test_a_mask_lists_its_pixels_as_argwhere_does():
+    mask = (np.random.default_rng(3).random((48, 64)) < 0.2).astype(np.uint8)
+    grid = OccupancyGrid.from_mask(mask, GridGeometry((64, 48, 1), (1.0, 1.0, 1.0), vertical=1))
+    assert np.array_equal(grid.cells, np.argwhere(mask.T[:, :, None]))
+    assert grid.cells.dtype == np.int64
+
+
 def test_cells_outside_the_grid_and_repeats_are_dropped():
     geometry = GridGeometry((4, 4, 4), (1.0,) * 3)
     grid = OccupancyGrid.from_cells(

@@ -87,7 +87,7 @@ class OccupancyGrid:
         dense = np.ascontiguousarray((np.asarray(mask) != 0).T[:, :, None], dtype=np.uint8)
         if dense.shape != geometry.shape:
             raise ValueError(f"mask of shape {mask.shape} for a grid of shape {geometry.shape}")
-        return cls(geometry, np.argwhere(dense), dense)
+        return cls(geometry, occupied_cells(dense), dense)
 
     def without(self, excluded: np.ndarray | None, in_place: bool = False) -> OccupancyGrid:
         """This grid with the cells where `excluded` (same shape, bool) is set cleared (with
@@ -114,6 +114,31 @@ class OccupancyGrid:
         cells = np.empty_like(self.cells)
         kept = _clear_dropped(dense, self.cells, keep, cells)
         return OccupancyGrid(self.geometry, cells[:kept], dense)
+
+
+def occupied_cells(dense: np.ndarray) -> np.ndarray:
+    """The indices (P, 3) int64 of the nonzero cells of `dense`, in C order (`np.argwhere`'s
+    result, without its cost on a mostly empty grid)."""
+    cells = np.empty((_count_occupied(dense), DIMS), np.int64)
+    _list_occupied(dense, cells)
+    return cells
+
+
+@numba.njit(cache=True, nogil=True)
+def _count_occupied(dense: np.ndarray) -> int:  # pragma: no cover
+    return int(np.count_nonzero(dense))
+
+
+@numba.njit(cache=True, nogil=True)
+def _list_occupied(dense: np.ndarray, cells: np.ndarray) -> None:  # pragma: no cover
+    nx, ny, nz = dense.shape
+    p = 0
+    for i in range(nx):
+        for j in range(ny):
+            for k in range(nz):
+                if dense[i, j, k]:
+                    cells[p, 0], cells[p, 1], cells[p, 2] = i, j, k
+                    p += 1
 
 
 @numba.njit(cache=True, nogil=True)
