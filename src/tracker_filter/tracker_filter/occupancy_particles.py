@@ -85,7 +85,6 @@ class OccupancyFilterConfig:
     block_box_factor: float = 0.0  # > 0: semi-axes = this x the filter's box (once it has one)
     propagation: Propagation = Propagation.NORMAL
     jitter: Jitter = Jitter.NORMAL
-    jitter_extent: tuple[float, float, float] | None = None  # None: the grid's size
     vertical_jitter_factor: float = 2.0
     jitter_box_factor: float = 0.0  # > 0: D = this x the filter's box, once it has one
     opening: int = 5  # vertical opening, cells (1: off)
@@ -93,7 +92,6 @@ class OccupancyFilterConfig:
     min_blob: float = 30.0  # cells x cell edge
     min_height: float = 0.60
     exclusion: float = 0.60
-    exclusion_on_floor: bool = True  # measure `exclusion` without the vertical axis
     initiation: bool = True  # start and box filters on blobs (off: the caller uses `start`)
     starve_weight: float = 0.01
     starve_frames: int = 10
@@ -157,7 +155,7 @@ def jitter_widths(
         h = geometry.cell[0] * 100.0  # the rule is in cm
         width = 3.9 * np.sqrt(h) * np.cbrt(n) * np.exp(-n * h / 20000.0) / 100.0
         return np.full(3, width)
-    extent = np.asarray(config.jitter_extent or geometry.size, dtype=float)
+    extent = np.asarray(geometry.size, dtype=float)
     dims = sum(1 for s in geometry.shape if s > 1)
     widths = extent / n ** (1.0 / max(dims, 1))
     widths[geometry.vertical] *= config.vertical_jitter_factor
@@ -351,22 +349,15 @@ class OccupancyParticleFilters:
     def _component_factor(self, geometry: GridGeometry) -> int:
         return max(1, round(self.config.component_cell / min(geometry.cell)))
 
-    def _floor_distance(self, a: np.ndarray, b: np.ndarray, vertical: int) -> np.ndarray:
-        diff = a[:, None] - b[None]
-        if self.config.exclusion_on_floor:
-            diff[..., vertical] = 0.0
-        result: np.ndarray = np.linalg.norm(diff, axis=-1)
-        return result
-
     def _excluded(self, found: Components, label: int, geometry: GridGeometry) -> bool:
-        """A filter is within `exclusion` of blob `label`'s centre of mass."""
-        centre = found.centroids[label][None]
-        distance = self._floor_distance(centre, self.estimates, geometry.vertical)
-        return bool(distance.min() < self.config.exclusion)
+        """A filter is within `exclusion` of blob `label`'s centre of mass, on the floor."""
+        apart = found.centroids[label] - self.estimates
+        apart[:, geometry.vertical] = 0.0
+        return bool(np.linalg.norm(apart, axis=1).min() < self.config.exclusion)
 
     def _initiate(self, grid: OccupancyGrid, found: Components) -> int:
         config, geometry = self.config, grid.geometry
-        if not len(found) or not config.initiation:
+        if not len(found):  # none without `initiation`
             return 0
         v = geometry.vertical
         people = (found.counts * geometry.cell[0] > config.min_blob) & (
@@ -469,36 +460,33 @@ class OccupancyParticleFilters:
                 lows[row], highs[row] = found.lows[label], found.highs[label]
         split = np.flatnonzero((owner >= 0) & (shared[np.maximum(owner, 0)] > 1))
         if len(split):
-            cell_lows = np.full((count, 3), np.iinfo(np.int64).max, np.int64)
-            cell_highs = np.full((count, 3), -1, np.int64)
             scale = self._semi_axes(estimates, grid.geometry)
             scale[~np.isfinite(scale)] = 1.0
-            origin = np.asarray(grid.geometry.origin, dtype=float)
-            cell_size = np.asarray(grid.geometry.cell, dtype=float)
-            _split_boxes(
-                origin, cell_size, found.labels, owner, estimates, scale, cell_lows, cell_highs,
-                grid.cells,
-            )  # fmt: skip
-            cell, origin = np.asarray(grid.geometry.cell), np.asarray(grid.geometry.origin)
-            for row in split:
-                if cell_highs[row, 0] >= 0:
-                    lows[row] = origin + cell_lows[row] * cell
-                    highs[row] = origin + (cell_highs[row] + 1) * cell
+            parts = split_cells(grid.geometry, grid.cells, estimates, scale, found.labels, owner)
+            lows[split], highs[split] = parts[0][split], parts[1][split]
         return lows, highs
 
 
 def split_cells(
-    geometry: GridGeometry, cells: np.ndarray, estimates: np.ndarray, scale: np.ndarray
+    geometry: GridGeometry,
+    cells: np.ndarray,
+    estimates: np.ndarray,
+    scale: np.ndarray,
+    labels: np.ndarray | None = None,
+    owner: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Bounds (K, 3) lows / highs, world units, of the cells (P, 3) nearest each of `estimates`
-    (K, 3), distances divided by `scale` (K, 3) per estimate (NaN: an estimate got none)."""
+    (K, 3), distances divided by `scale` (K, 3) per estimate (NaN: an estimate got none). With
+    `labels` (P,) and `owner` (K,), a cell goes only to the estimates that own its label (None:
+    every cell and estimate share one)."""
     count = len(estimates)
     cell_lows = np.full((count, 3), np.iinfo(np.int64).max, np.int64)
     cell_highs = np.full((count, 3), -1, np.int64)
-    zeros = np.zeros(len(cells), np.int64)
     _split_boxes(
-        np.asarray(geometry.origin, dtype=float), np.asarray(geometry.cell, dtype=float), zeros,
-        np.zeros(count, np.int64), estimates, scale, cell_lows, cell_highs, cells,
+        np.asarray(geometry.origin, dtype=float), np.asarray(geometry.cell, dtype=float),
+        np.zeros(len(cells), np.int64) if labels is None else labels,
+        np.zeros(count, np.int64) if owner is None else owner,
+        estimates, scale, cell_lows, cell_highs, cells,
     )  # fmt: skip
     cell, origin = np.asarray(geometry.cell), np.asarray(geometry.origin)
     got = cell_highs[:, :1] >= 0
