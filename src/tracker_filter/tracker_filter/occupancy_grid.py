@@ -22,6 +22,7 @@ not the fine one.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numba
 import numpy as np
@@ -56,7 +57,10 @@ class GridGeometry:
 
     def centres(self, indices: np.ndarray) -> np.ndarray:
         """World coordinates (..., 3) of the centres of cells `indices` (..., 3)."""
-        return np.asarray(self.origin) + (indices + 0.5) * np.asarray(self.cell)
+        flat = np.ascontiguousarray(indices).reshape(-1, DIMS)
+        out = np.empty(flat.shape)
+        _cell_centres(flat, np.asarray(self.origin, float), np.asarray(self.cell, float), out)
+        return out.reshape(np.shape(indices))
 
     def indices(self, points: np.ndarray) -> np.ndarray:
         """Cell indices (..., 3) int64 holding world `points` (..., 3); may lie outside the grid."""
@@ -69,6 +73,11 @@ class OccupancyGrid:
 
     def __init__(self, geometry: GridGeometry, cells: np.ndarray, dense: np.ndarray) -> None:
         self.geometry, self.cells, self.dense = geometry, cells, dense
+
+    @cached_property
+    def points(self) -> np.ndarray:
+        """World coordinates (P, 3) of the occupied cells' centres."""
+        return self.geometry.centres(self.cells)
 
     @classmethod
     def from_cells(cls, geometry: GridGeometry, cells: np.ndarray) -> OccupancyGrid:
@@ -84,10 +93,13 @@ class OccupancyGrid:
     def from_mask(cls, mask: np.ndarray, geometry: GridGeometry) -> OccupancyGrid:
         """A 2-D foreground mask (H, W), nonzero = foreground, as a grid of shape (W, H, 1):
         axis 0 the image columns (x), axis 1 the rows (y, the vertical)."""
-        dense = np.ascontiguousarray((np.asarray(mask) != 0).T[:, :, None], dtype=np.uint8)
-        if dense.shape != geometry.shape:
+        mask = np.asarray(mask)
+        if mask.ndim != 2 or (*mask.shape[::-1], 1) != geometry.shape:
             raise ValueError(f"mask of shape {mask.shape} for a grid of shape {geometry.shape}")
-        return cls(geometry, occupied_cells(dense), dense)
+        dense = np.empty(geometry.shape, np.uint8)
+        cells = np.empty((np.count_nonzero(mask), DIMS), np.int64)
+        _transpose_mask(mask.view(np.uint8) if mask.dtype == np.bool_ else mask, dense, cells)
+        return cls(geometry, cells, dense)
 
     def without(self, excluded: np.ndarray | None, in_place: bool = False) -> OccupancyGrid:
         """This grid with the cells where `excluded` (same shape, bool) is set cleared (with
@@ -130,15 +142,39 @@ def _count_occupied(dense: np.ndarray) -> int:  # pragma: no cover
 
 
 @numba.njit(cache=True, nogil=True)
-def _list_occupied(dense: np.ndarray, cells: np.ndarray) -> None:  # pragma: no cover
-    nx, ny, nz = dense.shape
+def _transpose_mask(
+    mask: np.ndarray, dense: np.ndarray, cells: np.ndarray
+) -> None:  # pragma: no cover
+    """dense[x, y, 0] = mask[y, x] != 0, and its set cells listed in C order."""
     p = 0
-    for i in range(nx):
-        for j in range(ny):
-            for k in range(nz):
-                if dense[i, j, k]:
-                    cells[p, 0], cells[p, 1], cells[p, 2] = i, j, k
-                    p += 1
+    for x in range(mask.shape[1]):
+        for y in range(mask.shape[0]):
+            if mask[y, x] != 0:
+                dense[x, y, 0] = 1
+                cells[p, 0], cells[p, 1], cells[p, 2] = x, y, 0
+                p += 1
+            else:
+                dense[x, y, 0] = 0
+
+
+@numba.njit(cache=True, nogil=True)
+def _list_occupied(dense: np.ndarray, cells: np.ndarray) -> None:  # pragma: no cover
+    _, ny, nz = dense.shape
+    flat = dense.reshape(-1)
+    p = 0
+    for f in range(flat.shape[0]):
+        if flat[f]:
+            cells[p, 0], cells[p, 1], cells[p, 2] = f // (ny * nz), (f // nz) % ny, f % nz
+            p += 1
+
+
+@numba.njit(cache=True, nogil=True)
+def _cell_centres(  # pragma: no cover
+    indices: np.ndarray, origin: np.ndarray, cell: np.ndarray, out: np.ndarray
+) -> None:
+    for p in range(indices.shape[0]):
+        for axis in range(DIMS):
+            out[p, axis] = origin[axis] + (indices[p, axis] + 0.5) * cell[axis]
 
 
 @numba.njit(cache=True, nogil=True)

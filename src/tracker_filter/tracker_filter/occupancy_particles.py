@@ -260,14 +260,12 @@ class OccupancyParticleFilters:
         return axes
 
     def _blocked(self, points: np.ndarray, geometry: GridGeometry) -> np.ndarray:
-        """(M, N): particle n of filter j lies inside another filter's ellipsoid."""
-        centres = self.estimates
-        axes = self._semi_axes(centres, geometry)
-        scaled = (points[:, :, None, :] - centres[None, None, :, :]) / axes[None, None]
-        inside = self._inside(scaled, geometry.vertical)  # (M, N, M)
-        own = np.eye(len(centres), dtype=bool)[:, None, :]
-        result: np.ndarray = np.any(inside & ~own, axis=-1)
-        return result
+        """(M, N): particle n of filter j lies inside another filter's blocking shape."""
+        axes = self._semi_axes(self.estimates, geometry)
+        free_axis = -1 if self.config.block_shape is BlockShape.ELLIPSOID else geometry.vertical
+        blocked = np.empty(points.shape[:2], dtype=np.bool_)
+        _blocked_particles(points, self.estimates, axes, free_axis, blocked)
+        return blocked
 
     def _inside(self, scaled: np.ndarray, vertical: int) -> np.ndarray:
         """Whether offsets (..., 3), divided by the semi-axes, lie in the blocking shape."""
@@ -304,8 +302,8 @@ class OccupancyParticleFilters:
         cumulative = np.cumsum(normalised, axis=1)
         cumulative[:, -1] = 1.0
         offsets = (np.arange(n) + self.rng.random((count, 1))) / n
-        chosen = np.array([np.searchsorted(c, o) for c, o in zip(cumulative, offsets, strict=True)])
-        picked = np.take_along_axis(self.particles, np.minimum(chosen, n - 1)[..., None], axis=1)
+        picked = np.empty_like(self.particles)
+        _systematic_picks(cumulative, offsets, self.particles, picked)
         widths = np.tile(jitter_widths(self.config, geometry), (count, 1))
         factor = self.config.jitter_box_factor
         if factor > 0:
@@ -600,3 +598,47 @@ def _split_boxes(  # pragma: no cover
         for axis in range(3):
             lows[best, axis] = min(lows[best, axis], cells[p, axis])
             highs[best, axis] = max(highs[best, axis], cells[p, axis])
+
+
+@numba.njit(cache=True, nogil=True)
+def _blocked_particles(  # pragma: no cover
+    points: np.ndarray, centres: np.ndarray, axes: np.ndarray, free_axis: int, out: np.ndarray
+) -> None:
+    """Step (c): out[j, n] = particle n of filter j (points (M, N, 3)) lies inside the shape
+    around another filter's centre (M, 3) with semi-axes (M, 3): sum over the axes of
+    (offset / semi-axis)^2 <= 1, the `free_axis` left out (a cylinder along it; -1: an
+    ellipsoid). The sum runs in NumPy's order (x + y + z, then minus the free axis)."""
+    count, n = points.shape[0], points.shape[1]
+    for j in range(count):
+        for p in range(n):
+            inside = False
+            for m in range(count):
+                if m == j:
+                    continue
+                total, left_out = 0.0, 0.0
+                for axis in range(3):
+                    scaled = (points[j, p, axis] - centres[m, axis]) / axes[m, axis]
+                    total += scaled**2
+                    if axis == free_axis:
+                        left_out = scaled**2
+                if free_axis >= 0:
+                    total -= left_out
+                if total <= 1.0:
+                    inside = True
+                    break
+            out[j, p] = inside
+
+
+@numba.njit(cache=True, nogil=True)
+def _systematic_picks(  # pragma: no cover
+    cumulative: np.ndarray, offsets: np.ndarray, particles: np.ndarray, out: np.ndarray
+) -> None:
+    """Step (e)'s selection for every filter: out[j, i] = the particle of filter j whose
+    cumulative weight (M, N, ending at 1) first reaches offsets[j, i] (increasing)."""
+    count, n = cumulative.shape
+    for j in range(count):
+        chosen = 0
+        for i in range(n):
+            while chosen < n - 1 and cumulative[j, chosen] < offsets[j, i]:
+                chosen += 1
+            out[j, i] = particles[j, chosen]

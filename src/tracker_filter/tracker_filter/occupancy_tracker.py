@@ -116,8 +116,7 @@ class OccupancyTracker:
         result = self.filters.step(grid)
         owner = _owners(result.estimates, detections.bboxes, self.rules.box_margin)
         measured = (result.mass >= self.config.starve_weight) & (owner >= 0)
-        points = grid.geometry.centres(grid.cells)[:, :2]  # the mask's pixels, scene px
-        boxes = self._boxes(grid, points, detections.bboxes, owner, measured, result.estimates)
+        boxes = self._boxes(grid, detections.bboxes, owner, measured, result.estimates)
         # a hit is measured by its blob: its centre, not the cloud's mean, which trails a
         # walker (no motion model)
         positions = np.where(
@@ -133,7 +132,7 @@ class OccupancyTracker:
             & (book.measured_travel() >= rules.confirm_travel)
             & (book.straightness() >= rules.confirm_straightness)
         )
-        new = self._start(grid, points, detections, owner[~result.deleted])
+        new = self._start(grid, detections, owner[~result.deleted])
         book.add(t, detections, new, np.zeros(len(new), bool))
         added = len(new)
         means = self._means(np.concatenate([positions, detections.positions[new]]))
@@ -171,7 +170,6 @@ class OccupancyTracker:
     def _boxes(
         self,
         grid: OccupancyGrid,
-        points: np.ndarray,
         blobs: np.ndarray,
         owner: np.ndarray,
         measured: np.ndarray,
@@ -186,7 +184,7 @@ class OccupancyTracker:
         extents = self.book.bboxes[:, 2:]  # each filter's last measured box
         for blob in np.flatnonzero(shared):
             rows = np.flatnonzero(measured & (owner == blob))
-            inside = _in_box(points, blobs[blob])
+            inside = _in_box(grid.points, blobs[blob])
             if not inside.any():
                 continue
             scale = np.ones((len(rows), 3))
@@ -196,9 +194,7 @@ class OccupancyTracker:
             boxes[rows[got]] = np.column_stack([lows[got, :2], (highs - lows)[got, :2]])
         return boxes
 
-    def _start(
-        self, grid: OccupancyGrid, points: np.ndarray, detections: Detections, owner: np.ndarray
-    ) -> np.ndarray:
+    def _start(self, grid: OccupancyGrid, detections: Detections, owner: np.ndarray) -> np.ndarray:
         """Start a filter on every person-sized blob no filter holds; their detection indices."""
         boxes, rules = detections.bboxes, self.rules
         big = (boxes[:, 2] * boxes[:, 3] >= rules.min_area) & (boxes[:, 3] >= rules.min_height)
@@ -206,10 +202,10 @@ class OccupancyTracker:
         started = []
         for i in np.flatnonzero(free):
             x, y, w, h = boxes[i]
-            inside = _in_box(points, boxes[i])
+            inside = _in_box(grid.points, boxes[i])
             if not inside.any():
                 continue
-            cells = grid.geometry.centres(grid.cells[inside])
+            cells = grid.points[inside]
             centre = np.array([x + w / 2, y + h / 2, cells[0, 2]])
             self.filters.start(cells, centre, np.array([w, h, 0.0]))
             started.append(i)
@@ -238,7 +234,7 @@ class OccupancyTracker:
 
 
 def _in_box(points: np.ndarray, box: np.ndarray) -> np.ndarray:
-    """Which points (P, 2) lie in the box x, y, width, height."""
+    """Which points (P, >= 2) lie in the box x, y, width, height."""
     x, y, w, h = box
     result: np.ndarray = (
         (points[:, 0] >= x) & (points[:, 0] <= x + w) & (points[:, 1] >= y)
