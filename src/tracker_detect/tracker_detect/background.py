@@ -240,7 +240,9 @@ class BackgroundDetector:
         """Pixels darker than the background by a shadow's ratio, of the background's colour."""
         ratio = (gray.astype(np.float32) + 1.0) / (background.mean + 1.0)
         assert background.chroma is not None
-        drift = np.abs(chroma[..., :2] - background.chroma).sum(axis=2)
+        drift = np.abs(chroma[..., 0] - background.chroma[..., 0]) + np.abs(
+            chroma[..., 1] - background.chroma[..., 1]
+        )
         result: np.ndarray = (
             (ratio >= self.config.shadow_ratio)
             & (ratio <= SHADOW_MAX_RATIO)
@@ -313,6 +315,11 @@ def _ellipse(size: int) -> np.ndarray:
 def _chromaticity(bgr: np.ndarray) -> np.ndarray:
     """(H, W, 3) float32: r, g chromaticity (R, G over R + G + B) and the sum R + G + B."""
     pixels = bgr.astype(np.float32)
-    total = pixels.sum(axis=2)
+    blue, green, red = pixels[..., 0], pixels[..., 1], pixels[..., 2]
+    total = blue + green + red  # per plane: a sum over the last axis of 3 is ~6x slower
     safe = np.maximum(total, 1.0)
-    return np.dstack([pixels[..., 2] / safe, pixels[..., 1] / safe, total])
+    out = np.empty(pixels.shape, np.float32)
+    np.divide(red, safe, out=out[..., 0])
+    np.divide(green, safe, out=out[..., 1])
+    out[..., 2] = total
+    return out
