@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 from box_scores import BoxScore
 
+from tracker_detect import mosaic as mosaic_module
 from tracker_detect.background import BackgroundConfig, BackgroundDetector
 from tracker_detect.detector import CameraFrame
 from tracker_detect.mosaic import SceneMosaic
@@ -278,3 +279,65 @@ def test_mosaic_sample_returns_what_was_learned_anywhere_in_the_scene():
     expected = cv2.resize(scene[100:200, 150:250].astype(np.float32), (50, 50), cv2.INTER_AREA)
     assert np.abs(zoomed - expected).mean() < 40  # bilinear point samples of a noise image
     assert np.corrcoef(zoomed.ravel(), expected.ravel())[0, 1] > 0.3
+
+
+@pytest.mark.parametrize("border", [cv2.BORDER_CONSTANT, cv2.BORDER_REPLICATE])
+@pytest.mark.parametrize("channels", [1, 2, 3])
+def test_a_whole_pixel_view_is_copied_exactly_as_the_interpolation_samples_it(border, channels):
+    """`_warp`'s shortcut (a pixel-aligned view inside the layer: a copy) gives the bilinear
+    warp's values bit for bit; a shift that is not whole, or reaches outside, still warps."""
+    rng = np.random.default_rng(3)
+    layer = rng.random((90, 120, channels)).astype(np.float32).squeeze()
+    for shift in ((7.0, 11.0), (0.0, 0.0), (40.0, 30.0), (7.5, 11.0), (100.0, 5.0)):
+        matrix = np.array([[1.0, 0.0, shift[0]], [0.0, 1.0, shift[1]]])
+        expected = cv2.warpAffine(
+            layer, matrix, (80, 60), flags=cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP,
+            borderMode=border, borderValue=0.0,
+        )  # fmt: skip
+        assert np.array_equal(mosaic_module._warp(layer, matrix, (80, 60), border), expected)
+    assert mosaic_module._aligned(np.array([[1.0, 0, 7], [0, 1.0, 11]]), (80, 60), (90, 120))
+    assert (
+        mosaic_module._aligned(np.array([[1.0, 0, 7.5], [0, 1.0, 11]]), (80, 60), (90, 120)) is None
+    )
+    assert (
+        mosaic_module._aligned(np.array([[2.0, 0, 7], [0, 2.0, 11]]), (40, 30), (90, 120)) is None
+    )
+    assert (
+        mosaic_module._aligned(np.array([[1.0, 0, 41], [0, 1.0, 0]]), (80, 60), (90, 120)) is None
+    )
+
+
+@pytest.mark.parametrize("with_chroma", [False, True])
+def test_the_compiled_blend_is_the_update_rule_in_float32(with_chroma):
+    """`_blend` against the rule written out in NumPy (float32 throughout), on mosaic slices."""
+    rng = np.random.default_rng(4)
+    shape, area = (70, 90), (slice(5, 65), slice(10, 80))
+    mean = rng.random(shape).astype(np.float32) * 255
+    count = rng.integers(0, 30, shape).astype(np.float32)
+    flicker = rng.random(shape).astype(np.float32)
+    chroma = rng.random((*shape, 2)).astype(np.float32)
+    seen = rng.random((60, 70, 3)).astype(np.float32) * np.float32(255)
+    seen[..., 1] = np.where(rng.random((60, 70)) < 0.4, 0.0, 0.05)  # rate: 0 under movers
+    seen[..., 2] = rng.random((60, 70)) < 0.2  # changing
+    inside = rng.random((60, 70)) < 0.9
+    seen_chroma = rng.random((60, 70, 2)).astype(np.float32)
+    warmup, memory = 20, 100.0
+
+    expected = [a.copy() for a in (mean, count, flicker, chroma)]
+    m, n, f, c = (a[area] for a in expected)
+    n += inside
+    rate = seen[..., 1]
+    first = np.where((rate > 0) | (n <= 1), np.maximum(1.0 / np.maximum(n, 1.0), rate), 0.0)
+    blend = np.where(n <= warmup, first, rate) * inside
+    m += blend * (seen[..., 0] - m)
+    if with_chroma:
+        c += blend[..., None] * (seen_chroma - c)
+    f += inside * (seen[..., 2] - f) / np.minimum(np.maximum(n, 1.0), memory)
+
+    got = [a.copy() for a in (mean, count, flicker, chroma)]
+    mosaic_module._blend(
+        got[0][area], got[1][area], got[2][area], got[3][area] if with_chroma else None,
+        seen, inside, seen_chroma if with_chroma else None, warmup, np.float32(memory),
+    )  # fmt: skip
+    for a, b in zip(got, expected, strict=True):
+        assert a.dtype == np.float32 and np.array_equal(a, b)

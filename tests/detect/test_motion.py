@@ -263,3 +263,14 @@ def test_double_detection_reference_expires():
     detector = MotionDetector(DetectorConfig(gap=3, double_detection=True, reference_max_age=5))
     results = [detector.process(f, k * NS) for k, f in enumerate(square_clip(positions))]
     assert not results[-1].target_present
+
+
+def test_change_map_is_the_similarity_process_gives_without_the_blobs():
+    frames = square_clip([(10 + 4 * k, 30) for k in range(8)])
+    processed, mapped = MotionDetector(DetectorConfig(gap=3)), MotionDetector(DetectorConfig(gap=3))
+    for k, frame in enumerate(frames):
+        similarity = processed.process(frame, k * NS).similarity
+        change = mapped.change_map(frame, k * NS)
+        assert (change is None) == (similarity is None) == (k < 3)
+        if change is not None:
+            assert np.array_equal(change, similarity)

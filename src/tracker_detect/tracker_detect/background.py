@@ -196,7 +196,8 @@ class BackgroundDetector:
         foreground = different & (in_place == 0)
         if chroma is not None and background.chroma is not None:
             foreground &= ~self._shadow(gray, chroma, background)
-        rate = np.where(different, np.where(changing, 0.0, c.heal_rate), c.learning_rate)
+        heal, learn = np.float32(c.heal_rate), np.float32(c.learning_rate)
+        rate = np.where(different, np.where(changing, np.float32(0.0), heal), learn)
         # The flicker rate follows whole moving regions, not single pixels: SSIM of two
         # textures is noisy pixel by pixel, a fluttering patch is moving as a region.
         moving = self._clean((different & changing).astype(np.uint8), shrink=False)
@@ -253,10 +254,10 @@ class BackgroundDetector:
 
     def _changing(self, gray: np.ndarray, stamp_ns: int, view: View) -> np.ndarray:
         """Pixels whose SSIM against frame k - gap (aligned) is at most the threshold."""
-        change = self._change.process(gray, stamp_ns, view)
-        if change.similarity is None:
+        similarity = self._change.change_map(gray, stamp_ns, view)
+        if similarity is None:
             return np.zeros(gray.shape, bool)
-        result: np.ndarray = change.similarity <= self.config.threshold
+        result: np.ndarray = similarity <= self.config.threshold
         return result
 
     def _similarity(

@@ -18,6 +18,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import cv2
+import numba
 import numpy as np
 
 from tracker_detect.registration import View
@@ -63,14 +64,7 @@ class SceneMosaic:
         size = (view.width, view.height)
 
         def warp(layer: np.ndarray) -> np.ndarray:
-            return cv2.warpAffine(
-                layer,
-                matrix,
-                size,
-                flags=cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP,
-                borderMode=cv2.BORDER_CONSTANT,
-                borderValue=0.0,
-            )
+            return _warp(layer, matrix, size, cv2.BORDER_CONSTANT)
 
         chroma = None if self.chroma is None else warp(self.chroma)
         return MosaicSample(warp(self.mean), warp(self.observations), warp(self.flicker), chroma)
@@ -97,48 +91,39 @@ class SceneMosaic:
         matrix = np.linalg.inv(np.vstack([self._view_to_mosaic(view), [0.0, 0.0, 1.0]]))[:2]
         matrix[:, 2] += matrix[:, 0] * x0 + matrix[:, 1] * y0
         size = (x1 - x0, y1 - y0)
-        layers = np.dstack(
+        layers = cv2.merge(
             [image.astype(np.float32), rate.astype(np.float32), changing.astype(np.float32)]
         )
-        seen = np.ones(image.shape, np.float32)
-        warped = cv2.warpAffine(
-            layers,
-            matrix,
-            size,
-            flags=cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP,
-            borderMode=cv2.BORDER_REPLICATE,
-        ).reshape(size[1], size[0], 3)
-        inside = (
-            cv2.warpAffine(seen, matrix, size, flags=cv2.INTER_NEAREST | cv2.WARP_INVERSE_MAP) > 0.5
-        )
-        mean = self.mean[y0:y1, x0:x1]
-        count = self.observations[y0:y1, x0:x1]
-        flicker = self.flicker[y0:y1, x0:x1]
-        count += inside
-        rate_now = warped[..., 1]
-        # Warm-up: average the first observations, except where the caller says not to learn
-        # (rate 0: under a mover) -- only a pixel's very first observation is always taken.
-        warmup = np.where(
-            (rate_now > 0) | (count <= 1), np.maximum(1.0 / np.maximum(count, 1.0), rate_now), 0.0
-        )
-        blend = np.where(count <= self.warmup_observations, warmup, rate_now) * inside
-        mean += blend * (warped[..., 0] - mean)
+        seen = _warp(layers, matrix, size, cv2.BORDER_REPLICATE)
+        if _aligned(matrix, size, image.shape) is None:
+            inside = (
+                cv2.warpAffine(
+                    np.ones(image.shape, np.float32),
+                    matrix,
+                    size,
+                    flags=cv2.INTER_NEAREST | cv2.WARP_INVERSE_MAP,
+                )
+                > 0.5
+            )
+        else:
+            inside = np.ones((size[1], size[0]), np.bool_)
+        background_chroma = seen_chroma = None
         if chroma is not None:
             if self.chroma is None:
                 self.chroma = np.zeros((*self.mean.shape, 2), np.float32)
-            seen_chroma = cv2.warpAffine(
-                chroma.astype(np.float32),
-                matrix,
-                size,
-                flags=cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP,
-                borderMode=cv2.BORDER_REPLICATE,
-            ).reshape(size[1], size[0], 2)
-            background = self.chroma[y0:y1, x0:x1]
-            background += blend[..., None] * (seen_chroma - background)
-        # The share over all observations until there are flicker_memory of them, then a running
-        # share with that time constant.
-        memory = np.minimum(np.maximum(count, 1.0), self.flicker_memory)
-        flicker += inside * (warped[..., 2] - flicker) / memory
+            seen_chroma = _warp(chroma.astype(np.float32), matrix, size, cv2.BORDER_REPLICATE)
+            background_chroma = self.chroma[y0:y1, x0:x1]
+        _blend(
+            self.mean[y0:y1, x0:x1],
+            self.observations[y0:y1, x0:x1],
+            self.flicker[y0:y1, x0:x1],
+            background_chroma,
+            seen,
+            inside,
+            seen_chroma,
+            self.warmup_observations,
+            np.float32(self.flicker_memory),
+        )
 
     def _view_to_mosaic(self, view: View) -> np.ndarray:
         """2x3 affine map from view image pixel indices to mosaic pixel indices (pixel centres)."""
@@ -196,3 +181,75 @@ class SceneMosaic:
         if self.chroma is not None:
             self.chroma = grown(self.chroma)
         self.origin = (left, top)
+
+
+def _aligned(
+    matrix: np.ndarray, size: tuple[int, int], source: tuple[int, ...]
+) -> tuple[int, int] | None:
+    """(column, row) of the source pixel at the output's (0, 0) when the inverse map `matrix`
+    is a whole-pixel shift and the output (width, height) `size` lies inside the `source`
+    shape; else None."""
+    if not np.array_equal(matrix[:, :2], np.eye(2)):
+        return None
+    shift = matrix[:, 2]
+    if not np.array_equal(shift, np.round(shift)):
+        return None
+    column, row = int(shift[0]), int(shift[1])
+    width, height = size
+    inside = column >= 0 and row >= 0 and column + width <= source[1] and row + height <= source[0]
+    return (column, row) if inside else None
+
+
+def _warp(layer: np.ndarray, matrix: np.ndarray, size: tuple[int, int], border: int) -> np.ndarray:
+    """`layer` resampled bilinearly through the inverse map `matrix` to (width, height)
+    `size`, outside it `border` (zeros for BORDER_CONSTANT); a whole-pixel shift inside the
+    layer is a copy of its pixels, which is what the interpolation gives there."""
+    corner = _aligned(matrix, size, layer.shape)
+    if corner is not None:
+        column, row = corner
+        return layer[row : row + size[1], column : column + size[0]].copy()
+    warped: np.ndarray = cv2.warpAffine(
+        layer,
+        matrix,
+        size,
+        flags=cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP,
+        borderMode=border,
+        borderValue=0.0,
+    )
+    return warped.reshape(size[1], size[0], *layer.shape[2:])
+
+
+@numba.njit(cache=True, nogil=True)
+def _blend(  # pragma: no cover
+    mean: np.ndarray,
+    count: np.ndarray,
+    flicker: np.ndarray,
+    chroma: np.ndarray | None,
+    seen: np.ndarray,
+    inside: np.ndarray,
+    seen_chroma: np.ndarray | None,
+    warmup_observations: int,
+    flicker_memory: np.float32,
+) -> None:
+    """`update`'s arithmetic, pixel by pixel in float32 (seen: grey, rate, changing):
+    count += inside
+    warm-up = max(1 / max(count, 1), rate) where rate > 0 or count <= 1, else 0
+    blend = (warm-up while count <= warmup_observations, else rate) * inside
+    mean += blend (grey - mean);  chroma += blend (seen chroma - chroma)
+    flicker += inside (changing - flicker) / min(max(count, 1), flicker_memory)"""
+    one, zero = np.float32(1.0), np.float32(0.0)
+    for y in range(mean.shape[0]):
+        for x in range(mean.shape[1]):
+            observed = one if inside[y, x] else zero
+            n = count[y, x] + observed
+            count[y, x] = n
+            rate = seen[y, x, 1]
+            at_least_one = max(n, one)
+            warmup = max(one / at_least_one, rate) if rate > zero or n <= one else zero
+            blend = (warmup if n <= warmup_observations else rate) * observed
+            mean[y, x] += blend * (seen[y, x, 0] - mean[y, x])
+            if chroma is not None and seen_chroma is not None:
+                for c in range(2):
+                    chroma[y, x, c] += blend * (seen_chroma[y, x, c] - chroma[y, x, c])
+            memory = min(at_least_one, flicker_memory)
+            flicker[y, x] += observed * (seen[y, x, 2] - flicker[y, x]) / memory

@@ -346,6 +346,26 @@ class MotionDetector:
 
     def process(self, image: np.ndarray, stamp_ns: int, view: View | None = None) -> Detection:
         """Detect motion in `image`; raises ValueError (state untouched) for unusable input."""
+        frame, previous, comparison, reset = self._advance(image, stamp_ns, view)
+        if previous is None or comparison is None:
+            return Detection(stamp_ns, frame.view, [], False, False, history_reset=reset)
+        return self._detect(frame, previous, comparison, reset)
+
+    def change_map(
+        self, image: np.ndarray, stamp_ns: int, view: View | None = None
+    ) -> np.ndarray | None:
+        """`process`'s SSIM map alone (None while it has none), without its mask and blobs:
+        for a caller that only needs where the image changed."""
+        if self.config.double_detection:  # its reference follows the blobs
+            return self.process(image, stamp_ns, view).similarity
+        _, _, comparison, _ = self._advance(image, stamp_ns, view)
+        return None if comparison is None else comparison.similarity
+
+    def _advance(
+        self, image: np.ndarray, stamp_ns: int, view: View | None
+    ) -> tuple[_Frame, _Frame | None, _Comparison | None, bool]:
+        """Take the frame into the history: it, the frame `gap` before it (None while the
+        history fills), their comparison, and whether the history was reset."""
         gray = _check_image(image)
         if view is not None and (view.width, view.height) != (gray.shape[1], gray.shape[0]):
             raise ValueError(
@@ -365,7 +385,7 @@ class MotionDetector:
         frame = _Frame(gray.copy(), view or identity, view is not None, stamp_ns)
         if len(self._history) < self.config.gap:
             self._history.append(frame)
-            return Detection(stamp_ns, frame.view, [], False, False, history_reset=reset)
+            return frame, None, None, reset
         previous = self._history.popleft()
         comparison = self._compare(previous, frame)
         if not frame.pose_known and self.config.compensation in ESTIMATORS:
@@ -373,9 +393,7 @@ class MotionDetector:
             m = comparison.pixel_map if comparison else PixelMap()
             frame.view = previous.view.translated(m.tx, m.ty)
         self._history.append(frame)
-        if comparison is None:
-            return Detection(stamp_ns, frame.view, [], False, False, history_reset=reset)
-        return self._detect(frame, previous, comparison, reset)
+        return frame, previous, comparison, reset
 
     def _detect(
         self, frame: _Frame, previous: _Frame, comparison: _Comparison, reset: bool
