@@ -181,3 +181,41 @@ def test_on_masks_two_walkers_passing_each_other_keep_their_tracks_and_boxes(see
                 matched += k >= 5
     assert ids_seen == {0: {1}, 1: {2}}
     assert matched >= 0.9 * 2 * 20
+
+
+def step_one_blob(tracker, k: int, box: tuple[float, float, float, float], window: Rect):
+    """One frame of a 1:1 view whose mask and detector blob are `box` (scene px)."""
+    mask = np.zeros((int(window.height), int(window.width)), np.uint8)
+    x, y, w, h = (int(v) for v in box)
+    mask[y - int(window.y) : y - int(window.y) + h, x - int(window.x) : x - int(window.x) + w] = 1
+    boxes = np.array([box], dtype=float)
+    found = Detections(boxes[:, :2] + boxes[:, 2:] / 2, boxes[:, 2] * boxes[:, 3], boxes, [1.0])
+    return tracker.step(Observation(0.1 * k, found, mask=mask, window=window))
+
+
+def test_a_speck_left_where_a_walker_was_does_not_measure_their_filter_which_is_then_lost():
+    """A walker leaves; a 12 x 10 px speck (a ghost, a shadow) stays where they were: it is under
+    a quarter of the filter's box, so the filter gets no hits from it and is deleted after
+    max_misses frames, reported LOST once; with the gate off it lives on the speck."""
+
+    def run(size_gate: float) -> list:
+        values = METHOD.defaults() | {"size_gate": size_gate, "max_misses": 5}
+        tracker = METHOD.build(values, 1)
+        window = Rect(0.0, 0.0, 200.0, 200.0)
+        out = [
+            step_one_blob(tracker, k, (40.0 + 4 * k, 50.0, 30.0, 90.0), window) for k in range(15)
+        ]
+        out += [
+            step_one_blob(tracker, k, (104.0, 125.0, 12.0, 10.0), window) for k in range(15, 30)
+        ]
+        return out
+
+    gated = run(0.25)
+    assert gated[14].status[0] == TrackStatus.CONFIRMED
+    statuses = [(int(t.ids[0]), t.status[0]) if len(t) else None for t in gated[15:]]
+    assert statuses[:4] == [(1, TrackStatus.COASTING)] * 4
+    assert statuses[4] == (1, TrackStatus.LOST)
+    assert all(s is None for s in statuses[5:])
+    open_gate = run(0.0)
+    assert all(len(t) == 1 and t.ids[0] == 1 for t in open_gate[15:])
+    assert all(t.status[0] == TrackStatus.CONFIRMED for t in open_gate[16:])

@@ -329,6 +329,12 @@ class OccupancyParticleFilters:
             deleted |= self.overlapping >= config.overlap_frames
         return deleted
 
+    def remove(self, rows: np.ndarray) -> None:
+        """Delete the filters of `rows` (bool, one per filter): for a caller's own deletion
+        rule."""
+        if rows.any():
+            self._drop(rows)
+
     def _drop(self, deleted: np.ndarray) -> None:
         keep = ~deleted
         for name in (

@@ -15,15 +15,17 @@ reach the next person), the vertical opening of `opening` rows.
 The detector's blobs do what the thesis's connected components do in 3-D, better on video (a
 person's mask joins flicker and neighbours into blobs twice their size; the detector splits and
 filters them): a filter owns the blob its estimate lies in (within `box_margin` x the blob's
-size: the cloud trails a walker), and reports that blob's box and its centre as its position; a
-blob several filters own (people walking together) is split between them, each mask pixel going
-to the nearest estimate. A blob of at least `min_area` px^2 and `min_height` px that no filter
-owns starts one, its particles on the blob's mask pixels. A filter that owns no blob takes its
-size from its part of the mask's connected blob around it. Confirmed after `confirm_hits` hits
-that moved `confirm_travel` px with a straightness of at least `confirm_straightness` (tape
-flutters in place); LOST when the core deletes it (starved, or on another filter's person). A
-frame without its mask or window is a miss for every filter, which do not move. State layout
-"x y w h": the position and the box's size; no velocity (the filters have no motion model).
+size: the cloud trails a walker) if the blob is at least `size_gate` x the filter's last box (a
+ghost or shadow speck left where a walker was measures nothing), and reports that blob's box and
+its centre as its position; a blob several filters own (people walking together) is split
+between them, each mask pixel going to the nearest estimate. A blob of at least `min_area` px^2
+and `min_height` px that no filter owns starts one, its particles on the blob's mask pixels. A
+filter that owns no blob takes its size from its part of the mask's connected blob around it.
+Confirmed after `confirm_hits` hits that moved `confirm_travel` px with a straightness of at
+least `confirm_straightness` (tape flutters in place); LOST after `max_misses` frames without a
+blob, or when the core deletes it (starved, or on another filter's person). A frame without its
+mask or window is a miss for every filter, which do not move. State layout "x y w h": the
+position and the box's size; no velocity (the filters have no motion model).
 """
 
 from __future__ import annotations
@@ -59,6 +61,8 @@ class BlobRules:
     min_area: float = 400.0  # px^2 a blob needs to start a filter
     min_height: float = 40.0  # px
     box_margin: float = 0.25  # x its size: how far outside a blob's box a filter still owns it
+    size_gate: float = 0.25  # a blob under this share of a filter's last box does not measure it
+    max_misses: int = 10  # frames without a blob after which a filter is deleted
     confirm_hits: int = 3
     confirm_travel: float = 12.0  # px
     confirm_straightness: float = 0.7  # net distance / path: tape flutters in place
@@ -114,7 +118,12 @@ class OccupancyTracker:
             return self._missed(t, rejected)
         grid = OccupancyGrid.from_mask(observation.mask, geometry)
         result = self.filters.step(grid)
-        owner = _owners(result.estimates, detections.bboxes, self.rules.box_margin)
+        owner = _owners(
+            result.estimates,
+            detections.bboxes,
+            self.rules.box_margin,
+            self.rules.size_gate * book.bboxes[:, 2] * book.bboxes[:, 3],
+        )
         measured = (result.mass >= self.config.starve_weight) & (owner >= 0)
         boxes = self._boxes(grid, detections.bboxes, owner, measured, result.estimates)
         # a hit is measured by its blob: its centre, not the cloud's mean, which trails a
@@ -123,21 +132,26 @@ class OccupancyTracker:
             measured[:, None], boxes[:, :2] + boxes[:, 2:] / 2, result.estimates[:, :2]
         )
         found = Detections(positions, boxes[:, 2] * boxes[:, 3], boxes, result.mass)
-        self._resize(grid, result.estimates[~result.deleted], boxes, measured, ~result.deleted)
         rows = np.flatnonzero(measured)
         updated = book.record_frame(rows, rows, found, positions)
+        # a filter without its person's blob for max_misses frames has lost them (it may live on
+        # in the mask's leftovers: a ghost, a shadow)
+        missing = (book.misses >= self.rules.max_misses) & ~result.deleted
+        self.filters.remove(missing[~result.deleted])
+        deleted = result.deleted | missing
+        self._resize(grid, result.estimates[~deleted], boxes, measured, ~deleted)
         rules = self.rules
         book.confirm(
             (book.hits >= rules.confirm_hits)
             & (book.measured_travel() >= rules.confirm_travel)
             & (book.straightness() >= rules.confirm_straightness)
         )
-        new = self._start(grid, detections, owner[~result.deleted])
+        new = self._start(grid, detections, owner[~deleted])
         book.add(t, detections, new, np.zeros(len(new), bool))
         added = len(new)
         means = self._means(np.concatenate([positions, detections.positions[new]]))
         covariances = self._covariances(result.covariances, added)
-        lost = np.concatenate([result.deleted, np.zeros(added, bool)])
+        lost = np.concatenate([deleted, np.zeros(added, bool)])
         tracks = book.snapshot(
             t, LAYOUT, means, covariances, np.concatenate([updated, np.ones(added, bool)]),
             lost, rejected,
@@ -243,15 +257,19 @@ def _in_box(points: np.ndarray, box: np.ndarray) -> np.ndarray:
     return result
 
 
-def _owners(estimates: np.ndarray, boxes: np.ndarray, margin: float) -> np.ndarray:
+def _owners(
+    estimates: np.ndarray, boxes: np.ndarray, margin: float, min_areas: np.ndarray
+) -> np.ndarray:
     """Per estimate (M, >=2), the detection box (N, 4) it lies in, widened by `margin` x its
-    size (the cloud trails a walker), the nearest centre of several; -1 for none."""
+    size (the cloud trails a walker), of at least the estimate's `min_areas` (M,) px^2, the
+    nearest centre of several; -1 for none."""
     if not len(boxes) or not len(estimates):
         return np.full(len(estimates), -1, np.int64)
     low = boxes[:, :2] - margin * boxes[:, 2:]
     high = boxes[:, :2] + (1 + margin) * boxes[:, 2:]
     points = estimates[:, None, :2]
     inside = ((points >= low[None]) & (points <= high[None])).all(axis=-1)
+    inside &= (boxes[:, 2] * boxes[:, 3])[None, :] >= min_areas[:, None]
     distance = np.linalg.norm(points - (boxes[None, :, :2] + boxes[None, :, 2:] / 2), axis=-1)
     nearest = np.argmin(np.where(inside, distance, np.inf), axis=1)
     result: np.ndarray = np.where(np.any(inside, axis=1), nearest, -1)
@@ -302,6 +320,14 @@ PARAMETERS: tuple[ParamSpec, ...] = (
     ParamSpec(
         "box_margin", 0.25, "x a blob's size: how far outside its box a filter owns it", 0.0, 10.0
     ),
+    ParamSpec(
+        "size_gate",
+        0.25,
+        "a blob smaller than this share of a filter's last box does not measure it",
+        0.0,
+        1.0,
+    ),
+    ParamSpec("max_misses", 10, "frames without a blob after which a filter is deleted", 1, 10000),
     ParamSpec("starve_weight", 0.01, "mean surface weight below which a frame starves", 0.0, 1.0),
     ParamSpec("starve_frames", 10, "starved frames after which a filter is deleted", 1, 10000),
     ParamSpec("confirm_hits", 3, "hits before a filter is a confirmed track", 1, 1000),
@@ -337,6 +363,8 @@ def build(values: Mapping[str, Any], first_id: int = 1) -> OccupancyTracker:
         min_area=values["min_area"],
         min_height=values["min_height"],
         box_margin=values["box_margin"],
+        size_gate=values["size_gate"],
+        max_misses=values["max_misses"],
         confirm_hits=values["confirm_hits"],
         confirm_travel=values["confirm_travel"],
         confirm_straightness=values["confirm_straightness"],
