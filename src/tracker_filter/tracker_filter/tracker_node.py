@@ -12,7 +12,6 @@ declares parameters, converts messages and wires topics.
 
 from __future__ import annotations
 
-import array
 from dataclasses import replace
 from functools import partial
 from typing import Any
@@ -32,6 +31,7 @@ from tracker_msgs.srv import ResetTracker, SelectTarget
 from tracker_msgs_py.codec import (
     NS_PER_S,
     UnsupportedEncodingError,
+    float64_sequence,
     image_qos,
     image_to_array,
     image_to_bgr,
@@ -65,13 +65,6 @@ def detections_from_msg(msg: BlobArray) -> Detections:
     )
 
 
-def _float64_sequence(values: np.ndarray) -> array.array:
-    """A float64[] field value; array.array skips rclpy's per-element checks of a list."""
-    sequence = array.array("d")
-    sequence.frombytes(np.ascontiguousarray(values, dtype=np.float64).tobytes())
-    return sequence
-
-
 def track_to_msg(tracks: TrackSet, i: int) -> Track:
     mean, covariance, layout = tracks.means[i], tracks.covariances[i], tracks.layout
     x, y = (float(v) for v in layout.positions(mean))
@@ -86,8 +79,8 @@ def track_to_msg(tracks: TrackSet, i: int) -> Track:
         vy=vy,
         position_covariance=layout.position_covariances(covariance).reshape(-1),
         state_layout=layout.text,
-        state=_float64_sequence(mean),
-        covariance=_float64_sequence(covariance),
+        state=float64_sequence(mean),
+        covariance=float64_sequence(covariance),
         bbox=Rect(x=bx, y=by, width=max(bw, 0.0), height=max(bh, 0.0)),
         existence=float(tracks.existence[i]),
         age=float(tracks.ages[i]),

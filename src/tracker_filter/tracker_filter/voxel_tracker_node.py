@@ -18,7 +18,6 @@ from tracker_filter.occupancy_particles import (
     OccupancyParticleFilters,
     Propagation,
 )
-from tracker_filter.tracker_node import _float64_sequence
 from tracker_filter.voxel_tracking import (
     LAYOUT_TEXT,
     CloudError,
@@ -29,7 +28,7 @@ from tracker_filter.voxel_tracking import (
     room_geometry,
 )
 from tracker_msgs.msg import Rect, Track, TrackArray
-from tracker_msgs_py.codec import NS_PER_S, image_qos, result_qos, stamp_to_ns
+from tracker_msgs_py.codec import NS_PER_S, float64_sequence, image_qos, result_qos, stamp_to_ns
 from tracker_msgs_py.node_main import StartupError, SuiteNode, run_node
 from tracker_msgs_py.params import ParameterError, ParamSpec, declare_parameters
 
@@ -121,8 +120,8 @@ def track_to_msg(track: Track3D) -> Track:
         y=y,
         position_covariance=track.covariance[:2, :2].reshape(-1).tolist(),
         state_layout=LAYOUT_TEXT,
-        state=_float64_sequence(track.mean),
-        covariance=_float64_sequence(track.covariance),
+        state=float64_sequence(track.mean),
+        covariance=float64_sequence(track.covariance),
         bbox=Rect(x=fx, y=fy, width=fw, height=fd),
         existence=track.existence,
         age=float(track.age),

@@ -13,6 +13,7 @@ Message classes and rclpy are imported where a function builds them, so the func
 
 from __future__ import annotations
 
+import array
 import math
 from collections.abc import Sequence
 from functools import cache
@@ -108,6 +109,14 @@ def stamp_to_sec(stamp: Time) -> float:
 def frame_stamp_ns(index: int, fps: float) -> int:
     """Stamp of frame `index` of a recording at `fps` (frame 0 at t = 0)."""
     return round(index * NS_PER_S / fps)
+
+
+def float64_sequence(values: np.ndarray) -> array.array:
+    """A float64[] message field's value; array.array skips rclpy's per-element checks of a
+    list."""
+    sequence = array.array("d")
+    sequence.frombytes(np.ascontiguousarray(values, dtype=np.float64).tobytes())
+    return sequence
 
 
 def image_to_array(msg: Image) -> np.ndarray:
