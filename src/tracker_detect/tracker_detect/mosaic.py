@@ -219,7 +219,20 @@ def _warp(layer: np.ndarray, matrix: np.ndarray, size: tuple[int, int], border: 
     return warped.reshape(size[1], size[0], *layer.shape[2:])
 
 
-@numba.njit(cache=True, nogil=True)
+_PLANE, _LAYERS = numba.float32[:, :], numba.float32[:, :, :]
+
+
+# One explicit signature (any layout, chroma optional): compiled, or loaded from numba's cache, at
+# import, before a node subscribes; a signature per call's layouts would compile on a graph's
+# first frame (the whole-mosaic slice of a static view is contiguous) and stall its lockstep.
+@numba.njit(
+    numba.void(
+        _PLANE, _PLANE, _PLANE, numba.optional(_LAYERS), _LAYERS, numba.boolean[:, :],
+        numba.optional(_LAYERS), numba.int64, numba.float32,
+    ),
+    cache=True,
+    nogil=True,
+)  # fmt: skip
 def _blend(  # pragma: no cover
     mean: np.ndarray,
     count: np.ndarray,
