@@ -219,3 +219,36 @@ def test_a_speck_left_where_a_walker_was_does_not_measure_their_filter_which_is_
     open_gate = run(0.0)
     assert all(len(t) == 1 and t.ids[0] == 1 for t in open_gate[15:])
     assert all(t.status[0] == TrackStatus.CONFIRMED for t in open_gate[16:])
+
+
+def test_after_the_warm_up_a_replay_compiles_nothing():
+    """The node calls `METHOD.warm_up` before it subscribes: every kernel the 2-D step uses is
+    compiled (or loaded) then, so no frame of a lockstep replay waits for numba (a fresh install's
+    first replay used to stall 9 s, time out the lockstep and give other tracks)."""
+    numba = pytest.importorskip("numba")
+    from tracker_filter import occupancy_grid, occupancy_particles
+
+    def signatures() -> dict[str, int]:
+        return {
+            f"{module.__name__}.{name}": len(kernel.signatures)
+            for module in (occupancy_grid, occupancy_particles)
+            for name, kernel in vars(module).items()
+            if isinstance(kernel, numba.core.registry.CPUDispatcher)
+        }
+
+    assert METHOD.warm_up is not None
+    METHOD.warm_up()
+    before = signatures()
+    tracker = METHOD.build(METHOD.defaults(), 1)
+    window = Rect(0.0, 0.0, 200.0, 200.0)
+    for k in range(12):  # two walkers crossing: blocking, a shared blob split
+        mask = np.zeros((200, 200), np.uint8)
+        boxes = np.array([[20.0 + 8 * k, 40.0, 30, 90], [150.0 - 8 * k, 60.0, 30, 90]])
+        for x, y, w, h in boxes.astype(int):
+            mask[y : y + h, x : x + w] = 1
+        found = Detections(
+            boxes[:, :2] + boxes[:, 2:] / 2, boxes[:, 2] * boxes[:, 3], boxes, [1, 1]
+        )
+        tracker.step(Observation(0.1 * k, found, mask=mask, window=window))
+    assert len(tracker.filters) >= 2
+    assert signatures() == before

@@ -160,6 +160,8 @@ class TrackerNode(SuiteNode):
             self, specs, on_change=self._on_parameters, check_all=self._check_parameters
         )
         self._tracker: Tracker = self._build_tracker(first_id=1)
+        if self._method.warm_up is not None:
+            self._method.warm_up()
         self._selector = TargetSelector(*self._selection_settings())
         self._epoch_ns: int | None = None  # stamp of the first frame: keeps float seconds exact
         self._view_centre: tuple[float, float] | None = None

@@ -31,6 +31,9 @@ class Method(Generic[T]):
     build: Callable[..., T]
     parameters: tuple[ParamSpec, ...] = ()
     presets: Mapping[str, Mapping[str, Any]] = field(default_factory=dict)
+    #: compiles the method's kernels (numba) ahead of its first frame; a node calls it before it
+    #: subscribes, so a lockstep replay's first frames do not wait for a compiler
+    warm_up: Callable[[], None] | None = None
 
     def defaults(self, preset: str = "") -> dict[str, Any]:
         """Parameter values of `preset` ("" = the parameters' own defaults)."""
