@@ -282,3 +282,18 @@ def test_coasting_keeps_the_target_through_a_one_second_occlusion():
         # frames 32-40: the estimate goes on at about the walking speed (4 px per frame)
         advance = (estimates[39].box[0] - estimates[31].box[0]) / 8
         assert 3.0 < advance < 5.0
+
+
+def test_after_the_warm_up_similarities_compile_nothing():
+    """`colour_particles`'s `warm_up` (called by the node before it subscribes) compiles the
+    coefficient kernel for the types every call passes."""
+    from tracker_filter import colour_histograms
+
+    colour_histograms.warm_up()
+    before = len(colour_histograms._coefficients.signatures)
+    rng = np.random.default_rng(0)
+    image = rng.integers(0, 256, (60, 80, 3), dtype=np.uint8)
+    for appearance in (HistogramAppearance(), HistogramAppearance(ColourSpace.HSV, regions=3)):
+        appearance.reference(image, np.array([10.0, 10.0, 20.0, 30.0]))
+        appearance.similarities(image, rng.uniform(0, 40, (50, 4)) + [0, 0, 5, 5])
+    assert before == len(colour_histograms._coefficients.signatures) == 1

@@ -185,3 +185,17 @@ def test_the_same_scans_give_the_same_estimates():
         runs.append([phd.step(z, 1.0).means.tolist() for z in scans])
     assert runs[0] == runs[1]
     assert math.isfinite(GmPhdFilter(CONFIG).config.clutter_density)
+
+
+def test_after_the_warm_up_the_filter_compiles_nothing():
+    """`gm_phd`'s `warm_up` (called by the node before it subscribes) compiles the merge kernel
+    for the types every merge passes, so no scan of a lockstep replay waits for numba."""
+    from tracker_filter import gmphd
+
+    gmphd.warm_up()
+    before = len(gmphd._merge_groups.signatures)
+    phd = GmPhdFilter(replace_config(birth_weight=0.2, max_birth_speed=50.0))
+    for k in range(6):  # two targets, then a third: births, updates, merges
+        scan = np.array([[100.0 + 5 * k, 100.0], [600.0 - 5 * k, 600.0], [300.0, 300.0 + 4 * k]])
+        phd.step(scan, 1.0)
+    assert before == len(gmphd._merge_groups.signatures) == 1

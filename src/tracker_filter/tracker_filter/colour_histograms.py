@@ -98,6 +98,13 @@ def coefficients(
     return out[inverse.ravel()]
 
 
+def warm_up() -> None:
+    """Compile (or load from numba's cache) the coefficient kernel now, not on a replay's first
+    frames."""
+    references = np.full((1, 4), 0.5)
+    coefficients(np.zeros((4, 4), np.int32), np.array([[0, 0, 2, 2]]), references, np.zeros(1))
+
+
 def coefficients_reference(
     bins_of_pixels: np.ndarray, bounds: Bounds, sqrt_references: np.ndarray, which: np.ndarray
 ) -> np.ndarray:

@@ -245,8 +245,14 @@ def merge(mixture: Mixture, threshold: float) -> Mixture:
         return mixture
     covariances = mixture.covariances
     spreads = np.trace(covariances, axis1=1, axis2=2)
+    contiguous = np.ascontiguousarray  # one compiled signature (`warm_up`)
     group = _merge_groups(
-        mixture.weights, mixture.means, np.linalg.inv(covariances), spreads, mixture.tags, threshold
+        contiguous(mixture.weights),
+        contiguous(mixture.means),
+        contiguous(np.linalg.inv(covariances)),
+        contiguous(spreads),
+        contiguous(mixture.tags),
+        float(threshold),
     )
     count = int(group.max()) + 1
     if count == len(mixture):
@@ -274,6 +280,11 @@ def merge(mixture: Mixture, threshold: float) -> Mixture:
         detected_weight >= DETECTED_SHARE, mixture.sources[best], mixture.sources[heads]
     )
     return Mixture(weights, means, covariances, mixture.tags[heads], sources)
+
+
+def warm_up() -> None:
+    """Compile (or load from numba's cache) the merge kernel now, not on a replay's first scans."""
+    merge(Mixture.of(np.ones(2), np.zeros((2, DIM)), np.tile(np.eye(DIM), (2, 1, 1))), 4.0)
 
 
 def prune(mixture: Mixture, threshold: float, max_components: int) -> Mixture:

@@ -28,6 +28,7 @@ from typing import Any
 
 import numpy as np
 
+from tracker_filter import gmphd
 from tracker_filter.gmphd import Estimates, GmPhdConfig, GmPhdFilter, Mixture
 from tracker_filter.layout import StateLayout
 from tracker_filter.models import CONSTANT_VELOCITY
@@ -599,4 +600,5 @@ METHOD: Method[Any] = Method(
     "Hungarian labelling (seed 004)",
     build=build,
     parameters=PARAMETERS,
+    warm_up=gmphd.warm_up,
 )

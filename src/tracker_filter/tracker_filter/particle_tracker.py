@@ -25,6 +25,7 @@ from typing import Any
 
 import numpy as np
 
+from tracker_filter import colour_histograms
 from tracker_filter.colour_histograms import ColourSpace
 from tracker_filter.colour_particle import (
     RECOMMENDED_SIGMA,
@@ -319,4 +320,5 @@ METHOD: Method[Any] = Method(
     "detections or a drawn rectangle",
     build=build,
     parameters=PARAMETERS,
+    warm_up=colour_histograms.warm_up,
 )
