@@ -128,19 +128,6 @@ class OccupancyGrid:
         return OccupancyGrid(self.geometry, cells[:kept], dense)
 
 
-def occupied_cells(dense: np.ndarray) -> np.ndarray:
-    """The indices (P, 3) int64 of the nonzero cells of `dense`, in C order (`np.argwhere`'s
-    result, without its cost on a mostly empty grid)."""
-    cells = np.empty((_count_occupied(dense), DIMS), np.int64)
-    _list_occupied(dense, cells)
-    return cells
-
-
-@numba.njit(cache=True, nogil=True)
-def _count_occupied(dense: np.ndarray) -> int:  # pragma: no cover
-    return int(np.count_nonzero(dense))
-
-
 @numba.njit(cache=True, nogil=True)
 def _transpose_mask(
     mask: np.ndarray, dense: np.ndarray, cells: np.ndarray
@@ -155,17 +142,6 @@ def _transpose_mask(
                 p += 1
             else:
                 dense[x, y, 0] = 0
-
-
-@numba.njit(cache=True, nogil=True)
-def _list_occupied(dense: np.ndarray, cells: np.ndarray) -> None:  # pragma: no cover
-    _, ny, nz = dense.shape
-    flat = dense.reshape(-1)
-    p = 0
-    for f in range(flat.shape[0]):
-        if flat[f]:
-            cells[p, 0], cells[p, 1], cells[p, 2] = f // (ny * nz), (f // nz) % ny, f % nz
-            p += 1
 
 
 @numba.njit(cache=True, nogil=True)
