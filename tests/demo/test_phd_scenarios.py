@@ -62,3 +62,20 @@ def test_occlusion_handling_keeps_labels_through_crossings(number):
     plain = evaluate(number, occlusion_handling=False)
     assert handled.missed_occlusions < plain.missed_occlusions / 2
     assert handled.idf1 > plain.idf1 + 0.1
+
+
+@pytest.mark.parametrize("seed", [4, 27])
+def test_labels_that_a_splitting_blob_gave_away_are_stitched_back(seed):
+    """Scenario 1, draws where a false alarm beside the blob ended the occlusion early: the
+    blob's label went on with the third target and the crossing target it had came out as a
+    new track. Stitching gives the label back to the track that fits its kept speed and
+    heading, within the 3 frames the missed-occlusion count allows."""
+    case = phd_scenarios.scenario(1)
+
+    def scores(stitch_frames: int):
+        values = scenario_parameters(case) | {"stitch_frames": stitch_frames}
+        return phd_scenarios.run(case, seed, gm_phd_scan_tracker(values)).scores
+
+    stitched, plain = scores(5), scores(0)
+    assert plain.missed_occlusions == 1 and stitched.missed_occlusions == 0
+    assert stitched.idf1 > plain.idf1 + 0.1

@@ -13,7 +13,9 @@ A `tracking.Tracker` (method `gm_phd`). Each frame:
 4. bookkeeping by `tracking.TrackBook`: confirmed after `confirm_hits` hits, LOST after more than
    `max_misses` frames without a state of its own (without a hit, when it is not occluded); a
    confirmed track lost without an occlusion away from the view's borders marks an unidentified
-   object there.
+   object there;
+5. stitching: for `stitch_frames` frames after a track leaves an occlusion region (or is lost in
+   one), its label goes to the confirmed track that best fits its dead reckoning (`_stitch`).
 
 Layout "x y vx vy" (px, px/s); `existence` is the weight of the track's Gaussian (at most 1).
 The camera window gives the view's borders and, with `area` 0, the clutter density's area; a
@@ -33,7 +35,7 @@ from tracker_filter.gmphd import Estimates, GmPhdConfig, GmPhdFilter, Mixture
 from tracker_filter.layout import StateLayout
 from tracker_filter.models import CONSTANT_VELOCITY
 from tracker_filter.observation import Detections, Need, Observation
-from tracker_filter.phd_labels import LabelledStates, assign, labelling_costs
+from tracker_filter.phd_labels import BARRED, LabelledStates, assign, labelling_costs
 from tracker_filter.phd_occlusion import OcclusionConfig, OcclusionMonitor
 from tracker_filter.tracking import TrackBook, TrackSet
 from tracker_msgs_py.params import ParamSpec
@@ -81,6 +83,18 @@ def _pairs(value: Any) -> str | None:
     return None
 
 
+@dataclass
+class OcclusionExit:
+    """A label that just left an occlusion region, or was lost inside one: the clean state it
+    is dead-reckoned from (position and mean velocity) and that state's time, the first track
+    id that may have been started for its target meanwhile, and the frames it stays open."""
+
+    state: np.ndarray
+    time: float
+    first_id: int
+    frames_left: int
+
+
 #: Per-track arrays kept in the TrackBook's row order.
 _ROW_FIELDS = (
     "states",
@@ -116,6 +130,7 @@ class GmPhdTracker:
         continue_threshold: float = 0.2,
         birth_sites: BirthSites | None = None,
         first_id: int = 1,
+        stitch_frames: int = 5,
     ) -> None:
         self.config = filter_config
         self.filter = GmPhdFilter(
@@ -126,6 +141,7 @@ class GmPhdTracker:
         self.confirm_hits, self.max_misses = confirm_hits, max_misses
         self.window_area = window_area
         self.continue_threshold = continue_threshold
+        self.stitch_frames = stitch_frames
         self.book = TrackBook(first_id)
         self._clear()
 
@@ -148,6 +164,9 @@ class GmPhdTracker:
         # per label inside an occlusion region: its state at the region's start and that time
         self.anchors: dict[int, tuple[np.ndarray, float]] = {}
         self._explained: np.ndarray = np.zeros(0, dtype=bool)  # per estimate: within a track's gate
+        # labels inside an occlusion region, each with the book's next id when it went in
+        self._involved: dict[int, int] = {}
+        self.exits: dict[int, OcclusionExit] = {}
 
     @property
     def next_id(self) -> int:
@@ -239,6 +258,7 @@ class GmPhdTracker:
         window = observation.window
         bounds = None if window is None else (window.x, window.y, window.width, window.height)
         self._occlusions(t, hit, detections.bboxes)
+        self._note_exits()
         lost = self._lost(bounds)
         self._update_anchors()
         count = len(book)
@@ -247,6 +267,7 @@ class GmPhdTracker:
         lost = np.concatenate([lost, np.zeros(added, dtype=bool)])
         updated = np.concatenate([hit, np.ones(added, dtype=bool)])
         book.confirm(book.hits >= self.confirm_hits)
+        self._stitch(t, lost)
         tracks = book.snapshot(
             t,
             LAYOUT,
@@ -422,6 +443,95 @@ class GmPhdTracker:
         self.pending = Mixture.of(np.ones(len(rows)), means, covariances, labels[rows])
         self.weights[begun] = np.maximum(self.weights[begun], 1.0)
 
+    def _note_exits(self) -> None:
+        """Track which labels are inside an occlusion region; those that just left one open
+        an `OcclusionExit`."""
+        now = set(self.monitor.occluded) | self.monitor.partners()
+        for label in now - set(self._involved):
+            self._involved[label] = self.book.next_id
+        rows = {label: row for row, label in enumerate(self.book.ids.tolist())}
+        for label in set(self._involved) - now:
+            if label in rows:
+                self._record_exit(rows[label], label)
+            else:
+                del self._involved[label]
+
+    def _record_exit(self, row: int, label: int) -> None:
+        first_id = self._involved.pop(label, self.book.next_id)
+        if self.stitch_frames <= 0:
+            return
+        state, time = self._anchor(row)
+        self.exits[label] = OcclusionExit(state.copy(), time, first_id, self.stitch_frames)
+
+    def _stitch(self, t: float, lost: np.ndarray) -> None:
+        """After an occlusion the blob's pieces may have gone to the wrong labels, or a hidden
+        target come out as a new track. For a few frames, each label that left an occlusion
+        goes to the track that best fits its dead reckoning (the kept speed and heading, with
+        the spread of that guess): a Hungarian assignment between those labels and the tracks
+        that carry them or were started since, outside occlusion regions; the tracks they
+        displace take the labels they free."""
+        if not self.exits:
+            return
+        labels = self.book.ids
+        involved = set(self._involved)
+        exits = [(e, x) for e, x in self.exits.items() if e not in involved]
+        rows = [
+            row
+            for row, label in enumerate(labels.tolist())
+            if not lost[row]
+            and label not in involved
+            and self.book.confirmed[row]
+            and (label in self.exits or any(label >= x.first_id for _, x in exits))
+        ]
+        if exits and rows:
+            costs = self._exit_costs(t, exits, np.array(rows))
+            pairs, cols = assign(costs, self.label_gate)
+            self._relabel([exits[i][0] for i in pairs], [rows[j] for j in cols])
+        for label in list(self.exits):
+            self.exits[label].frames_left -= 1
+            if self.exits[label].frames_left <= 0:
+                del self.exits[label]
+
+    def _exit_costs(
+        self, t: float, exits: list[tuple[int, OcclusionExit]], rows: np.ndarray
+    ) -> np.ndarray:
+        """(exits, rows) squared distances of the tracks' positions from the labels' dead
+        reckoning over the guess's variance; barred for tracks started before the label's
+        occlusion (they are other targets)."""
+        positions = LAYOUT.positions(self.states)[rows]
+        labels = self.book.ids[rows]
+        r2 = self.config.measurement_noise**2
+        costs = np.full((len(exits), len(rows)), BARRED)
+        for i, (label, exit_) in enumerate(exits):
+            gap = t - exit_.time
+            predicted = exit_.state[:2] + gap * exit_.state[2:]
+            spread = (OCCLUDED_SPEED_SPREAD * np.hypot(*exit_.state[2:]) * gap) ** 2 + 2.0 * r2
+            allowed = (labels == label) | (labels >= exit_.first_id)
+            squared = ((positions - predicted) ** 2).sum(axis=1) / spread
+            costs[i] = np.where(allowed, squared, BARRED)
+        return costs
+
+    def _relabel(self, wanted: list[int], rows: list[int]) -> None:
+        """Give each of `rows` the label in `wanted`; a track that carried one of those labels
+        takes a label they freed (a new id when none is left)."""
+        ids = self.book.ids
+        taken = set(wanted)
+        freed = [int(ids[row]) for row in rows if int(ids[row]) not in taken]
+        displaced = [
+            row for row, label in enumerate(ids.tolist()) if label in taken and row not in rows
+        ]
+        new = ids.copy()
+        new[rows] = wanted
+        for row in displaced:
+            if freed:
+                new[row] = freed.pop(0)
+            else:
+                new[row] = self.book.next_id
+                self.book.next_id += 1
+        for label in set(ids[ids != new].tolist()) | set(new[ids != new].tolist()):
+            self.anchors.pop(label, None)
+        self.book.ids = new
+
     def _lost(self, bounds: tuple[float, float, float, float] | None) -> np.ndarray:
         occluded = np.array([label in self.monitor.occluded for label in self.book.ids.tolist()])
         occluded = occluded.astype(bool).reshape(-1)
@@ -433,6 +543,8 @@ class GmPhdTracker:
             if label not in self.monitor.occluded and self.book.confirmed[row]:
                 position = self.book.measured[row]
                 self.monitor.record_death(position, bounds, self._epsilon_now)
+            elif label in self._involved:
+                self._record_exit(int(row), label)
             self.monitor.forget(label)
         return lost
 
@@ -547,6 +659,14 @@ PARAMETERS: tuple[ParamSpec, ...] = (
     ),
     ParamSpec("label_gate", 16.0, "squared Mahalanobis distance a label reaches", 0.1, 1e6),
     ParamSpec("impulse", 0.5, "cost factor of candidates ahead of an occluded track", 0.0, 1.0),
+    ParamSpec(
+        "stitch_frames",
+        5,
+        "frames after an occlusion during which its labels go to the tracks that fit their "
+        "kept speed and heading (0: never)",
+        0,
+        1000,
+    ),
     ParamSpec("confirm_hits", 2, "hits before a track is confirmed", 1, 1000),
     ParamSpec("max_misses", 3, "frames without its own state after which a track is lost", 0, 1000),
 )
@@ -591,6 +711,7 @@ def build(values: Mapping[str, Any], first_id: int = 1) -> GmPhdTracker:
         continue_threshold=values["continue_threshold"],
         birth_sites=BirthSites.from_values(values),
         first_id=first_id,
+        stitch_frames=values["stitch_frames"],
     )
 
 
