@@ -8,7 +8,8 @@ A `tracking.Tracker` (method `gm_phd`). Each frame:
    extracted states that no track takes and that come from a measurement no track used start new
    tracks;
 3. a track is a hit when its state came from a measurement no better-matching track used; a
-   track not hit inside another's possible-occlusion circle, or inside an unidentified-object
+   track not hit inside another's possible-occlusion circle (at its predicted position, or at
+   its dead reckoning when it had come near another track), or inside an unidentified-object
    region, becomes occluded; an occluded track hit again ends its occlusion;
 4. bookkeeping by `tracking.TrackBook`: confirmed after `confirm_hits` hits, LOST after more than
    `max_misses` frames without a state of its own (without a hit, when it is not occluded); a
@@ -428,6 +429,7 @@ class GmPhdTracker:
         hidden = ~hit & self.book.confirmed
         positions = LAYOUT.positions(self.states)
         begun = self.monitor.begin(labels, positions, hidden, self._epsilon_now)
+        begun += self._begin_reckoned(t, labels, positions, hidden)
         self.pending = Mixture.empty()
         if not begun:
             return
@@ -531,6 +533,20 @@ class GmPhdTracker:
         for label in set(ids[ids != new].tolist()) | set(new[ids != new].tolist()):
             self.anchors.pop(label, None)
         self.book.ids = new
+
+    def _begin_reckoned(
+        self, t: float, labels: np.ndarray, positions: np.ndarray, hidden: np.ndarray
+    ) -> list[int]:
+        """Undetected tracks that had come near another (anchored) are judged hidden at their
+        dead-reckoned positions too: the merging blobs may have pulled a track's state more
+        than an object size off the blob that now hides its target. Returns the rows begun."""
+        anchored = hidden & np.isin(labels, list(self.anchors))
+        rows = np.flatnonzero(anchored)
+        if not len(rows):
+            return []
+        reckoned = positions.copy()
+        reckoned[rows] = self._since_hit(rows, t)[0][:, :2]
+        return self.monitor.begin(labels, reckoned, anchored, self._epsilon_now)
 
     def _lost(self, bounds: tuple[float, float, float, float] | None) -> np.ndarray:
         occluded = np.array([label in self.monitor.occluded for label in self.book.ids.tolist()])
