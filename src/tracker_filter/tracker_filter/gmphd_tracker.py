@@ -8,7 +8,8 @@ A `tracking.Tracker` (method `gm_phd`). Each frame:
    extracted states that no track takes and that come from a measurement no track used start new
    tracks;
 3. a track is a hit when its state came from a measurement no better-matching track used; a
-   track not hit inside another's possible-occlusion circle (at its predicted position, or at
+   track with at least `LINE_HITS` hits (a fitted line to dead-reckon by) not hit inside
+   another's possible-occlusion circle (at its predicted position, or at
    its dead reckoning when it had come near another track), or inside an unidentified-object
    region, becomes occluded; an occluded track hit again ends its occlusion;
 4. bookkeeping by `tracking.TrackBook`: confirmed after `confirm_hits` hits, LOST after more than
@@ -109,6 +110,8 @@ _ROW_FIELDS = (
 )
 #: Hits (time, measured position) a track's mean velocity is fitted to.
 VELOCITY_HISTORY = 10
+#: Hits a fitted line needs: fewer give no kept speed and heading to dead-reckon by.
+LINE_HITS = 3
 #: Std of an occluded track's velocity, as a share of its speed.
 OCCLUDED_SPEED_SPREAD = 0.1
 
@@ -298,7 +301,7 @@ class GmPhdTracker:
         spread = (centred**2).sum(axis=1)
         mean_point = (points * valid[..., None]).sum(axis=1) / count[:, None]
         slope = (centred[..., None] * (points - mean_point[:, None])).sum(axis=1)
-        fitted = (count >= 3) & (spread > 0)
+        fitted = (count >= LINE_HITS) & (spread > 0)
         velocity = np.where(
             fitted[:, None],
             slope / np.where(spread > 0, spread, 1.0)[:, None],
@@ -426,7 +429,10 @@ class GmPhdTracker:
         if done.any():  # their occlusions ended: ordinary Gaussians again
             self.filter.mixture = replace(mixture, tags=np.where(done, 0, mixture.tags))
         self._epsilon_now = self._epsilon(boxes)
-        hidden = ~hit & self.book.confirmed
+        # only a track with a fitted line can be dead-reckoned while hidden: a younger one
+        # (often born of false alarms) that goes undetected beside a target is just lost
+        lined = np.isfinite(self.history_times).sum(axis=1) >= LINE_HITS
+        hidden = ~hit & self.book.confirmed & lined
         positions = LAYOUT.positions(self.states)
         begun = self.monitor.begin(labels, positions, hidden, self._epsilon_now)
         begun += self._begin_reckoned(t, labels, positions, hidden)
