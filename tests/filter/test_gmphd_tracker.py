@@ -197,3 +197,40 @@ def test_birth_sites_start_tracks_sooner():
 
 def test_birth_sites_must_be_pairs():
     assert METHOD.problems(METHOD.defaults() | {"birth_sites": [1.0, 2.0, 3.0]})
+
+
+def hide_beside_a_target(extra_hits: int) -> tuple[bool, bool]:
+    """A walks alone; B appears 12 px beside it (objects 20 px: inside A's possible-occlusion
+    circle) and, `extra_hits` frames after its track is confirmed, stops being detected.
+    Returns whether B's track was then taken as hidden, and whether it was lost."""
+    tracker = build()
+    b_label, taken, lost, seen_after = None, False, False, 0
+    for k in range(40):
+        a = [300.0 + 5 * k, 400.0]
+        b = [a[0], a[1] + 12.0]
+        shown = k >= 10 and (b_label is None or seen_after < extra_hits)
+        z = np.array([a, b] if shown else [a])
+        found = tracker.step(Observation(k * 0.1, Detections.from_positions(z, size=20.0), True,
+                                         window=WINDOW))  # fmt: skip
+        if b_label is None:
+            near_b = [
+                int(i)
+                for i, s, p in zip(found.ids, found.status, found.positions, strict=True)
+                if s == TrackStatus.CONFIRMED and np.hypot(*(p - b)) < 5.0
+            ]
+            b_label = near_b[0] if near_b else None
+        elif shown:
+            seen_after += 1
+        else:
+            taken |= b_label in tracker.monitor.occluded
+            mine = found.ids == b_label
+            lost |= bool((found.status[mine] == TrackStatus.LOST).any())
+    assert b_label is not None
+    return taken, lost
+
+
+def test_a_young_track_is_not_taken_as_hidden_an_older_one_is():
+    # confirmed on its 2nd hit, a track has no line to dead-reckon by before its 3rd
+    assert hide_beside_a_target(extra_hits=0) == (False, True)
+    taken, _ = hide_beside_a_target(extra_hits=3)
+    assert taken
