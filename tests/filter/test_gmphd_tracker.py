@@ -234,3 +234,29 @@ def test_a_young_track_is_not_taken_as_hidden_an_older_one_is():
     assert hide_beside_a_target(extra_hits=0) == (False, True)
     taken, _ = hide_beside_a_target(extra_hits=3)
     assert taken
+
+
+def label_after_a_gap(**changes) -> tuple[int, int]:
+    """One walker, undetected for 4 frames away from everything (so its track is lost), then
+    seen again on its line: the labels on it before and after."""
+    tracker = build(**changes)
+    labels = {}
+    for k in range(30):
+        point = np.array([[300.0 + 5 * k, 400.0]])
+        z = point[:0] if 10 <= k < 14 else point
+        found = tracker.step(Observation(k * 0.1, Detections.from_positions(z, size=8.0), True,
+                                         window=WINDOW))  # fmt: skip
+        on = [
+            int(i)
+            for i, s, p in zip(found.ids, found.status, found.positions, strict=True)
+            if s == TrackStatus.CONFIRMED and np.hypot(*(p - point[0])) < 5.0
+        ]
+        labels[k] = on[0] if on else None
+    return labels[8], labels[25]
+
+
+def test_a_target_found_again_after_its_track_was_lost_gets_its_label_back():
+    before, after = label_after_a_gap()
+    assert before is not None and after == before
+    before, after = label_after_a_gap(stitch_frames=0)
+    assert after is not None and after != before

@@ -16,8 +16,9 @@ A `tracking.Tracker` (method `gm_phd`). Each frame:
    `max_misses` frames without a state of its own (without a hit, when it is not occluded); a
    confirmed track lost without an occlusion away from the view's borders marks an unidentified
    object there;
-5. stitching: for `stitch_frames` frames after a track leaves an occlusion region (or is lost in
-   one), its label goes to the confirmed track that best fits its dead reckoning (`_stitch`).
+5. stitching: for `stitch_frames` frames after a track leaves an occlusion region or a confirmed
+   track is lost, its label goes to the confirmed track that best fits its dead reckoning
+   (`_stitch`).
 
 Layout "x y vx vy" (px, px/s); `existence` is the weight of the track's Gaussian (at most 1).
 The camera window gives the view's borders and, with `area` 0, the clutter density's area; a
@@ -87,9 +88,9 @@ def _pairs(value: Any) -> str | None:
 
 @dataclass
 class OcclusionExit:
-    """A label that just left an occlusion region, or was lost inside one: the clean state it
-    is dead-reckoned from (position and mean velocity) and that state's time, the first track
-    id that may have been started for its target meanwhile, and the frames it stays open."""
+    """A label that just left an occlusion region, or whose confirmed track was lost: the clean
+    state it is dead-reckoned from (position and mean velocity) and that state's time, the first
+    track id that may have been started for its target meanwhile, and the frames it stays open."""
 
     state: np.ndarray
     time: float
@@ -473,11 +474,12 @@ class GmPhdTracker:
 
     def _stitch(self, t: float, lost: np.ndarray) -> None:
         """After an occlusion the blob's pieces may have gone to the wrong labels, or a hidden
-        target come out as a new track. For a few frames, each label that left an occlusion
-        goes to the track that best fits its dead reckoning (the kept speed and heading, with
-        the spread of that guess): a Hungarian assignment between those labels and the tracks
-        that carry them or were started since, outside occlusion regions; the tracks they
-        displace take the labels they free."""
+        target come out as a new track; a lost track's target may be found again as a new one.
+        For a few frames, each label that left an occlusion or lost its track goes to the track
+        that best fits its dead reckoning (the kept speed and heading, with the spread of that
+        guess): a Hungarian assignment between those labels and the tracks that carry them or
+        were started since, outside occlusion regions; the tracks they displace take the labels
+        they free."""
         if not self.exits:
             return
         labels = self.book.ids
@@ -565,7 +567,7 @@ class GmPhdTracker:
             if label not in self.monitor.occluded and self.book.confirmed[row]:
                 position = self.book.measured[row]
                 self.monitor.record_death(position, bounds, self._epsilon_now)
-            elif label in self._involved:
+            if self.book.confirmed[row]:
                 self._record_exit(int(row), label)
             self.monitor.forget(label)
         return lost
@@ -684,8 +686,8 @@ PARAMETERS: tuple[ParamSpec, ...] = (
     ParamSpec(
         "stitch_frames",
         5,
-        "frames after an occlusion during which its labels go to the tracks that fit their "
-        "kept speed and heading (0: never)",
+        "frames after an occlusion or a confirmed track's loss during which its label goes to "
+        "the track that fits its kept speed and heading (0: never)",
         0,
         1000,
     ),
