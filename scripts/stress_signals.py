@@ -25,9 +25,10 @@ import time
 from collections import Counter
 from pathlib import Path
 
+from tracker_msgs_py import stop_signals
 from tracker_ptz_sim.bringup.demo import install_space
 from tracker_ptz_sim.bringup.graph import load_graph
-from tracker_ptz_sim.bringup.processes import GraphProcesses
+from tracker_ptz_sim.bringup.processes import STACK_DUMP_WAIT_S, GraphProcesses
 from tracker_ptz_sim.simulation.scenes import SceneConfig, generate_scene, write_scene
 
 CLEAN_EXIT_S = 2.0
@@ -77,6 +78,9 @@ def trial(
         outcome: object = code
     except subprocess.TimeoutExpired:
         outcome = f"still running after {CLEAN_EXIT_S} s"
+        # its threads' stacks go to its log first: where it hung is then printed below
+        process.send_signal(stop_signals.STACK_DUMP_SIGNAL)
+        time.sleep(STACK_DUMP_WAIT_S)
     elapsed = time.monotonic() - sent
     nodes.kill(name)
     return (outcome, signum.name, delay, elapsed)
