@@ -117,6 +117,13 @@ LINE_HITS = 3
 OCCLUDED_SPEED_SPREAD = 0.1
 
 
+def _dead_reckoning(state: np.ndarray, gap: float) -> tuple[np.ndarray, float]:
+    """Where a clean state (position, mean velocity) puts its target `gap` s later, and the
+    variance of that guess per axis (the speed is known to within a share of itself)."""
+    spread = OCCLUDED_SPEED_SPREAD * np.hypot(*state[2:]) * gap
+    return state[:2] + gap * state[2:], float(spread**2)
+
+
 class GmPhdTracker:
     """GM-PHD with seed 004's occlusion handling and labelling, as a `tracking.Tracker`."""
 
@@ -359,10 +366,8 @@ class GmPhdTracker:
             if occlusion is None and label not in partners:
                 continue
             state, time = self._anchor(row)
-            gap = self._now - time
-            positions[row] = state[:2] + gap * state[2:]
+            positions[row], variances[row] = _dead_reckoning(state, self._now - time)
             velocities[row] = state[2:]
-            variances[row] = (OCCLUDED_SPEED_SPREAD * np.hypot(*state[2:]) * gap) ** 2
             if occlusion is None:  # a partner: the region is its hidden partner's
                 hiding = [o for o in self.monitor.occluded.values() if o.partner == label]
                 centres[row] = hiding[0].centre
@@ -513,9 +518,8 @@ class GmPhdTracker:
         r2 = self.config.measurement_noise**2
         costs = np.full((len(exits), len(rows)), BARRED)
         for i, (label, exit_) in enumerate(exits):
-            gap = t - exit_.time
-            predicted = exit_.state[:2] + gap * exit_.state[2:]
-            spread = (OCCLUDED_SPEED_SPREAD * np.hypot(*exit_.state[2:]) * gap) ** 2 + 2.0 * r2
+            predicted, variance = _dead_reckoning(exit_.state, t - exit_.time)
+            spread = variance + 2.0 * r2
             allowed = (labels == label) | (labels >= exit_.first_id)
             squared = ((positions - predicted) ** 2).sum(axis=1) / spread
             costs[i] = np.where(allowed, squared, BARRED)

@@ -378,9 +378,7 @@ def warm_up() -> None:
     """Step a throwaway tracker through two blobs that cross (every kernel of the step runs:
     snapping, likelihood, blocking, resampling, the split of a shared blob), so numba compiles
     them, or loads them from its cache, now rather than on a replay's first frames."""
-    tracker = build(
-        {spec.name: spec.default for spec in PARAMETERS} | {"particles": 20, "opening": 3}, 1
-    )
+    tracker = build(METHOD.defaults() | {"particles": 20, "opening": 3}, 1)
     window = Rect(0.0, 0.0, 120.0, 80.0)
     for k in range(10):
         mask = np.zeros((80, 120), np.uint8)
