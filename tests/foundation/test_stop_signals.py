@@ -23,6 +23,12 @@ MODULES = {
         "try:\n    os.kill(os.getpid(), signal.SIGINT)\n    time.sleep(10)\n"
         "except BaseException as error:\n    raise ImportError('initialization failed') from error\n"
     ),
+    # Leaves a worker thread that never ends: the interpreter's shutdown would wait for it.
+    "half_done": (
+        "import os, signal, threading, time\n"
+        "threading.Thread(target=time.sleep, args=(30,)).start()\n"
+        "os.kill(os.getpid(), signal.SIGTERM)\ntime.sleep(10)\n"
+    ),
     # Imports fine; its main polls the flag, as run_node does, and exits 0 once it is set.
     "running": (
         "import os, signal\nfrom tracker_msgs_py import stop_signals\n"

@@ -3,7 +3,9 @@
 A suite executable calls `guarded_main("package.module")` from a module that imports nothing else:
 the handlers are in place about 50 ms after exec, before rclpy, NumPy or OpenCV load. A stop that
 arrives while those imports run (they are most of a node's start-up, seconds on a loaded machine)
-ends the process at once with exit code 0: nothing has started that needs stopping. From then on
+ends the process at once with exit code 0: nothing has started that needs stopping, so it leaves
+without the interpreter's shutdown, which could wait forever on what the interrupted import left
+half done (seen: a finalizer blocking in the final garbage collection). From then on
 a stop only sets the flag, and the node ends through its normal, ordered path instead of a
 KeyboardInterrupt raised wherever the main thread happens to be. (Before the handlers exist the
 interpreter's defaults apply, as for any process.)
@@ -21,6 +23,7 @@ from __future__ import annotations
 import contextlib
 import faulthandler
 import importlib
+import os
 import signal
 import sys
 import threading
@@ -43,7 +46,7 @@ def _on_signal(signum: int, _frame: FrameType | None) -> None:
     _received.append(signal.Signals(signum).name)
     _requested.set()
     if _exit_at_once:
-        raise SystemExit(0)
+        os._exit(0)
     if _raise_at_once:
         raise KeyboardInterrupt(_received[-1])
 
@@ -103,7 +106,8 @@ def guarded_main(module: str, function: str = "main", batch: bool = False) -> in
     """Install the handlers, then import `module` and return `module.function()`.
 
     The import (rclpy, OpenCV...) is most of a node's start-up; a stop requested during it ends
-    the process with 0 at once, before anything was started. A `batch` tool's function runs
+    the process with 0 at once (`os._exit`: no exception the import could turn into another, no
+    shutdown that could hang on its half-done state). A `batch` tool's function runs
     `interruptible()`: a stop ends it with one line and `INTERRUPTED_EXIT_CODE`.
     """
     global _exit_at_once
@@ -111,16 +115,8 @@ def guarded_main(module: str, function: str = "main", batch: bool = False) -> in
     _exit_at_once = True
     try:
         entry = getattr(importlib.import_module(module), function)
-    except BaseException:
-        # The SystemExit may surface as another error: a C extension being initialised when the
-        # signal came (rclpy's) reports it as an ImportError.
-        if requested():
-            return 0
-        raise
     finally:
         _exit_at_once = False
-    if requested():
-        return 0
     if not batch:
         return entry()
     try:
