@@ -1,4 +1,5 @@
-"""Every small per-frame result the demo records is published with a deep reliable history.
+"""Every small per-frame result the demo records is published with a deep reliable history,
+kept for late joiners: the recorder gets results published before it was discovered.
 
 A keep-last writer retransmits a lost sample only while it is still in its history; with the
 ROS default depth of 10 a recorder that stalled for a moment under load lost a few frames'
@@ -14,11 +15,11 @@ import pytest
 rclpy = pytest.importorskip("rclpy")
 
 from rclpy.parameter import Parameter  # noqa: E402
-from rclpy.qos import ReliabilityPolicy  # noqa: E402
+from rclpy.qos import DurabilityPolicy, ReliabilityPolicy  # noqa: E402
 
 from tracker_detect.detector_node import DetectorNode  # noqa: E402
 from tracker_filter.tracker_node import TrackerNode  # noqa: E402
-from tracker_msgs_py.codec import RESULT_DEPTH  # noqa: E402
+from tracker_msgs_py.codec import RESULT_DEPTH, result_qos  # noqa: E402
 from tracker_ptz_sim.bringup.graph import GRAPHS, load_graph  # noqa: E402
 from tracker_ptz_sim.control.ptz_controller_node import PtzControllerNode  # noqa: E402
 from tracker_ptz_sim.control.ptz_state_bridge_node import PtzStateBridgeNode  # noqa: E402
@@ -74,5 +75,45 @@ def test_every_recorded_result_is_published_reliably_with_a_deep_history(running
         for topic in topics
         if offered[topic].reliability != ReliabilityPolicy.RELIABLE
         or offered[topic].depth < RESULT_DEPTH
+        or offered[topic].durability != DurabilityPolicy.TRANSIENT_LOCAL
     }
-    assert not shallow, f"published with a shallow or best-effort history: {shallow}"
+    assert not shallow, f"published with a shallow, best-effort or volatile history: {shallow}"
+
+
+class _Bag:
+    def __init__(self) -> None:
+        self.written: dict[str, int] = {}
+
+    def write(self, topic: str, _stamp_ns: int, _data: bytes) -> None:
+        self.written[topic] = self.written.get(topic, 0) + 1
+
+
+def test_the_recorder_gets_results_published_before_it_was_discovered():
+    """What lost frame 1's tracks and command from a CI bag: the writer had not yet learnt of the
+    recorder when it published. Here the recorder does not even exist yet."""
+    import time
+
+    from rclpy.executors import SingleThreadedExecutor
+
+    from tracker_msgs.msg import Target
+    from tracker_ptz_sim.bringup.demo import Recorder
+
+    context = rclpy.Context()
+    rclpy.init(context=context)
+    try:
+        early = rclpy.create_node("early_publisher", context=context)
+        publisher = early.create_publisher(Target, "target", result_qos())
+        for _ in range(3):
+            publisher.publish(Target())
+        bag = _Bag()
+        recorder = Recorder(load_graph(), bag, context=context)
+        executor = SingleThreadedExecutor(context=context)
+        executor.add_node(recorder)
+        deadline = time.monotonic() + 10.0
+        while bag.written.get("/target", 0) < 3 and time.monotonic() < deadline:
+            executor.spin_once(timeout_sec=0.05)
+        assert bag.written.get("/target") == 3
+        recorder.destroy_node()
+        early.destroy_node()
+    finally:
+        rclpy.shutdown(context=context)

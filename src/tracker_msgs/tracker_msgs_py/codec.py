@@ -58,22 +58,28 @@ def image_qos(reliable: bool = False, depth: int | None = None) -> QoSProfile:
 RESULT_DEPTH = 200  # per-frame results: a recorder stalled ~20 s at 10 fps still loses nothing
 
 
-def result_qos() -> QoSProfile:
+def result_qos(late_joiners: bool = True) -> QoSProfile:
     """Reliable QoS for small per-frame results (detections, tracks, target, pan-tilt state and
     commands). Keep-last history still drops a sample a slow reader has not yet acknowledged
     once `depth` newer ones are queued, so the depth covers a recorder that stalls on disk while
-    the graph keeps running; the messages are small, so the memory is a few hundred kB."""
-    return _keep_last(RESULT_DEPTH, reliable=True)
+    the graph keeps running; the messages are small, so the memory is a few hundred kB.
+
+    Publishers keep that history for late joiners too (transient local): a reader whose
+    discovery completes after the first frames -- the recorder on a loaded machine, where a
+    node's writer learnt of it only after publishing frame 1 -- still gets them when it asks
+    (`late_joiners`). A node that acts on what it receives asks for `late_joiners=False`
+    (volatile): restarted, it must not act on old messages."""
+    return _keep_last(RESULT_DEPTH, reliable=True, durable=late_joiners)
 
 
-def _keep_last(depth: int, reliable: bool) -> QoSProfile:
+def _keep_last(depth: int, reliable: bool, durable: bool = False) -> QoSProfile:
     from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
     return QoSProfile(
         history=HistoryPolicy.KEEP_LAST,
         depth=depth,
         reliability=ReliabilityPolicy.RELIABLE if reliable else ReliabilityPolicy.BEST_EFFORT,
-        durability=DurabilityPolicy.VOLATILE,
+        durability=DurabilityPolicy.TRANSIENT_LOCAL if durable else DurabilityPolicy.VOLATILE,
     )
 
 

@@ -40,6 +40,7 @@ from pathlib import Path
 from typing import Any
 
 import rclpy
+from rclpy.event_handler import SubscriptionEventCallbacks
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
@@ -47,6 +48,7 @@ from rclpy.signals import SignalHandlerOptions
 
 from tracker_msgs.msg import ReplayStatus
 from tracker_msgs_py import stop_signals
+from tracker_msgs_py.codec import result_qos
 from tracker_msgs_py.params import config_from_params
 from tracker_ptz_sim.bringup.graph import (
     GRAPHS,
@@ -75,11 +77,18 @@ from tracker_ptz_sim.simulation.frame_sources import open_source
 STATUS_QUIET_S = 0.3  # no replay status for this long: a killed source's last ones have arrived
 RESPAWN_LIMIT = 5  # --respawn: restarts per node before the run gives up on it
 
-RECORD_QOS = QoSProfile(
-    history=HistoryPolicy.KEEP_LAST,
-    depth=200,
-    reliability=ReliabilityPolicy.RELIABLE,
-    durability=DurabilityPolicy.VOLATILE,
+#: What the suite's nodes publish with `codec.result_qos` (transient local): the recorder asks for
+#: their history, so a result published before its writer had discovered the recorder (the first
+#: frames, on a loaded machine) still reaches the bag. Images and clock come without history.
+RESULT_TYPES = frozenset(
+    {
+        "tracker_msgs/msg/BlobArray",
+        "tracker_msgs/msg/TrackArray",
+        "tracker_msgs/msg/Target",
+        "tracker_msgs/msg/PtzCommand",
+        "tracker_msgs/msg/PtzState",
+        "sensor_msgs/msg/JointState",
+    }
 )
 CLOCK_QOS = QoSProfile(
     history=HistoryPolicy.KEEP_LAST, depth=50, reliability=ReliabilityPolicy.BEST_EFFORT
@@ -96,15 +105,18 @@ class Recorder(Node):
     """Records the graph's topics (serialized, as received; images as JPEG on `<topic>/compressed`
     unless `raw_images`) and follows the replay's progress."""
 
-    def __init__(self, graph: Graph, bag: BagWriter, raw_images: bool = False) -> None:
-        super().__init__("run_recorder")
+    def __init__(
+        self, graph: Graph, bag: BagWriter, raw_images: bool = False, context: Any = None
+    ) -> None:
+        super().__init__("run_recorder", context=context)
         self.bag = bag
         self.status: ReplayStatus | None = None
         self.status_received = time.monotonic()
         self._keep = []
         for topic in graph.topics:
             msg_type = _import_type(topic.type)
-            qos = CLOCK_QOS if topic.name == "/clock" else RECORD_QOS
+            durable = topic.type in RESULT_TYPES
+            qos = CLOCK_QOS if topic.name == "/clock" else result_qos(late_joiners=durable)
             self._keep.append(
                 self.create_subscription(
                     msg_type,
@@ -114,9 +126,19 @@ class Recorder(Node):
                     else partial(self._record, topic.name),
                     qos,
                     raw=True,
+                    event_callbacks=SubscriptionEventCallbacks(
+                        incompatible_qos=partial(self._incompatible, topic.name)
+                    ),
                 )
             )
         self.create_subscription(ReplayStatus, "/replay/status", self._on_status, STATUS_QOS)
+
+    def _incompatible(self, topic: str, _event: object) -> None:
+        self.get_logger().error(
+            f"{topic} is not recorded: its publisher's QoS cannot match the recorder's (a result "
+            "must be published with tracker_msgs_py.codec.result_qos, which keeps a history)",
+            once=True,
+        )
 
     def _record(self, topic: str, data: bytes) -> None:
         self.bag.write(topic, time.time_ns(), data)

@@ -63,10 +63,11 @@ class LiveViewNode(SuiteNode):
         qos = image_qos(self.params["reliable_images"])
         self.create_subscription(Image, "camera/image_raw", self._on_camera, qos)
         self.create_subscription(Image, "scene/image_raw", self._on_scene, qos)
-        self.create_subscription(PtzState, "ptz/state", self._on_state, result_qos())
-        self.create_subscription(BlobArray, "detections", self._on_detections, result_qos())
-        self.create_subscription(TrackArray, "tracks", self._on_tracks, result_qos())
-        self.create_subscription(Target, "target", self._on_target, result_qos())
+        results = result_qos(late_joiners=False)  # what is happening now, not the history
+        self.create_subscription(PtzState, "ptz/state", self._on_state, results)
+        self.create_subscription(BlobArray, "detections", self._on_detections, results)
+        self.create_subscription(TrackArray, "tracks", self._on_tracks, results)
+        self.create_subscription(Target, "target", self._on_target, results)
         self.get_logger().info(
             f"live view on ws://{self.params['host']}:{self.view.port} (Foxglove: Open connection "
             "-> Foxglove WebSocket)"

@@ -163,7 +163,10 @@ class PtzCameraNode(SuiteNode):
         self.create_subscription(Image, "scene/image_raw", self._on_scene, qos)
         if self.standard:
             self.create_subscription(
-                JointState, "ptz/joint_command", self._on_joint_command, result_qos()
+                JointState,
+                "ptz/joint_command",
+                self._on_joint_command,
+                result_qos(late_joiners=False),
             )
         else:
             self.create_subscription(PtzCommandMsg, "ptz/command", self._on_command, 10)
