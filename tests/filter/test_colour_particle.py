@@ -14,6 +14,8 @@ from tracker_filter.colour_histograms import (
     coefficients,
     coefficients_reference,
     histogram,
+    ring_coefficients,
+    ring_coefficients_reference,
 )
 from tracker_filter.colour_particle import (
     RECOMMENDED_SIGMA,
@@ -74,6 +76,44 @@ def test_kernel_equals_one_numpy_histogram_per_rectangle(space):
     empty = (bounds[:, 2] == bounds[:, 0]) | (bounds[:, 3] == bounds[:, 1])
     assert empty.any() and np.all(fast[empty] == 0.0)
     assert coefficients(bins, bounds[:1] * 0 + [10, 10, 40, 60], refs, [0])[0] == pytest.approx(1.0)
+
+
+def test_ring_kernel_equals_numpy_over_the_ring_pixels():
+    rng = np.random.default_rng(1)
+    image = rng.integers(0, 256, size=(120, 160, 3), dtype=np.uint8)
+    bins = bin_image(image, ColourSpace.RGB, 16)
+    reference = np.sqrt(histogram(bins, [10, 10, 40, 60], bin_count(ColourSpace.RGB, 16)))
+    boxes = np.column_stack(
+        [rng.uniform(-20, 150, 200), rng.uniform(-20, 110, 200), rng.uniform(0, 60, (200, 2))]
+    )
+    grown = boxes + np.column_stack([-0.3 * boxes[:, 2:], 0.6 * boxes[:, 2:]])
+    inner, outer = clip_bounds(boxes, image.shape), clip_bounds(grown, image.shape)
+    for stride in (2, 1):
+        fast = ring_coefficients(bins, inner, outer, reference, stride)
+        np.testing.assert_allclose(
+            fast, ring_coefficients_reference(bins, inner, outer, reference, stride), atol=1e-12
+        )
+    ring_pixels = np.prod(outer[:, 2:] - outer[:, :2], axis=1) - np.prod(
+        inner[:, 2:] - inner[:, :2], axis=1
+    )
+    empty = ring_pixels == 0
+    assert empty.any() and np.all(fast[empty] == 0.0)
+
+
+def test_contrast_scores_a_box_shrunk_inside_the_person_below_the_right_one():
+    """A plain colour histogram scores a box inside the person as well as the person's box; with
+    the contrast cue the ring around the inner box, itself the person, gives it away."""
+    rng = np.random.default_rng(4)
+    image = np.clip(rng.normal(120, 8, size=(200, 300, 3)), 0, 255).astype(np.uint8)
+    image[50:150, 130:170] = (30, 30, 200)  # the person, 40 x 100 px
+    right, shrunk = np.array([130.0, 50, 40, 100]), np.array([140.0, 75, 20, 50])
+    plain, contrasted = HistogramAppearance(), HistogramAppearance(contrast=1.0)
+    for appearance in (plain, contrasted):
+        appearance.reference(image, right)
+    on_right, on_shrunk = plain.similarities(image, np.stack([right, shrunk]))
+    assert on_shrunk >= on_right - 0.01
+    on_right, on_shrunk = contrasted.similarities(image, np.stack([right, shrunk]))
+    assert on_right > 0.8 and on_shrunk < 0.1
 
 
 def test_region_covariances_equal_numpys_over_the_pixels():
@@ -297,3 +337,8 @@ def test_after_the_warm_up_similarities_compile_nothing():
         appearance.reference(image, np.array([10.0, 10.0, 20.0, 30.0]))
         appearance.similarities(image, rng.uniform(0, 40, (50, 4)) + [0, 0, 5, 5])
     assert before == len(colour_histograms._coefficients.signatures) == 1
+    rings = len(colour_histograms._ring_coefficients.signatures)
+    contrasted = HistogramAppearance(contrast=1.0)
+    contrasted.reference(image, np.array([10.0, 10.0, 20.0, 30.0]))
+    contrasted.similarities(image, rng.uniform(0, 40, (50, 4)) + [0, 0, 5, 5])
+    assert rings == len(colour_histograms._ring_coefficients.signatures) == 1

@@ -98,11 +98,57 @@ def coefficients(
     return out[inverse.ravel()]
 
 
+def ring_coefficients(
+    bins_of_pixels: np.ndarray,
+    inner: Bounds,
+    outer: Bounds,
+    sqrt_reference: np.ndarray,
+    stride: int = 1,
+) -> np.ndarray:
+    """rho_B against one reference of the ring between each pair of rectangles: the pixels of
+    outer[i] that are not in inner[i] (inner inside outer), of those only every `stride`-th
+    row and column of `bins_of_pixels` (a sample; 1: all). An empty ring has coefficient 0."""
+    out = np.empty(len(inner))
+    _ring_coefficients(
+        np.ascontiguousarray(bins_of_pixels, dtype=np.int32),
+        np.ascontiguousarray(inner, dtype=np.int64),
+        np.ascontiguousarray(outer, dtype=np.int64),
+        np.ascontiguousarray(sqrt_reference, dtype=np.float64),
+        int(stride),
+        out,
+    )
+    return out
+
+
 def warm_up() -> None:
-    """Compile (or load from numba's cache) the coefficient kernel now, not on a replay's first
+    """Compile (or load from numba's cache) the coefficient kernels now, not on a replay's first
     frames."""
     references = np.full((1, 4), 0.5)
-    coefficients(np.zeros((4, 4), np.int32), np.array([[0, 0, 2, 2]]), references, np.zeros(1))
+    bins = np.zeros((4, 4), np.int32)
+    coefficients(bins, np.array([[0, 0, 2, 2]]), references, np.zeros(1))
+    ring_coefficients(bins, np.array([[1, 1, 2, 2]]), np.array([[0, 0, 3, 3]]), references[0])
+
+
+def ring_coefficients_reference(
+    bins_of_pixels: np.ndarray,
+    inner: Bounds,
+    outer: Bounds,
+    sqrt_reference: np.ndarray,
+    stride: int = 1,
+) -> np.ndarray:
+    """`ring_coefficients` in plain NumPy (for tests)."""
+    count = len(sqrt_reference)
+    sampled = np.zeros(bins_of_pixels.shape, dtype=bool)
+    sampled[::stride, ::stride] = True
+    out = []
+    for (ix0, iy0, ix1, iy1), (ox0, oy0, ox1, oy1) in zip(inner, outer, strict=True):
+        ring = sampled.copy()
+        ring[:oy0], ring[oy1:], ring[:, :ox0], ring[:, ox1:] = False, False, False, False
+        ring[iy0:iy1, ix0:ix1] = False
+        counts = np.bincount(bins_of_pixels[ring], minlength=count).astype(float)
+        total = counts.sum()
+        out.append(float(np.sqrt(counts / total) @ sqrt_reference) if total else 0.0)
+    return np.array(out)
 
 
 def coefficients_reference(
@@ -146,3 +192,33 @@ def _coefficients(  # pragma: no cover
             total += np.sqrt(counts[b]) * reference[b]
         counts[:] = 0
         out[i] = total / np.sqrt(pixels)
+
+
+@numba.njit(cache=True, nogil=True)
+def _ring_coefficients(  # pragma: no cover
+    bins_of_pixels: np.ndarray,
+    inner: np.ndarray,
+    outer: np.ndarray,
+    sqrt_reference: np.ndarray,
+    stride: int,
+    out: np.ndarray,
+) -> None:
+    counts = np.zeros(len(sqrt_reference), np.int32)
+    held = np.flatnonzero(sqrt_reference)
+    for i in range(inner.shape[0]):
+        ix0, iy0, ix1, iy1 = inner[i, 0], inner[i, 1], inner[i, 2], inner[i, 3]
+        ox0, oy0, ox1, oy1 = outer[i, 0], outer[i, 1], outer[i, 2], outer[i, 3]
+        pixels = 0
+        for y in range(oy0 + (-oy0) % stride, oy1, stride):
+            row = bins_of_pixels[y]
+            beside = iy0 <= y < iy1 and ix1 > ix0  # a row through the box: its left and right
+            for x in range(ox0 + (-ox0) % stride, ox1, stride):
+                if beside and ix0 <= x < ix1:
+                    continue
+                counts[row[x]] += 1
+                pixels += 1
+        total = 0.0
+        for b in held:
+            total += np.sqrt(counts[b]) * sqrt_reference[b]
+        counts[:] = 0
+        out[i] = total / np.sqrt(pixels) if pixels > 0 else 0.0

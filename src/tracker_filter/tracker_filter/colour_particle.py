@@ -45,6 +45,7 @@ from tracker_filter.colour_histograms import (
     clip_bounds,
     coefficients,
     histogram,
+    ring_coefficients,
 )
 from tracker_filter.region_covariance import (
     forstner_distances,
@@ -173,6 +174,11 @@ class Appearance(Protocol):
         """Similarity of each box (N, 4) to the reference; 1 = identical."""
 
 
+#: The contrast cue's ring is sampled every 2nd row and column: a quarter of its cost, and its
+#: histogram only has to tell person from background.
+RING_STRIDE = 2
+
+
 @dataclass
 class HistogramAppearance:
     """Colour histogram(s) and the Bhattacharyya coefficient (the baseline, Ext 3 and Ext 4).
@@ -183,14 +189,25 @@ class HistogramAppearance:
     `background_weighting` (not the thesis's): the reference is Comaniciu's background-weighted
     histogram, bin u scaled by min(o* / o_u, 1) with o the histogram of the start box's
     surroundings (the box grown by `background_margin` x its size per side), then normalised. A
-    person's box is mostly background; without this, every box near them scores 0.7-0.9."""
+    person's box is mostly background; without this, every box near them scores 0.7-0.9.
+
+    `contrast` (not the thesis's): a scale cue. A colour histogram scores a box shrunk inside the
+    person as well as the right one, so a box's coefficient is multiplied by
+        (1 - contrast * rho_ring) ^ contrast_power
+    with rho_ring the coefficient against the (whole-box) reference of the ring around it (the box
+    grown by `contrast_margin` x its size per side): a box inside the person has the person around
+    it, the right one the background; a box too large loses its own coefficient."""
 
     space: ColourSpace = ColourSpace.RGB
     bins: int = 16
     regions: int = 1
     background_weighting: bool = False
     background_margin: float = 1.0
+    contrast: float = 0.0
+    contrast_margin: float = 0.2
+    contrast_power: float = 2.0
     _sqrt_references: np.ndarray | None = None
+    _sqrt_whole: np.ndarray | None = None
 
     def _bands(self, boxes: np.ndarray) -> np.ndarray:
         """Each box's `regions` bands, box by box: (N * regions, 4)."""
@@ -211,6 +228,7 @@ class HistogramAppearance:
             hists = hists * background_weights(self._surroundings(bins_of_pixels, box, count))
             hists /= np.maximum(hists.sum(axis=1, keepdims=True), 1e-12)
         self._sqrt_references = np.sqrt(hists)
+        self._sqrt_whole = np.sqrt(hists.mean(axis=0))  # the bands have equal pixel counts
 
     def _surroundings(self, bins_of_pixels: np.ndarray, box: np.ndarray, count: int) -> np.ndarray:
         """Pixel counts per bin of the ring around `box` (grown by background_margin x its size
@@ -244,7 +262,24 @@ class HistogramAppearance:
         bounds -= np.array([x0, y0, x0, y0])
         which = np.tile(np.arange(self.regions), len(boxes))
         rho = coefficients(bins_of_pixels, bounds, self._sqrt_references, which)
-        return rho.reshape(len(boxes), self.regions).prod(axis=1)
+        rho = rho.reshape(len(boxes), self.regions).prod(axis=1)
+        if self.contrast <= 0 or self._sqrt_whole is None:
+            return rho
+        return rho * self._ring_factors(image, np.asarray(boxes, float), self._sqrt_whole)
+
+    def _ring_factors(
+        self, image: np.ndarray, boxes: np.ndarray, sqrt_whole: np.ndarray
+    ) -> np.ndarray:
+        """(1 - contrast * rho_ring) ^ contrast_power per box (see the class docstring)."""
+        margin = self.contrast_margin
+        grown = boxes + np.column_stack([-margin * boxes[:, 2:], 2 * margin * boxes[:, 2:]])
+        outer = clip_bounds(grown, image.shape)
+        x0, y0, x1, y1 = _covering(outer)
+        shift = np.array([x0, y0, x0, y0])
+        inner = clip_bounds(boxes, image.shape) - shift
+        bins_of_pixels = bin_image(image[y0:y1, x0:x1], self.space, self.bins)
+        rho_ring = ring_coefficients(bins_of_pixels, inner, outer - shift, sqrt_whole, RING_STRIDE)
+        return np.clip(1.0 - self.contrast * rho_ring, 0.0, 1.0) ** self.contrast_power
 
 
 def _covering(bounds: np.ndarray) -> tuple[int, int, int, int]:

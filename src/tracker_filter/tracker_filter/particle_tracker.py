@@ -49,12 +49,14 @@ LAYOUT = StateLayout.from_names("x y vx vy w h")
 APPEARANCES = ("rgb", "hsv", "three_regions", "covariance")
 
 
-def make_appearance(name: str, bins: int, background_weighting: bool) -> Appearance:
+def make_appearance(
+    name: str, bins: int, background_weighting: bool, contrast: float = 0.0
+) -> Appearance:
     if name == "covariance":
         return CovarianceAppearance()
     space = ColourSpace.HSV if name == "hsv" else ColourSpace.RGB
     regions = 3 if name == "three_regions" else 1
-    return HistogramAppearance(space, bins, regions, background_weighting)
+    return HistogramAppearance(space, bins, regions, background_weighting, contrast=contrast)
 
 
 def _view(observation: Observation) -> ImageView | None:
@@ -76,6 +78,7 @@ class ColourParticleTracker:
         appearance: str = "rgb",
         bins: int = 16,
         background_weighting: bool = True,
+        contrast: float = 0.0,
         min_similarity: float = 0.3,
         new_track_iou: float = 0.3,
         confirm_hits: int = 3,
@@ -87,6 +90,7 @@ class ColourParticleTracker:
     ) -> None:
         self.config, self.appearance, self.bins = config, appearance, bins
         self.background_weighting, self.min_similarity = background_weighting, min_similarity
+        self.contrast = contrast
         self.new_track_iou, self.confirm_hits, self.max_misses = (
             new_track_iou,
             confirm_hits,
@@ -131,7 +135,9 @@ class ColourParticleTracker:
         started: list[int] = []
         for i in new:
             rng = np.random.default_rng([self.random_seed, self.book.next_id + len(started)])
-            appearance = make_appearance(self.appearance, self.bins, self.background_weighting)
+            appearance = make_appearance(
+                self.appearance, self.bins, self.background_weighting, self.contrast
+            )
             try:
                 f = ColourParticleFilter(image, found.bboxes[i], appearance, self.config, rng, view)
             except ValueError:  # a box too small or outside the image: nothing to follow
@@ -245,6 +251,14 @@ PARAMETERS: tuple[ParamSpec, ...] = (
         "reference weighted by the start box's surroundings (Comaniciu; not the thesis's)",
     ),
     ParamSpec(
+        "contrast",
+        0.0,
+        "scale cue: a box's score x (1 - contrast x its surrounding ring's match)^2 (0: off; "
+        "not the thesis's)",
+        0.0,
+        1.0,
+    ),
+    ParamSpec(
         "noise_scale",
         8.0,
         "x the thesis's noise std per component (1: its 0.5 px, 0.25 px/frame...)",
@@ -303,6 +317,7 @@ def build(values: Mapping[str, Any], first_id: int = 1) -> ColourParticleTracker
         appearance=values["appearance"],
         bins=values["bins"],
         background_weighting=values["background_weighting"],
+        contrast=values["contrast"],
         min_similarity=values["min_similarity"],
         new_track_iou=values["new_track_iou"],
         confirm_hits=values["confirm_hits"],

@@ -18,8 +18,9 @@ nominal or robust (exact lambda) Kalman filter (the thesis's future work). Seed 
 particle filter (750 particles, K = 16; its random generator seeded by the person's id) as the
 rows of its thesis's algorithm table: baseline, Ext 1 sigmoid, Ext 3 HSV, Ext 5 region covariance,
 final (Ext 1 + Ext 2); then the final algorithm with 8 x the thesis's noise, alone, with a
-background-weighted reference, and coasting through occlusions as well (the colour_particles
-tracker's defaults). With --runs R every particle filter runs R times per person with
+background-weighted reference, coasting through occlusions as well (the colour_particles
+tracker's defaults), and with the contrast scale cue on top (`contrast` 1). With --runs R
+every particle filter runs R times per person with
 different seeds (person id + 1000 r) and the table gives the mean over runs and sigma_Q, the standard
 deviation of a run's Q over the runs (the thesis's 10 runs). --sweep runs instead the best particle
 filter with 100 / 500 / 750 / 2000 particles and K = 8 / 16 / 32 bins per channel.
@@ -147,6 +148,10 @@ VARIANTS: dict[str, Variant | ParticleVariant] = {
     # ... and coasting through occlusions (the colour_particles tracker's defaults)
     "particles, final, 8 x sigma, background-weighted, coasting": ParticleVariant(
         lambda: HistogramAppearance(background_weighting=True), COASTING
+    ),
+    # ... with a scale cue: the ring around a box must not look like the person
+    "particles, final, 8 x sigma, background-weighted, coasting, contrast": ParticleVariant(
+        lambda: HistogramAppearance(background_weighting=True, contrast=1.0), COASTING
     ),
 }
 
