@@ -22,7 +22,6 @@ from pathlib import Path
 import numpy as np
 import rclpy
 from rclpy.node import Node
-from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import Image
 
 from tracker_msgs.msg import PtzCommand, ReplayStatus
@@ -31,6 +30,7 @@ from tracker_ptz_sim.bringup.demo import install_space
 from tracker_ptz_sim.bringup.graph import load_graph
 from tracker_ptz_sim.bringup.processes import GraphProcesses
 from tracker_ptz_sim.bringup.sample import sample_or_synthetic
+from tracker_ptz_sim.simulation.video_source_node import STATUS_QOS
 
 OUT = Path("out/bench")
 FREE_RUNNING_WINDOW_S = 4.0
@@ -52,12 +52,7 @@ class Probe(Node):
             self.create_subscription(Image, "scene/image_raw", self._on_scene, qos)
         self.create_subscription(Image, "camera/image_raw", self._on_camera, qos)
         self.published = 0
-        status_qos = QoSProfile(
-            depth=10,
-            reliability=ReliabilityPolicy.RELIABLE,
-            durability=DurabilityPolicy.TRANSIENT_LOCAL,
-        )
-        self.create_subscription(ReplayStatus, "replay/status", self._on_status, status_qos)
+        self.create_subscription(ReplayStatus, "replay/status", self._on_status, STATUS_QOS)
 
     def _on_status(self, msg: ReplayStatus) -> None:
         self.published = max(self.published, int(msg.frames_published))

@@ -165,6 +165,19 @@ def coefficients_reference(
 
 
 @numba.njit(cache=True, nogil=True)
+def _take_coefficient(  # pragma: no cover
+    counts: np.ndarray, pixels: int, held: np.ndarray, sqrt_reference: np.ndarray
+) -> float:
+    """rho_B of the histogram counted in `counts` (`pixels` > 0 of them) against a reference
+    whose non-zero bins are `held`; empties `counts` for the next rectangle."""
+    total = 0.0
+    for b in held:
+        total += np.sqrt(counts[b]) * sqrt_reference[b]
+    counts[:] = 0
+    return total / np.sqrt(pixels)
+
+
+@numba.njit(cache=True, nogil=True)
 def _coefficients(  # pragma: no cover
     bins_of_pixels: np.ndarray,
     bounds: np.ndarray,
@@ -186,12 +199,7 @@ def _coefficients(  # pragma: no cover
             row = bins_of_pixels[y]
             for x in range(x0, x1):
                 counts[row[x]] += 1
-        reference = sqrt_references[which[i]]
-        total = 0.0
-        for b in held[which[i]]:
-            total += np.sqrt(counts[b]) * reference[b]
-        counts[:] = 0
-        out[i] = total / np.sqrt(pixels)
+        out[i] = _take_coefficient(counts, pixels, held[which[i]], sqrt_references[which[i]])
 
 
 @numba.njit(cache=True, nogil=True)
@@ -217,8 +225,4 @@ def _ring_coefficients(  # pragma: no cover
                     continue
                 counts[row[x]] += 1
                 pixels += 1
-        total = 0.0
-        for b in held:
-            total += np.sqrt(counts[b]) * sqrt_reference[b]
-        counts[:] = 0
-        out[i] = total / np.sqrt(pixels) if pixels > 0 else 0.0
+        out[i] = _take_coefficient(counts, pixels, held, sqrt_reference) if pixels > 0 else 0.0

@@ -254,32 +254,32 @@ class HistogramAppearance:
         return (counts(outer) - counts(inner)).astype(float)
 
     def similarities(self, image: np.ndarray, boxes: np.ndarray) -> np.ndarray:
-        if self._sqrt_references is None:
+        if self._sqrt_references is None or self._sqrt_whole is None:
             raise RuntimeError("similarities before a reference was taken")
+        boxes = np.asarray(boxes, float)
         bounds = clip_bounds(self._bands(boxes), image.shape)
-        x0, y0, x1, y1 = _covering(bounds)  # bins of only the part the rectangles cover
+        rings = self._rings(boxes, image.shape) if self.contrast > 0 else None
+        # bins of only the part the rectangles (and their rings, which hold them) cover
+        x0, y0, x1, y1 = _covering(bounds if rings is None else rings)
         bins_of_pixels = bin_image(image[y0:y1, x0:x1], self.space, self.bins)
-        bounds -= np.array([x0, y0, x0, y0])
+        shift = np.array([x0, y0, x0, y0])
         which = np.tile(np.arange(self.regions), len(boxes))
-        rho = coefficients(bins_of_pixels, bounds, self._sqrt_references, which)
+        rho = coefficients(bins_of_pixels, bounds - shift, self._sqrt_references, which)
         rho = rho.reshape(len(boxes), self.regions).prod(axis=1)
-        if self.contrast <= 0 or self._sqrt_whole is None:
+        if rings is None:
             return rho
-        return rho * self._ring_factors(image, np.asarray(boxes, float), self._sqrt_whole)
+        inner = clip_bounds(boxes, image.shape) - shift
+        rho_ring = ring_coefficients(
+            bins_of_pixels, inner, rings - shift, self._sqrt_whole, RING_STRIDE
+        )
+        # (1 - contrast * rho_ring) ^ contrast_power (see the class docstring)
+        return rho * np.clip(1.0 - self.contrast * rho_ring, 0.0, 1.0) ** self.contrast_power
 
-    def _ring_factors(
-        self, image: np.ndarray, boxes: np.ndarray, sqrt_whole: np.ndarray
-    ) -> np.ndarray:
-        """(1 - contrast * rho_ring) ^ contrast_power per box (see the class docstring)."""
+    def _rings(self, boxes: np.ndarray, shape: tuple[int, ...]) -> np.ndarray:
+        """The bounds of each box grown by `contrast_margin` x its size per side."""
         margin = self.contrast_margin
         grown = boxes + np.column_stack([-margin * boxes[:, 2:], 2 * margin * boxes[:, 2:]])
-        outer = clip_bounds(grown, image.shape)
-        x0, y0, x1, y1 = _covering(outer)
-        shift = np.array([x0, y0, x0, y0])
-        inner = clip_bounds(boxes, image.shape) - shift
-        bins_of_pixels = bin_image(image[y0:y1, x0:x1], self.space, self.bins)
-        rho_ring = ring_coefficients(bins_of_pixels, inner, outer - shift, sqrt_whole, RING_STRIDE)
-        return np.clip(1.0 - self.contrast * rho_ring, 0.0, 1.0) ** self.contrast_power
+        return clip_bounds(grown, shape)
 
 
 def _covering(bounds: np.ndarray) -> tuple[int, int, int, int]:

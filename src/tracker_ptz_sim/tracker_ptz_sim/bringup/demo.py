@@ -43,7 +43,7 @@ import rclpy
 from rclpy.event_handler import SubscriptionEventCallbacks
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
-from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.signals import SignalHandlerOptions
 
 from tracker_msgs.msg import ReplayStatus
@@ -73,6 +73,7 @@ from tracker_ptz_sim.evaluation.recording import (
 )
 from tracker_ptz_sim.simulation.camera_model import PtzCameraModel, PtzConfig
 from tracker_ptz_sim.simulation.frame_sources import open_source
+from tracker_ptz_sim.simulation.video_source_node import STATUS_QOS
 
 STATUS_QUIET_S = 0.3  # no replay status for this long: a killed source's last ones have arrived
 RESPAWN_LIMIT = 5  # --respawn: restarts per node before the run gives up on it
@@ -92,12 +93,6 @@ RESULT_TYPES = frozenset(
 )
 CLOCK_QOS = QoSProfile(
     history=HistoryPolicy.KEEP_LAST, depth=50, reliability=ReliabilityPolicy.BEST_EFFORT
-)
-STATUS_QOS = QoSProfile(
-    history=HistoryPolicy.KEEP_LAST,
-    depth=10,
-    reliability=ReliabilityPolicy.RELIABLE,
-    durability=DurabilityPolicy.TRANSIENT_LOCAL,
 )
 
 
