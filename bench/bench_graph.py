@@ -6,9 +6,12 @@ start-up is left out in both modes), the frames video_source published and the r
 per-hop latency (p50/p95), CPU time per process (every node, video_source included, and the
 recorder), and the in-process ceiling: the same components stepped in one plain
 loop (`bringup/pipeline.py`, tested equal to the graph) on the same frames, decoding included.
-Then the same replay with every node in one process (`run_demo --single-process`) under each of
-rclpy's executors (single-threaded, multi-threaded, the experimental events one), each checked
-for the same tracks as the separate processes. Writes
+Then the same replay pipelined (`run_demo --frames-in-flight N`, N = 2 and 3: the nodes work on
+N frames at once and the camera applies each command N frames later), each checked for the same
+windows, targets and tracks as the in-process pipeline with the same delay; and with every node
+in one process (`run_demo --single-process`) under each of rclpy's executors (single-threaded,
+multi-threaded, the experimental events one), each checked for the same tracks as the separate
+processes. Writes
 out/bench/graph.json. Targets (issue 16): >= 0.6 x the ceiling and >= 130 frames/s,
 camera-to-command p95 <= 10 ms.
 """
@@ -23,9 +26,9 @@ from dataclasses import asdict
 from pathlib import Path
 
 from tracker_ptz_sim.bringup import demo, pipeline
-from tracker_ptz_sim.bringup.graph import Graph, load_graph
+from tracker_ptz_sim.bringup.graph import Graph, load_graph, pipelined
 from tracker_ptz_sim.bringup.sample import sample_or_synthetic
-from tracker_ptz_sim.evaluation import run_report
+from tracker_ptz_sim.evaluation import run_report, scoring
 from tracker_ptz_sim.simulation.frame_sources import open_source
 
 OUT = Path("out/bench")
@@ -46,6 +49,7 @@ def main() -> int:
     published = int(run.replay.get("frames_published", 0))
     graph_fps = summary.throughput_fps  # first to last scene image at the recorder
     reference = mot_text(frames, run_dir / "tracks.txt")
+    in_flight = {n: pipelined_run(graph, video, n) for n in (2, 3)}
     one_process = {
         executor: single_process_run(graph, video, executor, reference)
         for executor in ("single", "multi", "events")
@@ -57,6 +61,20 @@ def main() -> int:
     print(f"  graph throughput                     {graph_fps:.1f} frames/s")
     print(f"  in-process ceiling (same run)        {ceiling_fps:.1f} frames/s")
     print(f"  graph / ceiling                      {graph_fps / ceiling_fps:.2f}")
+    print(
+        f"  camera image -> command p50 / p95      "
+        f"{summary.latency_ms['camera image -> command']['p50']:.1f} / "
+        f"{summary.latency_ms['camera image -> command']['p95']:.1f} ms"
+    )
+    for n, row in in_flight.items():
+        print(
+            f"  {n} frames in flight                    {row['fps']:.1f} frames/s, "
+            f"{row['fps'] / ceiling_fps:.2f} x the ceiling, camera image -> command p50 / p95 "
+            f"{row['command_p50_ms']:.1f} / {row['command_p95_ms']:.1f} ms, "
+            f"{row['cpu_ms_per_frame']:.1f} ms of CPU per frame, tracks "
+            f"{'the same as' if row['same_as_in_process'] else 'OTHER than'} in process with "
+            f"a {n}-frame delay"
+        )
     for executor, row in one_process.items():
         print(
             f"  one process, {executor:<6} executor       {row['fps']:.1f} frames/s, "
@@ -80,6 +98,7 @@ def main() -> int:
         "graph_fps": graph_fps,
         "in_process_fps": ceiling_fps,
         "graph_over_ceiling": graph_fps / ceiling_fps,
+        "frames_in_flight": in_flight,
         "one_process": one_process,
     }
     OUT.mkdir(parents=True, exist_ok=True)
@@ -90,6 +109,37 @@ def main() -> int:
 def mot_text(frames: dict, path: Path) -> str:
     run_report.write_mot(frames, path)
     return path.read_text()
+
+
+def pipelined_run(graph: Graph, video: Path, frames_in_flight: int) -> dict:
+    """`run_demo --frames-in-flight N`, against the in-process pipeline with the same delay."""
+    out = OUT / f"graph_run_in_flight_{frames_in_flight}"
+    overrides = pipelined(frames_in_flight)
+    run = demo.run_graph(graph, video, out, overrides, demo.install_space(), timeout=1800.0)
+    frames = run_report.collect(run.bag)
+    summary = run_report.summarize(frames, run_report.message_counts(frames))
+    recorded = scoring.trace_from_frames(frames)
+    source = open_source(video)
+    images, stamps = itertools.tee(source.frames())
+    steps = pipeline.run(
+        (frame.image for frame in images),
+        (frame.stamp_ns for frame in stamps),
+        pipeline.PipelineSettings.from_graph(graph, overrides),
+    )
+    expected = scoring.trace_from_steps(steps, source.fps)
+    latency = summary.latency_ms["camera image -> command"]
+    return {
+        "fps": summary.throughput_fps,
+        "command_p50_ms": latency["p50"],
+        "command_p95_ms": latency["p95"],
+        "cpu_ms_per_frame": 1000 * sum(run.cpu_seconds.values()) / max(1, summary.frames),
+        "same_as_in_process": (
+            recorded.windows == expected.windows
+            and recorded.target_ids == expected.target_ids
+            and recorded.hypotheses == expected.hypotheses
+        ),
+        "complete": run.complete,
+    }
 
 
 def single_process_run(graph: Graph, video: Path, executor: str, reference: str) -> dict:

@@ -2,7 +2,9 @@
 
 Two modes, both as separate processes started from the install space:
 - lockstep: this process acknowledges every camera image at once (a controller that costs
-  nothing), so no frame is lost and the number is the pair's deterministic throughput;
+  nothing), so no frame is lost and the number is the pair's deterministic throughput; in series
+  (1 frame in flight) and pipelined (2 and 3 frames in flight, the camera delaying each command
+  as many frames);
 - free-running: rate 0 without lockstep, the clip looping; over a steady window of
   FREE_RUNNING_WINDOW_S once the camera's first image is through (a free-running source does not
   wait for its readers, so how many of the very first frames pass depends on discovery), frames
@@ -27,7 +29,7 @@ from sensor_msgs.msg import Image
 from tracker_msgs.msg import PtzCommand, ReplayStatus
 from tracker_msgs_py.codec import image_qos, stamp_to_ns
 from tracker_ptz_sim.bringup.demo import install_space
-from tracker_ptz_sim.bringup.graph import load_graph
+from tracker_ptz_sim.bringup.graph import load_graph, pipelined
 from tracker_ptz_sim.bringup.processes import GraphProcesses
 from tracker_ptz_sim.bringup.sample import sample_or_synthetic
 from tracker_ptz_sim.simulation.video_source_node import STATUS_QOS
@@ -39,16 +41,16 @@ FREE_RUNNING_WINDOW_S = 4.0
 class Probe(Node):
     """Receive times of scene and camera images; optionally acknowledges each camera image."""
 
-    def __init__(self, acknowledge: bool) -> None:
+    def __init__(self, acknowledge: bool, scene_times: bool) -> None:
         super().__init__("replay_probe")
         self.scene: dict[int, int] = {}
         self.camera: dict[int, int] = {}
         self.acknowledge = acknowledge
         self.ack_pub = self.create_publisher(PtzCommand, "ptz/command", 10)
         qos = image_qos(reliable=acknowledge)
-        if acknowledge:
-            # Free-running, a second reader of the 1.3 MB scene images would itself be the
-            # bottleneck (and can stall the writer), so scene receive times are lockstep-only.
+        if scene_times:
+            # A second reader of the 1.3 MB scene images costs as much CPU as the camera's
+            # reading, and the graph has none: only the latency runs have it.
             self.create_subscription(Image, "scene/image_raw", self._on_scene, qos)
         self.create_subscription(Image, "camera/image_raw", self._on_camera, qos)
         self.published = 0
@@ -74,17 +76,25 @@ def spin_for(probe: Probe, seconds: float) -> None:
         rclpy.spin_once(probe, timeout_sec=0.01)
 
 
-def run(video: Path, lockstep: bool) -> dict:
+def run(video: Path, lockstep: bool, frames_in_flight: int = 1, scene_times: bool = False) -> dict:
+    """One replay; `scene_times` also reads the scene images, for the hop's latency."""
     rclpy.init()
-    probe = Probe(acknowledge=lockstep)
+    probe = Probe(acknowledge=lockstep, scene_times=scene_times)
     with tempfile.TemporaryDirectory() as logs:
         nodes = GraphProcesses(load_graph(), install_space(), Path(logs))
         common = {"lockstep": lockstep, "reliable_images": lockstep, "use_sim_time": False}
-        nodes.start("ptz_camera", common)
+        in_flight = pipelined(frames_in_flight)
+        nodes.start("ptz_camera", {**common, **in_flight["ptz_camera"]})
         deadline = time.monotonic() + 30
         while probe.count_publishers("camera/image_raw") == 0 and time.monotonic() < deadline:
             rclpy.spin_once(probe, timeout_sec=0.05)
-        source = {**common, "path": str(video), "rate": 0.0, "wait_for_subscribers": 2}
+        source = {
+            **common,
+            **in_flight["video_source"],
+            "path": str(video),
+            "rate": 0.0,
+            "wait_for_subscribers": 2 if scene_times else 1,
+        }
         if lockstep:
             process = nodes.start("video_source", source)
             while process.poll() is None:
@@ -107,6 +117,7 @@ def run(video: Path, lockstep: bool) -> dict:
         seconds = (end[2] - start[2]) / 1e9
         return {
             "mode": "free-running",
+            "frames_in_flight": None,
             "frames_published": published,
             "frames_through_camera": through,
             "published_fps": published / seconds,
@@ -122,7 +133,9 @@ def run(video: Path, lockstep: bool) -> dict:
     duration = (times[-1] - times[0]) / 1e9 if len(times) > 1 else float("nan")
     return {
         "mode": "lockstep",
-        "frames_published": len(probe.scene),
+        "frames_in_flight": frames_in_flight,
+        "scene_times": scene_times,
+        "frames_published": probe.published,
         "frames_through_camera": len(probe.camera),
         "throughput_fps": (len(times) - 1) / duration,
         "latency_ms_p50": float(np.percentile(hop, 50)),
@@ -133,17 +146,24 @@ def run(video: Path, lockstep: bool) -> dict:
 def main() -> int:
     video, note = sample_or_synthetic()
     print(note)
-    results = [run(video, lockstep=True), run(video, lockstep=False)]
+    results = [run(video, lockstep=True, frames_in_flight=n) for n in (1, 2, 3)]
+    results += [run(video, lockstep=True, frames_in_flight=n, scene_times=True) for n in (1, 2)]
+    results.append(run(video, lockstep=False))
     print(f"\nvideo_source -> ptz_camera on {video.name}:")
     print(
-        f"  {'mode':<13} {'frames in':>9} {'through':>8} {'frames/s':>9} {'hop p50':>8} {'hop p95':>8}"
+        f"  {'mode':<34} {'frames in':>9} {'through':>8} {'frames/s':>9} {'hop p50':>8} "
+        f"{'hop p95':>8}"
     )
     for r in results:
+        mode = r["mode"] + (
+            f", {r['frames_in_flight']} in flight" if r["frames_in_flight"] is not None else ""
+        )
+        mode += ", scene read" if r.get("scene_times") else ""
         print(
-            f"  {r['mode']:<13} {r['frames_published']:>9} {r['frames_through_camera']:>8} "
+            f"  {mode:<34} {r['frames_published']:>9} {r['frames_through_camera']:>8} "
             f"{r['throughput_fps']:>9.1f} {r['latency_ms_p50']:>6.2f}ms {r['latency_ms_p95']:>6.2f}ms"
         )
-    free = results[1]
+    free = results[-1]
     print(
         f"  free-running over {FREE_RUNNING_WINDOW_S:.0f} s: {free['published_fps']:.0f} frames/s "
         f"published, {100 * free['dropped_share']:.0f} % of them dropped before the camera"

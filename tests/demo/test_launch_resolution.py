@@ -164,9 +164,22 @@ def test_a_wildcard_override_after_a_files_node_section_loses_to_it(tmp_path):
         assert controller.value("mode") == "servo"
 
 
+def test_frames_in_flight_pipelines_the_source_and_delays_the_camera_as_many(tmp_path):
+    planned = plan(LaunchArguments(video="/data/v.avi", frames_in_flight=3))
+    with Resolved(launch_ros_command(node(planned, "video_source"), tmp_path)) as source:
+        assert source.value("frames_in_flight") == 3 and source.value("lockstep") is True
+    with Resolved(launch_ros_command(node(planned, "ptz_camera"), tmp_path)) as camera:
+        assert camera.value("command_delay_frames") == 3
+    in_series = plan(LaunchArguments(video="/data/v.avi"))
+    with Resolved(launch_ros_command(node(in_series, "ptz_camera"), tmp_path)) as camera:
+        assert camera.value("command_delay_frames") == UNSET  # the node's default, 1
+
+
 def test_bad_arguments_are_named():
     with pytest.raises(ValueError, match="video:="):
         plan(LaunchArguments())
+    with pytest.raises(ValueError, match="frames_in_flight must be in"):
+        plan(LaunchArguments(video="v.avi", frames_in_flight=0))
     with pytest.raises(ValueError, match="camera must be one of sim, live"):
         plan(LaunchArguments(camera="usb"))
     with pytest.raises(ValueError, match="needs a clock"):

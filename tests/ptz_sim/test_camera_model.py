@@ -98,6 +98,55 @@ def test_command_latency_delays_the_motion():
     assert camera.advance(0.2).pan == pytest.approx(0.1, abs=1 / camera.geometry.focal_length)
 
 
+def pan_per_frame(camera, commands, frames=5):
+    """Pan at frames 0.. (DT apart); `commands[i]` is given after frame i, answering it."""
+    pans = []
+    for index in range(frames):
+        pans.append(camera.advance(index * DT).pan)
+        if index in commands:
+            camera.command(commands[index])
+    return pans
+
+
+@pytest.mark.parametrize("delay", [1, 2, 3])
+def test_a_command_acts_from_the_frame_its_delay_names(delay):
+    camera = model(servo="instant", command_delay_frames=delay)
+    pans = pan_per_frame(camera, {0: PtzCommand(0.0, "position", pan=0.1)})
+    moved = [pan != 0.0 for pan in pans]
+    assert moved == [index >= delay for index in range(5)]
+
+
+def test_a_late_command_acts_from_the_same_frame_as_an_early_one():
+    """Pipelined lockstep: the answer to frame 0 may reach the camera before or after frame 1 is
+    rendered; with a delay of 2 frames it acts from frame 2 either way (the replay is
+    deterministic)."""
+    early = model(servo="instant", command_delay_frames=2)
+    late = model(servo="instant", command_delay_frames=2)
+    early.advance(0.0)
+    early.command(PtzCommand(0.0, "position", pan=0.1))
+    late.advance(0.0)
+    assert early.advance(DT).pan == late.advance(DT).pan == 0.0
+    late.command(PtzCommand(0.0, "position", pan=0.1))
+    assert early.advance(2 * DT).pan == late.advance(2 * DT).pan != 0.0
+
+
+def test_a_command_stamped_between_frames_answers_the_frame_before_it():
+    camera = model(servo="instant", command_delay_frames=2)
+    camera.advance(0.0)
+    camera.command(PtzCommand(0.05, "position", pan=0.1))  # after frame 0, before frame 1
+    assert camera.advance(DT).pan == 0.0
+    assert camera.advance(2 * DT).pan != 0.0
+
+
+def test_the_velocity_watchdog_counts_from_when_a_delayed_command_acts():
+    camera = model(velocity_timeout=0.25, max_acceleration=100.0, command_delay_frames=3)
+    pans = pan_per_frame(
+        camera, {0: PtzCommand(0.0, "velocity", pan_rate=0.2)}, frames=6
+    )  # acts from 0.2 s (the interval before frame 3), not from its stamp
+    assert pans[:3] == [0.0, 0.0, 0.0]
+    assert pans[3] < pans[4] < pans[5]  # still turning after stamp + timeout (0.25 s)
+
+
 def test_hold_stops_immediately():
     camera = model(max_acceleration=1000.0)
     camera.advance(0.0)

@@ -143,3 +143,35 @@ def test_malformed_images_of_one_encoding_are_told_apart(harness, capfd):
     harness.spin_until(lambda: len(harness.received["ptz/state"]) == 1)
     err = capfd.readouterr().err
     assert "fewer bytes than step x height" in err and "step is shorter than a row" in err
+
+
+def test_pipelined_lockstep_waits_only_for_the_command_its_delay_needs():
+    """command_delay_frames 2: image n waits for the answer to image n - 2, not n - 1, and the
+    images that arrive meanwhile wait in order."""
+    h = NodeHarness(
+        PtzCameraNode,
+        inputs={"scene/image_raw": (Image, image_qos(True)), "ptz/command": (PtzCommand, 50)},
+        outputs={"ptz/state": (PtzState, 50), "camera/image_raw": (Image, image_qos(True))},
+        reliable_images=True,
+        lockstep=True,
+        command_delay_frames=2,
+    )
+    try:
+        states = h.received["ptz/state"]
+        send_scene(h, 10 * NS)
+        send_scene(h, 11 * NS)  # needs no command: none answers an image two before it
+        h.publish("scene/image_raw", scene(12 * NS))
+        h.publish("scene/image_raw", scene(13 * NS))
+        h.spin_for(0.3)
+        assert len(states) == 2, "image 12 waits for the answer to image 10"
+        send_command(h, 10 * NS, pan_rate=0.5)
+        h.spin_until(lambda: len(states) == 3)
+        h.spin_for(0.2)
+        assert len(states) == 3, "image 13 waits for the answer to image 11"
+        send_command(h, 11 * NS, pan_rate=0.5)
+        h.spin_until(lambda: len(states) == 4)
+        stamps = [s.header.stamp.sec * 10**9 + s.header.stamp.nanosec for s in states]
+        assert stamps == [10 * NS, 11 * NS, 12 * NS, 13 * NS]
+        assert [s.pan > 0 for s in states] == [False, False, True, True]
+    finally:
+        h.close()

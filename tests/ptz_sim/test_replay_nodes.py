@@ -118,12 +118,17 @@ class Controller:
         self.context.try_shutdown()
 
 
-def replay(paths, tmp_path, servo="instant"):
-    """One lockstep replay; the views, states, joint states and statuses received."""
+def replay(paths, tmp_path, servo="instant", in_flight=1, before_acks=None):
+    """One lockstep replay with `in_flight` frames in flight (the camera delaying commands as
+    many frames); the views, states, joint states and statuses received. `before_acks(controller)`
+    runs once the replay has started, before any image is acknowledged."""
     controller = Controller()
     common = {"lockstep": True, "reliable_images": True}
     camera = RosProcess(
-        "tracker_ptz_sim", "ptz_camera", log_dir=tmp_path, params={**common, "servo": servo}
+        "tracker_ptz_sim",
+        "ptz_camera",
+        log_dir=tmp_path,
+        params={**common, "servo": servo, "command_delay_frames": in_flight},
     )
     # Frame 0 must not be lost: start the replay once the camera and this test see each other.
     controller.run_until(
@@ -137,9 +142,17 @@ def replay(paths, tmp_path, servo="instant"):
         "tracker_ptz_sim",
         "video_source",
         log_dir=tmp_path,
-        params={**common, "path": str(paths.video), "rate": 0.0, "wait_for_subscribers": 1},
+        params={
+            **common,
+            "path": str(paths.video),
+            "rate": 0.0,
+            "wait_for_subscribers": 1,
+            "frames_in_flight": in_flight,
+        },
     )
     try:
+        if before_acks is not None:
+            before_acks(controller)
         controller.run_until(
             lambda: source.process.poll() is not None and len(controller.views) >= FRAMES
         )
@@ -431,3 +444,30 @@ def test_corrupt_frame_is_skipped_and_counted(scene, tmp_path):
     frames = list(source.frames())
     assert [f.index for f in frames] == [0, 1, 3, 4, 5] and source.skipped == 1
     assert np.array_equal(frames[2].image, scene.frames[3])
+
+
+def test_a_pipelined_replay_keeps_its_frames_in_flight_and_delays_commands_as_many(scene, tmp_path):
+    """frames_in_flight 3: three frames go out before any acknowledgement; the camera applies
+    each command three frames after the image it answers, and nothing times out."""
+    scene, paths = scene
+    unanswered = {}
+
+    def hold_acks(controller):
+        deadline = time.monotonic() + 20
+        while not controller.views and time.monotonic() < deadline:
+            controller._spin()
+        end = time.monotonic() + 0.5  # well within the source's lockstep_timeout (2 s)
+        while time.monotonic() < end:
+            controller._spin()
+        unanswered["views"] = len(controller.views)
+
+    views, states, _, statuses = replay(paths, tmp_path, in_flight=3, before_acks=hold_acks)
+    assert unanswered["views"] == 3
+    stamps = scene.stamps_ns()
+    assert sorted(views) == stamps
+    xs = [states[stamp].window.x for stamp in stamps]
+    assert xs[:3] == [xs[0]] * 3 and xs[0] > 0  # frame 0's command (far left) ...
+    assert xs[3] == 0  # ... acts from frame 3
+    ended = statuses[-1]
+    assert ended.state == ended.STATE_ENDED and ended.frames_published == FRAMES
+    assert ended.lockstep_timeouts == 0

@@ -2,6 +2,7 @@
     [graph:=surveillance|colour|standard|small_objects] [camera:=sim|live] [namespace:=cam1]
     [use_sim_time:=auto|true|false] [clock:=auto|global|namespaced|off]
     [controller_mode:=graph|servo|direct|hold] [respawn:=true] [live_view:=true]
+    [frames_in_flight:=N]
 
 The whole graph, built from the same config/*graph.yaml and parameter files the demo runner
 (make demo) uses, so both run exactly the same nodes with the same parameters. graph:=colour runs
@@ -78,6 +79,13 @@ ARGUMENTS = [
         ["true", "false"],
         "serve the graph to the Foxglove app (live_view node, ws://127.0.0.1:8765)",
     ),
+    (
+        "frames_in_flight",
+        "1",
+        None,
+        "sim: frames in the lockstep graph at once; the simulated camera applies each command "
+        "as many frames after its image (1: in series)",
+    ),
 ]
 
 
@@ -89,6 +97,13 @@ def generate_launch_description():
         for name, default, choices, text in ARGUMENTS
     ]
     return LaunchDescription(declared + [OpaqueFunction(function=graph_actions)])
+
+
+def _whole_number(name, text):
+    try:
+        return int(text)
+    except ValueError:
+        raise ValueError(f"{name} must be a whole number, got '{text}'") from None
 
 
 def graph_actions(context):
@@ -105,6 +120,7 @@ def graph_actions(context):
         respawn=value["respawn"] == "true",
         outer_namespace=context.launch_configurations.get("ros_namespace") or "",
         live_view=value["live_view"] == "true",
+        frames_in_flight=_whole_number("frames_in_flight", value["frames_in_flight"]),
     )
     respawn = {"respawn": True, "respawn_delay": 1.0, "respawn_max_retries": 5}
     nodes = [

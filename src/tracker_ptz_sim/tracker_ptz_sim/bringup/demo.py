@@ -58,6 +58,7 @@ from tracker_ptz_sim.bringup.graph import (
     missing_topics,
     node_parameters,
     parse_overrides,
+    pipelined,
     with_live_view,
     without_nodes,
 )
@@ -574,6 +575,15 @@ def main(argv: list[str] | None = None) -> int:
         "seed 004)",
     )
     parser.add_argument("--set", action="append", default=[], metavar="NODE.PARAM=VALUE")
+    parser.add_argument(
+        "--frames-in-flight",
+        type=int,
+        default=None,
+        metavar="N",
+        help="lockstep with N frames in flight: the nodes work on different frames at once and "
+        "the camera applies each command N frames after its image (deterministic; default: the "
+        "graph's, 1 = in series)",
+    )
     parser.add_argument("--no-video", action="store_true", help="skip the annotated video")
     parser.add_argument(
         "--raw-images",
@@ -623,6 +633,11 @@ def main(argv: list[str] | None = None) -> int:
     video, note = resolve_video(args.video)
     print(note, flush=True)
     overrides = parse_overrides(args.set)
+    if args.frames_in_flight is not None:
+        if not 1 <= args.frames_in_flight <= 32:
+            parser.error("--frames-in-flight must be in [1, 32]")
+        for node, values in pipelined(args.frames_in_flight).items():
+            overrides.setdefault(node, {}).update(values)
     if args.mode:
         overrides.setdefault("ptz_controller", {})["mode"] = args.mode
     args.out.mkdir(parents=True, exist_ok=True)

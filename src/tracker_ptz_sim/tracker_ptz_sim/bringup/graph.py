@@ -213,6 +213,16 @@ def parse_overrides(items: Sequence[str]) -> dict[str, dict[str, Any]]:
     return overrides
 
 
+def pipelined(frames_in_flight: int) -> dict[str, dict[str, Any]]:
+    """Overrides for a lockstep replay with `frames_in_flight` frames in flight: the source runs
+    that many frames ahead of the acknowledgements, and the camera applies each command that many
+    frames after the image it answers, so the replay stays deterministic."""
+    return {
+        "video_source": {"frames_in_flight": frames_in_flight},
+        "ptz_camera": {"command_delay_frames": frames_in_flight},
+    }
+
+
 def override_arguments(overrides: dict[str, dict[str, Any]]) -> list[str]:
     """The --set arguments that `parse_overrides` reads back as `overrides`."""
     return [

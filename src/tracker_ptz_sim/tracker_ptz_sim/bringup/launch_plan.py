@@ -18,6 +18,8 @@ the launch arguments into nodes, so the launch file stays a thin shell and its r
 - `controller_mode` (`graph`: as the graph's parameter files say, servo in the surveillance,
   colour and standard graphs, hold in small_objects) sets ptz_controller's `mode`.
 - `live_view:=true` adds the Foxglove live view (`live_view` node, ws://127.0.0.1:8765).
+- `frames_in_flight` (sim): a lockstep replay with that many frames in the graph at once, the
+  simulated camera applying each command as many frames after its image (`graph.pipelined`).
 """
 
 from __future__ import annotations
@@ -26,7 +28,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from tracker_ptz_sim.bringup.graph import Graph, NodeSpec, load_graph, with_live_view
+from tracker_ptz_sim.bringup.graph import Graph, NodeSpec, load_graph, pipelined, with_live_view
 
 CAMERAS = ("sim", "live")
 CLOCKS = ("auto", "global", "namespaced", "off")
@@ -35,6 +37,7 @@ CONTROLLER_MODES = ("graph", "servo", "direct", "hold")  # graph: the graph's ow
 SIMULATOR_NODES = ("video_source", "ptz_camera")
 BRIDGE = NodeSpec("tracker_ptz_sim", "ptz_state_bridge", "ptz_state_bridge")
 LIVE_PARAMETERS = "live.yaml"  # in the graph's config directory
+MAX_FRAMES_IN_FLIGHT = 32
 
 
 @dataclass(frozen=True)
@@ -49,6 +52,7 @@ class LaunchArguments:
     respawn: bool = False
     outer_namespace: str = ""  # pushed by an including launch file (PushRosNamespace)
     live_view: bool = False  # serve the graph to the Foxglove app
+    frames_in_flight: int = 1  # lockstep replay: frames in the graph at once
 
 
 @dataclass(frozen=True)
@@ -84,6 +88,8 @@ def plan(arguments: LaunchArguments, graph: Graph | None = None) -> list[Planned
             values |= {"path": arguments.video, "publish_clock": clock != "off"}
         if node.name == "ptz_controller" and arguments.controller_mode != "graph":
             values["mode"] = arguments.controller_mode
+        if arguments.frames_in_flight != 1:
+            values |= pipelined(arguments.frames_in_flight).get(node.name, {})
         remappings = list(node.remappings.items())
         if clock == "namespaced":
             remappings.append(("/clock", "clock"))  # relative: <namespace>/clock
@@ -114,6 +120,11 @@ def _check(arguments: LaunchArguments) -> None:
     if arguments.use_sim_time not in SIM_TIMES:
         raise ValueError(
             f"use_sim_time must be one of {', '.join(SIM_TIMES)}, got '{arguments.use_sim_time}'"
+        )
+    if not 1 <= arguments.frames_in_flight <= MAX_FRAMES_IN_FLIGHT:
+        raise ValueError(
+            f"frames_in_flight must be in [1, {MAX_FRAMES_IN_FLIGHT}], got "
+            f"{arguments.frames_in_flight}"
         )
     if arguments.camera == "sim" and not arguments.video:
         raise ValueError("camera:=sim replays a recording: give video:=/path/to/video")

@@ -5,7 +5,9 @@ Pan/tilt map to the window centre through the focal length (`tracker_msgs_py.geo
 signs: pan positive = left, tilt positive = down). The window always stays inside the scene, as the
 seed clamps it: the reachable pan/tilt range shrinks as the window grows (zoom out).
 
-Servo dynamics per axis: rate and acceleration limits, a command latency, position commands with a
+Servo dynamics per axis: rate and acceleration limits, a command latency (in seconds and in
+frames: a command answering frame n acts from frame n + `command_delay_frames` on, which lets a
+lockstep replay keep that many frames in flight and stay deterministic), position commands with a
 deceleration profile that stops on target, velocity commands with a watchdog (no command for
 `velocity_timeout` -> stop, as real pan-tilt units do). `servo="instant"` reproduces the seed's
 jumping window. Zoom scales the window by 1/zoom (from `min_zoom`, which may be below 1 to see
@@ -29,6 +31,7 @@ from tracker_msgs_py.geometry import Rect, SceneGeometry
 
 INTEGRATION_STEP_S = 0.005  # servo dynamics are integrated in steps of at most this
 MIN_VIEW_SIDE = 8  # px: the smallest camera image the model makes (a scene must allow it)
+MAX_COMMAND_DELAY_FRAMES = 32
 
 
 @dataclass(frozen=True)
@@ -41,6 +44,7 @@ class PtzConfig:
     max_speed: float = 1.5  # rad/s per axis
     max_acceleration: float = 8.0  # rad/s^2 per axis
     command_latency: float = 0.0  # s from a command's stamp until the servos act on it
+    command_delay_frames: int = 1  # a command answering frame n acts from frame n + this on
     velocity_timeout: float = 0.5  # s without a new velocity command before the unit stops
     max_zoom: float = 4.0
     min_zoom: float = 1.0  # below 1 the window grows beyond the zoom-1 view (up to the scene)
@@ -61,6 +65,8 @@ class PtzConfig:
         for name in ("focal_length", "command_latency", "velocity_timeout"):
             if not getattr(self, name) >= 0:
                 found.append(f"{name} must be >= 0")
+        if not 1 <= self.command_delay_frames <= MAX_COMMAND_DELAY_FRAMES:
+            found.append(f"command_delay_frames must be in [1, {MAX_COMMAND_DELAY_FRAMES}]")
         if not self.max_zoom >= 1.0:
             found.append("max_zoom must be >= 1")
         if not 0.05 <= self.min_zoom <= 1.0:
@@ -117,20 +123,34 @@ class PtzCameraModel:
         self.time: float | None = None
         self.pan = _Axis(config.initial_pan)
         self.tilt = _Axis(config.initial_tilt)
-        self._pending: deque[PtzCommand] = deque()
+        self._pending: deque[tuple[int, PtzCommand]] = deque()  # (frame it may act from, command)
         self._active: PtzCommand | None = None
+        self._active_since = 0.0
+        self._frame_times: deque[float] = deque(maxlen=MAX_COMMAND_DELAY_FRAMES + 1)
+        self._frame = -1  # index of the newest frame advanced to
         self._clamp_axes()
 
     # --- commands -------------------------------------------------------------------------------
 
     def command(self, command: PtzCommand) -> None:
-        """Queue a command; it acts from `command.stamp + command_latency` on."""
+        """Queue a command; it acts from `command.stamp + command_latency` on, and not before the
+        frame `command_delay_frames` after the one it answers."""
         values = (command.pan, command.tilt, command.pan_rate, command.tilt_rate)
         if not all(math.isfinite(v) for v in values):
             raise ValueError(f"non-finite pan-tilt command {values}")
         if command.mode not in ("position", "velocity", "hold"):
             raise ValueError(f"unknown command mode '{command.mode}'")
-        self._pending.append(command)
+        due = self._answered_frame(command.stamp) + self.config.command_delay_frames
+        self._pending.append((due, command))
+
+    def _answered_frame(self, stamp: float) -> int:
+        """Index of the newest frame at or before `stamp` (-1 before the first)."""
+        index = self._frame
+        for frame_time in reversed(self._frame_times):
+            if frame_time <= stamp + 1e-12:
+                return index
+            index -= 1
+        return index
 
     # --- time -----------------------------------------------------------------------------------
 
@@ -139,13 +159,19 @@ class PtzCameraModel:
         active commands belong to the old one and are dropped; the servos stop where they are."""
         self.time = t
         self._pending.clear()
+        self._frame_times.clear()
+        self._frame = -1
         self._active = None
         self.pan.rate = self.tilt.rate = 0.0
 
     def advance(self, t: float) -> PtzSnapshot:
-        """Move the servos to scene time `t` [s] (never backwards) and return the camera's state."""
+        """Move the servos to the time `t` [s] of the next frame (never backwards) and return the
+        camera's state."""
         if self.time is None:
             self.time = t
+        if not self._frame_times or t > self._frame_times[-1]:
+            self._frame_times.append(t)
+            self._frame += 1
         while self.time < t:
             due = self._next_activation()
             step_end = min(t, self.time + INTEGRATION_STEP_S, due if due > self.time else t)
@@ -158,13 +184,14 @@ class PtzCameraModel:
         return self.snapshot()
 
     def _next_activation(self) -> float:
-        if not self._pending:
+        if not self._pending or self._pending[0][0] > self._frame:
             return math.inf
-        return self._pending[0].stamp + self.config.command_latency
+        return self._pending[0][1].stamp + self.config.command_latency
 
     def _activate_due(self, now: float) -> None:
-        while self._pending and self._pending[0].stamp + self.config.command_latency <= now + 1e-12:
-            command = self._pending.popleft()
+        while self._pending and self._next_activation() <= now + 1e-12:
+            command = self._pending.popleft()[1]
+            self._active_since = now
             if command.zoom and math.isfinite(command.zoom):
                 self.zoom = min(max(command.zoom, self.config.min_zoom), self.config.max_zoom)
             self._active = command if command.mode != "hold" else None
@@ -185,11 +212,11 @@ class PtzCameraModel:
         self._clamp_axes()
 
     def _velocity_expired(self, command: PtzCommand) -> bool:
-        acting_since = command.stamp + self.config.command_latency
+        """The unit's watchdog counts from when the command reached the servos."""
         return (
             command.mode == "velocity"
             and self.time is not None
-            and self.time - acting_since >= self.config.velocity_timeout
+            and self.time - self._active_since >= self.config.velocity_timeout
         )
 
     def _integrate_instant(self, command: PtzCommand | None, dt: float) -> None:

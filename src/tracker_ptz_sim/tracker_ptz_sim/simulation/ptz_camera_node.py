@@ -10,15 +10,19 @@ With `interface: standard` it stands in for a real unit's drivers instead: it sp
 sensor_msgs (no PtzState; commands as JointState on `ptz/joint_command`, positions or velocities,
 NaN = not commanded, plus the `zoom_joint` when named), the contract in the README's "On a real
 pan-tilt unit".
-In lockstep mode it processes scene image n+1 only once a command stamped >= image n has arrived
-(or after `lockstep_timeout`), because commands and images travel on different topics: this makes
-a lockstep replay deterministic.
+A command answering image n acts from image n + `command_delay_frames` on (1: the next image).
+In lockstep mode the camera processes scene image n only once a command stamped >= image
+n - `command_delay_frames` has arrived (or after `lockstep_timeout`), because commands and images
+travel on different topics: this makes a lockstep replay deterministic. With a delay of D frames,
+video_source may keep D frames in flight (`frames_in_flight`), so the nodes of the graph work on
+different frames at once; images that arrive early wait here, in order.
 """
 
 from __future__ import annotations
 
 import math
 import time
+from collections import deque
 from dataclasses import fields
 from typing import Any
 
@@ -42,6 +46,7 @@ from tracker_msgs_py.node_main import SuiteNode, run_node
 from tracker_msgs_py.params import ParamSpec, config_from_params, declare_parameters
 from tracker_msgs_py.stamps import Order, StampOrder
 from tracker_ptz_sim.simulation.camera_model import (
+    MAX_COMMAND_DELAY_FRAMES,
     PtzCameraModel,
     PtzCommand,
     PtzConfig,
@@ -79,6 +84,15 @@ PARAMS = [
         "max_acceleration", _D.max_acceleration, "servo acceleration limit [rad/s^2]", 0.001, 1e4
     ),
     ParamSpec("command_latency", _D.command_latency, "delay before a command acts [s]", 0.0, 10.0),
+    ParamSpec(
+        "command_delay_frames",
+        _D.command_delay_frames,
+        "a command answering image n acts from image n + this on; lockstep: as many frames may "
+        "be in flight (video_source frames_in_flight)",
+        1,
+        MAX_COMMAND_DELAY_FRAMES,
+        read_only=True,
+    ),
     ParamSpec("velocity_timeout", _D.velocity_timeout, "velocity command watchdog [s]", 0.01, 60.0),
     ParamSpec("max_zoom", _D.max_zoom, "largest zoom factor", 1.0, 100.0),
     ParamSpec(
@@ -148,8 +162,11 @@ class PtzCameraNode(SuiteNode):
         self.last_command_ns = -1
         self.repeated_images = 0  # lockstep re-sends, dropped by design
         self.commands_received = 0
-        self.pending: Image | None = None
+        # Lockstep: scene images waiting for their command, oldest first, and since when the
+        # oldest waits; the stamps of the images processed last (the gate reads the oldest).
+        self.pending: deque[Image] = deque()
         self.pending_since = 0.0
+        self.processed_ns: deque[int] = deque(maxlen=self.params["command_delay_frames"])
         self.early_commands: list[PtzCommand] = []
         self.last_snapshot: PtzSnapshot | None = None
         qos = image_qos(self.params["reliable_images"])
@@ -189,7 +206,11 @@ class PtzCameraNode(SuiteNode):
     def diagnostic_state(self) -> tuple[str, dict[str, str]]:
         if self.model is None:
             return "waiting for the first scene image", {}
-        state = "waiting for a command (lockstep)" if self.pending is not None else "streaming"
+        state = (
+            f"{len(self.pending)} image(s) waiting for a command (lockstep)"
+            if self.pending
+            else "streaming"
+        )
         details = {"interface": self.params["interface"]}
         if self.last_snapshot is not None:
             shot = self.last_snapshot
@@ -292,9 +313,13 @@ class PtzCameraNode(SuiteNode):
             return
         if order is Order.NEW_EPOCH:
             self._start_epoch(stamp)
-        elif self.pending is not None:  # lockstep overrun: the newer image replaces the waiting one
-            self._process(self.pending)
-        self.pending, self.pending_since = msg, time.monotonic()
+        elif len(self.pending) >= self.params["command_delay_frames"]:
+            # More images in flight than commands may lag (or no lockstep): the oldest goes on.
+            self._process(self.pending.popleft())
+            self.pending_since = time.monotonic()
+        if not self.pending:
+            self.pending_since = time.monotonic()
+        self.pending.append(msg)
         self._process_pending()
 
     def _start_epoch(self, stamp_ns: int) -> None:
@@ -304,7 +329,8 @@ class PtzCameraNode(SuiteNode):
             f"scene {self.scene_order.describe_jump()}: a new replay epoch; the camera keeps its "
             "pose and drops the commands of the old one"
         )
-        self.pending = None
+        self.pending.clear()
+        self.processed_ns.clear()
         self.last_image_ns = None
         self.last_command_ns = -1
         self.early_commands.clear()
@@ -312,28 +338,32 @@ class PtzCameraNode(SuiteNode):
             self.model.restart_clock(stamp_ns / NS_PER_S)
 
     def _acknowledged(self) -> bool:
+        """Lockstep: has the command the next image waits for come (the answer to the image
+        `command_delay_frames` before it)?"""
+        gate = self.processed_ns
         return (
             not self.params["lockstep"]
-            or self.last_image_ns is None
-            or self.last_command_ns >= self.last_image_ns
+            or len(gate) < (gate.maxlen or 1)
+            or self.last_command_ns >= gate[0]
         )
 
     def _process_pending(self) -> None:
-        if self.pending is not None and self._acknowledged():
-            msg, self.pending = self.pending, None
-            self._process(msg)
+        while self.pending and self._acknowledged():
+            self._process(self.pending.popleft())
+            self.pending_since = time.monotonic()
 
     def _on_lockstep_timer(self) -> None:
-        if self.pending is None:
+        if not self.pending:
             return
         if time.monotonic() - self.pending_since >= self.params["lockstep_timeout"]:
             self.get_logger().warning(
-                "no pan-tilt command acknowledged the previous image within "
+                "no pan-tilt command acknowledged the image the next one waits for within "
                 f"{self.params['lockstep_timeout']} s; going on without it",
                 throttle_duration_sec=5.0,
             )
-            msg, self.pending = self.pending, None
-            self._process(msg)
+            self._process(self.pending.popleft())
+            self.pending_since = time.monotonic()
+            self._process_pending()
 
     def _process(self, msg: Image) -> None:
         stamp = stamp_to_ns(msg.header.stamp)
@@ -349,6 +379,7 @@ class PtzCameraNode(SuiteNode):
         if size_changed and not self._start_model(msg.width, msg.height):
             return
         self.last_image_ns = stamp
+        self.processed_ns.append(stamp)
         model = self.model
         assert model is not None, "_start_model made it"
         snapshot = model.advance(stamp / NS_PER_S)

@@ -3,15 +3,19 @@
 Publishes `scene/image_raw` (sensor_msgs/Image, bgr8 or mono8), `scene/camera_info`, `/clock`
 (so the graph can run on the recording's time) and `replay/status` (tracker_msgs/ReplayStatus).
 Frames are stamped from the recording. Pacing: `rate` x real time, or as fast as possible (rate 0);
-with lockstep, frame n+1 also waits for an acknowledgement stamped >= frame n on `ack_topic`
-(tracker_msgs/PtzCommand by default), or for `lockstep_timeout` with a warning. At
-the end of the stream it publishes STATE_ENDED and exits 0 (unless `loop`).
+with lockstep, frame n also waits for an acknowledgement stamped >= frame n - `frames_in_flight`
+on `ack_topic` (tracker_msgs/PtzCommand by default), or for `lockstep_timeout` with a warning:
+1 frame in flight runs the graph in series; more let its nodes work on different frames at once
+(give ptz_camera the same `command_delay_frames`, so the replay stays deterministic). At the end
+of the stream it waits for the last frames' acknowledgements, publishes STATE_ENDED and exits 0
+(unless `loop`).
 """
 
 from __future__ import annotations
 
 import threading
 import time
+from collections import deque
 from typing import Any
 
 from rclpy.duration import Duration
@@ -79,6 +83,15 @@ PARAMS = [
         read_only=True,
     ),
     ParamSpec(
+        "frames_in_flight",
+        1,
+        "lockstep: frames published ahead of the oldest one not yet acknowledged (1 = in "
+        "series; ptz_camera's command_delay_frames must be at least this)",
+        1,
+        32,
+        read_only=True,
+    ),
+    ParamSpec(
         "ack_topic",
         "ptz/command",
         "acknowledgements: tracker_msgs/PtzCommand stamped >= the frame",
@@ -135,6 +148,7 @@ class VideoSourceNode(SuiteNode):
         )
         self.acked_ns = -1
         self.published_ns = -1  # stamp of the newest frame published (set before it goes out)
+        self.in_flight: deque[int] = deque()  # lockstep: stamps published, not yet acknowledged
         self.ack_event = threading.Event()
         self.pace_event = threading.Event()
         self.pacer = Pacer(self.params["rate"])
@@ -243,7 +257,10 @@ class VideoSourceNode(SuiteNode):
                     return
                 self._publish(frame, stamp)
                 if self.params["lockstep"]:
-                    self._wait_for_ack(stamp)
+                    self.in_flight.append(stamp)
+                    self._wait_for_acks(self.params["frames_in_flight"] - 1)
+            if self.params["lockstep"]:
+                self._wait_for_acks(0)  # a pass ends answered: a loop starts a new epoch
         finally:
             frames.close()
 
@@ -258,6 +275,7 @@ class VideoSourceNode(SuiteNode):
     def _publish(self, frame: Frame, stamp_ns: int) -> None:
         if stamp_ns <= self.published_ns:
             self.acked_ns = -1  # time went back (a loop): older acknowledgements answer nothing
+            self.in_flight.clear()
         self.published_ns = stamp_ns
         stamp = ns_to_stamp(stamp_ns)
         if self.clock_pub is not None:
@@ -296,10 +314,21 @@ class VideoSourceNode(SuiteNode):
             self.status.frames_skipped = self.source.skipped
         self.status.frames_lost = self.source.lost
 
+    def _wait_for_acks(self, allowed: int) -> None:
+        """Until at most `allowed` frames published are unacknowledged (each waited for in turn,
+        with its timeout)."""
+        while self.in_flight and not self.stopping.is_set():
+            while self.in_flight and self.in_flight[0] <= self.acked_ns:
+                self.in_flight.popleft()
+            if len(self.in_flight) <= allowed:
+                return
+            self._wait_for_ack(self.in_flight.popleft())
+
     def _wait_for_ack(self, stamp_ns: int) -> None:
-        """Until frame `stamp_ns` is acknowledged, or the timeout. Halfway through, the frame is
-        sent once more: a frame published while a subscriber was still completing discovery can
-        be lost, and every node drops the repeat of a frame it did get."""
+        """Until frame `stamp_ns` is acknowledged, or the timeout. Halfway through, the newest
+        frame is sent once more: a frame published while a subscriber was still completing
+        discovery can be lost, and every node drops the repeat of a frame it did get (an
+        acknowledgement of a newer frame answers the older ones too)."""
         timeout = self.params["lockstep_timeout"]
         deadline = time.monotonic() + timeout
         resend_at = time.monotonic() + timeout / 2
@@ -312,7 +341,7 @@ class VideoSourceNode(SuiteNode):
             if remaining <= 0:
                 self.status.lockstep_timeouts += 1
                 self.get_logger().warning(
-                    f"no acknowledgement of frame {self.status.frame_index} on "
+                    f"no acknowledgement of the frame stamped {stamp_ns / NS_PER_S:.3f} s on "
                     f"{self.params['ack_topic']} within {self.params['lockstep_timeout']} s; going on",
                     throttle_duration_sec=5.0,
                 )
