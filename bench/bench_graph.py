@@ -6,7 +6,9 @@ start-up is left out in both modes), the frames video_source published and the r
 per-hop latency (p50/p95), CPU time per process (every node, video_source included, and the
 recorder), and the in-process ceiling: the same components stepped in one plain
 loop (`bringup/pipeline.py`, tested equal to the graph) on the same frames, decoding included.
-Then the same replay pipelined (`run_demo --frames-in-flight N`, N = 2 and 3: the nodes work on
+The nodes and the recorder spin rclpy's EventsExecutor (the default); the same replay with the
+SingleThreadedExecutor in every process follows, checked for the same tracks. Then the same
+replay pipelined (`run_demo --frames-in-flight N`, N = 2 and 3: the nodes work on
 N frames at once and the camera applies each command N frames later), each checked for the same
 windows, targets and tracks as the in-process pipeline with the same delay; and with every node
 in one process (`run_demo --single-process`) under each of rclpy's executors (single-threaded,
@@ -50,8 +52,9 @@ def main() -> int:
     graph_fps = summary.throughput_fps  # first to last scene image at the recorder
     reference = mot_text(frames, run_dir / "tracks.txt")
     in_flight = {n: pipelined_run(graph, video, n) for n in (2, 3)}
+    processes_single = executor_run(graph, video, "single", reference, single_process=False)
     one_process = {
-        executor: single_process_run(graph, video, executor, reference)
+        executor: executor_run(graph, video, executor, reference, single_process=True)
         for executor in ("single", "multi", "events")
     }
     ceiling_fps = in_process_frames_per_second(graph, video)
@@ -65,6 +68,12 @@ def main() -> int:
         f"  camera image -> command p50 / p95      "
         f"{summary.latency_ms['camera image -> command']['p50']:.1f} / "
         f"{summary.latency_ms['camera image -> command']['p95']:.1f} ms"
+    )
+    print(
+        f"  separate processes, single executor  {processes_single['fps']:.1f} frames/s, "
+        f"{processes_single['fps'] / ceiling_fps:.2f} x the ceiling, camera image -> command "
+        f"p95 {processes_single['command_p95_ms']:.1f} ms, "
+        f"{'the same' if processes_single['same_tracks'] else 'OTHER'} tracks"
     )
     for n, row in in_flight.items():
         print(
@@ -99,6 +108,7 @@ def main() -> int:
         "in_process_fps": ceiling_fps,
         "graph_over_ceiling": graph_fps / ceiling_fps,
         "frames_in_flight": in_flight,
+        "processes_single_executor": processes_single,
         "one_process": one_process,
     }
     OUT.mkdir(parents=True, exist_ok=True)
@@ -142,9 +152,11 @@ def pipelined_run(graph: Graph, video: Path, frames_in_flight: int) -> dict:
     }
 
 
-def single_process_run(graph: Graph, video: Path, executor: str, reference: str) -> dict:
-    """`run_demo --single-process` with one of rclpy's executors, against the reference tracks."""
-    out = OUT / f"graph_run_single_{executor}"
+def executor_run(
+    graph: Graph, video: Path, executor: str, reference: str, single_process: bool
+) -> dict:
+    """`run_demo [--single-process] --executor E`, against the reference tracks."""
+    out = OUT / f"graph_run_{'one_process' if single_process else 'processes'}_{executor}"
     run = demo.run_graph(
         graph,
         video,
@@ -152,8 +164,8 @@ def single_process_run(graph: Graph, video: Path, executor: str, reference: str)
         {},
         demo.install_space(),
         timeout=1800.0,
-        single_process=True,
-        host_executor=executor,
+        single_process=single_process,
+        executor=executor,
     )
     frames = run_report.collect(run.bag)
     summary = run_report.summarize(frames, run_report.message_counts(frames))

@@ -4,7 +4,8 @@ Two modes, both as separate processes started from the install space:
 - lockstep: this process acknowledges every camera image at once (a controller that costs
   nothing), so no frame is lost and the number is the pair's deterministic throughput; in series
   (1 frame in flight) and pipelined (2 and 3 frames in flight, the camera delaying each command
-  as many frames);
+  as many frames); every process on rclpy's EventsExecutor (the nodes' default), and in series
+  and with 2 in flight on the SingleThreadedExecutor for comparison;
 - free-running: rate 0 without lockstep, the clip looping; over a steady window of
   FREE_RUNNING_WINDOW_S once the camera's first image is through (a free-running source does not
   wait for its readers, so how many of the very first frames pass depends on discovery), frames
@@ -23,11 +24,13 @@ from pathlib import Path
 
 import numpy as np
 import rclpy
+from rclpy.executors import Executor
 from rclpy.node import Node
 from sensor_msgs.msg import Image
 
 from tracker_msgs.msg import PtzCommand, ReplayStatus
 from tracker_msgs_py.codec import image_qos, stamp_to_ns
+from tracker_msgs_py.node_main import DEFAULT_EXECUTOR, EXECUTORS
 from tracker_ptz_sim.bringup.demo import install_space
 from tracker_ptz_sim.bringup.graph import load_graph, pipelined
 from tracker_ptz_sim.bringup.processes import GraphProcesses
@@ -70,24 +73,33 @@ class Probe(Node):
             self.ack_pub.publish(ack)
 
 
-def spin_for(probe: Probe, seconds: float) -> None:
+def spin_for(spinner: Executor, seconds: float) -> None:
     end = time.monotonic() + seconds
     while time.monotonic() < end:
-        rclpy.spin_once(probe, timeout_sec=0.01)
+        spinner.spin_once(timeout_sec=0.01)
 
 
-def run(video: Path, lockstep: bool, frames_in_flight: int = 1, scene_times: bool = False) -> dict:
-    """One replay; `scene_times` also reads the scene images, for the hop's latency."""
+def run(
+    video: Path,
+    lockstep: bool,
+    frames_in_flight: int = 1,
+    scene_times: bool = False,
+    executor: str = DEFAULT_EXECUTOR,
+) -> dict:
+    """One replay; `scene_times` also reads the scene images, for the hop's latency; `executor`
+    is what the two nodes and this process spin."""
     rclpy.init()
     probe = Probe(acknowledge=lockstep, scene_times=scene_times)
+    spinner = EXECUTORS[executor]()
+    spinner.add_node(probe)
     with tempfile.TemporaryDirectory() as logs:
-        nodes = GraphProcesses(load_graph(), install_space(), Path(logs))
+        nodes = GraphProcesses(load_graph(), install_space(), Path(logs), executor=executor)
         common = {"lockstep": lockstep, "reliable_images": lockstep, "use_sim_time": False}
         in_flight = pipelined(frames_in_flight)
         nodes.start("ptz_camera", {**common, **in_flight["ptz_camera"]})
         deadline = time.monotonic() + 30
         while probe.count_publishers("camera/image_raw") == 0 and time.monotonic() < deadline:
-            rclpy.spin_once(probe, timeout_sec=0.05)
+            spinner.spin_once(timeout_sec=0.05)
         source = {
             **common,
             **in_flight["video_source"],
@@ -98,18 +110,19 @@ def run(video: Path, lockstep: bool, frames_in_flight: int = 1, scene_times: boo
         if lockstep:
             process = nodes.start("video_source", source)
             while process.poll() is None:
-                rclpy.spin_once(probe, timeout_sec=0.01)
-            spin_for(probe, 1.0)
+                spinner.spin_once(timeout_sec=0.01)
+            spin_for(spinner, 1.0)
         else:
             nodes.start("video_source", {**source, "loop": True})
             deadline = time.monotonic() + 30
             while not probe.camera and time.monotonic() < deadline:
-                rclpy.spin_once(probe, timeout_sec=0.01)
-            spin_for(probe, 0.5)  # past start-up
+                spinner.spin_once(timeout_sec=0.01)
+            spin_for(spinner, 0.5)  # past start-up
             start = (len(probe.camera), probe.published, time.perf_counter_ns())
-            spin_for(probe, FREE_RUNNING_WINDOW_S)
+            spin_for(spinner, FREE_RUNNING_WINDOW_S)
             end = (len(probe.camera), probe.published, time.perf_counter_ns())
         nodes.stop_all()
+    spinner.shutdown()
     probe.destroy_node()
     rclpy.shutdown()
     if not lockstep:
@@ -117,6 +130,7 @@ def run(video: Path, lockstep: bool, frames_in_flight: int = 1, scene_times: boo
         seconds = (end[2] - start[2]) / 1e9
         return {
             "mode": "free-running",
+            "executor": executor,
             "frames_in_flight": None,
             "frames_published": published,
             "frames_through_camera": through,
@@ -133,6 +147,7 @@ def run(video: Path, lockstep: bool, frames_in_flight: int = 1, scene_times: boo
     duration = (times[-1] - times[0]) / 1e9 if len(times) > 1 else float("nan")
     return {
         "mode": "lockstep",
+        "executor": executor,
         "frames_in_flight": frames_in_flight,
         "scene_times": scene_times,
         "frames_published": probe.published,
@@ -147,11 +162,12 @@ def main() -> int:
     video, note = sample_or_synthetic()
     print(note)
     results = [run(video, lockstep=True, frames_in_flight=n) for n in (1, 2, 3)]
+    results += [run(video, True, frames_in_flight=n, executor="single") for n in (1, 2)]
     results += [run(video, lockstep=True, frames_in_flight=n, scene_times=True) for n in (1, 2)]
     results.append(run(video, lockstep=False))
     print(f"\nvideo_source -> ptz_camera on {video.name}:")
     print(
-        f"  {'mode':<34} {'frames in':>9} {'through':>8} {'frames/s':>9} {'hop p50':>8} "
+        f"  {'mode':<50} {'frames in':>9} {'through':>8} {'frames/s':>9} {'hop p50':>8} "
         f"{'hop p95':>8}"
     )
     for r in results:
@@ -159,8 +175,9 @@ def main() -> int:
             f", {r['frames_in_flight']} in flight" if r["frames_in_flight"] is not None else ""
         )
         mode += ", scene read" if r.get("scene_times") else ""
+        mode += ", single executor" if r["executor"] == "single" else ""
         print(
-            f"  {mode:<34} {r['frames_published']:>9} {r['frames_through_camera']:>8} "
+            f"  {mode:<50} {r['frames_published']:>9} {r['frames_through_camera']:>8} "
             f"{r['throughput_fps']:>9.1f} {r['latency_ms_p50']:>6.2f}ms {r['latency_ms_p95']:>6.2f}ms"
         )
     free = results[-1]

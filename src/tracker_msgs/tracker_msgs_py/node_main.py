@@ -18,10 +18,16 @@ too, holding the interpreter lock: a replay then lost the node to SIGKILL). Past
 process writes its threads' stacks to stderr and exits with its code without waiting longer
 (`exit_deadline`: a C-level timer, so it fires even while the interpreter is blocked); by then
 its workers are joined and nothing of the node publishes.
+
+The process spins its nodes with rclpy's EventsExecutor unless `--executor single|multi` comes
+among its arguments (before `--ros-args`): the default SingleThreadedExecutor rebuilds its wait
+set on every wake-up, which cost a camera or replay node about as much CPU per frame as its own
+work (bench/bench_replay.py measures both).
 """
 
 from __future__ import annotations
 
+import argparse
 import sys
 import threading
 import time
@@ -251,12 +257,25 @@ EXECUTORS: dict[str, Callable[[], Executor]] = {
     "multi": MultiThreadedExecutor,
     "events": _events_executor,
 }
+DEFAULT_EXECUTOR = "events"
+
+
+def executor_argument(args: Sequence[str] | None = None) -> str:
+    """The executor a node process asks for with `--executor NAME` among its non-ROS arguments
+    (`args`, else the command line); `DEFAULT_EXECUTOR` without one."""
+    from rclpy.utilities import remove_ros_args
+
+    plain = remove_ros_args(list(sys.argv if args is None else args))
+    parser = argparse.ArgumentParser(add_help=False)
+    parser.add_argument("--executor", choices=list(EXECUTORS), default=DEFAULT_EXECUTOR)
+    known, _ = parser.parse_known_args(plain)
+    return str(known.executor)
 
 
 class NodeGroup:
     """The nodes of one process, spun by one executor (`run_nodes`)."""
 
-    def __init__(self, executor: str = "single") -> None:
+    def __init__(self, executor: str = DEFAULT_EXECUTOR) -> None:
         self.executor = EXECUTORS[executor]()
         self.nodes: list[SuiteNode] = []
 
@@ -280,11 +299,13 @@ class NodeGroup:
 def run_nodes(
     start: Callable[[NodeGroup], object],
     args: Sequence[str] | None = None,
-    executor: str = "single",
+    executor: str | None = None,
 ) -> int:
     """`start(group)` creates the process's nodes (adding them to the group, and spinning it if
     it must wait for something); then spin them until a stop signal or until one finishes, tear
-    them all down in order, and return the process exit code (see the module docstring)."""
+    them all down in order, and return the process exit code (see the module docstring).
+    `executor` names the rclpy executor (`EXECUTORS`; None: the `--executor` argument)."""
+    executor = executor or executor_argument(args)
     stop_signals.install()
     rclpy.init(
         args=None if args is None else list(args),

@@ -41,7 +41,7 @@ from typing import Any
 
 import rclpy
 from rclpy.event_handler import SubscriptionEventCallbacks
-from rclpy.executors import SingleThreadedExecutor
+from rclpy.executors import Executor
 from rclpy.node import Node
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.signals import SignalHandlerOptions
@@ -49,6 +49,7 @@ from rclpy.signals import SignalHandlerOptions
 from tracker_msgs.msg import ReplayStatus
 from tracker_msgs_py import stop_signals
 from tracker_msgs_py.codec import result_qos
+from tracker_msgs_py.node_main import DEFAULT_EXECUTOR, EXECUTORS
 from tracker_msgs_py.params import config_from_params
 from tracker_ptz_sim.bringup.graph import (
     GRAPHS,
@@ -336,7 +337,7 @@ def run_graph(
     shared_memory: bool | None = None,
     raw_images: bool = False,
     single_process: bool = False,
-    host_executor: str = "single",
+    executor: str = DEFAULT_EXECUTOR,
 ) -> RunResult:
     """Replay `video` through the graph, recording every topic into out/bag.
 
@@ -349,8 +350,9 @@ def run_graph(
     the other readers of it or stall its successor's shutdown (config/fastdds_udp.xml).
     `raw_images` records the images as they travel instead of as JPEG (a bag ~25x larger).
     `single_process` runs every node in one process on one executor (graph_host), which waits
-    for the graph itself and ends at the end of the stream; no restarts. `host_executor` names its
-    rclpy executor (`node_main.EXECUTORS`).
+    for the graph itself and ends at the end of the stream; no restarts. `executor` names the
+    rclpy executor (`node_main.EXECUTORS`) of every node process (or of graph_host) and of the
+    recorder.
     """
     bag_path = out / "bag"
     if bag_path.exists():
@@ -366,14 +368,17 @@ def run_graph(
     recorder = Recorder(graph, bag, raw_images)
     # The recorder spins in its own thread: one executor for the whole run is far cheaper per
     # message than spin_once from the supervising loop below.
-    executor = SingleThreadedExecutor()
-    executor.add_node(recorder)
-    spinner = threading.Thread(target=_spin_recorder, args=(executor, result), daemon=True)
+    recording = EXECUTORS[executor]()
+    recording.add_node(recorder)
+    recorded = threading.Event()  # set: the recorder's thread stops spinning
+    spinner = threading.Thread(
+        target=_spin_recorder, args=(recording, recorded, result), daemon=True
+    )
     spinner.start()
     if shared_memory is None:
         shared_memory = respawn_limit == 0 and during is None
     environment = {} if shared_memory else GraphProcesses.without_shared_memory(graph)
-    nodes = GraphProcesses(graph, install_dir, out / "logs", environment)
+    nodes = GraphProcesses(graph, install_dir, out / "logs", environment, executor)
     source_overrides = {
         "path": str(video),
         "wait_for_subscribers": 2,  # the first frame goes out once ptz_camera and we listen
@@ -386,7 +391,7 @@ def run_graph(
     try:
         if single_process:
             live = any(node.name == LIVE_VIEW.name for node in graph.nodes)
-            nodes.start_host({**overrides, "video_source": source_overrides}, live, host_executor)
+            nodes.start_host({**overrides, "video_source": source_overrides}, live)
             _supervise(recorder, supervisor, timeout, during, nodes, video.name)
             return result
         for node in graph.nodes:
@@ -399,8 +404,9 @@ def run_graph(
             _replay(nodes, recorder, supervisor, source_overrides, timeout, during)
     finally:
         _stop_nodes(nodes, result)
-        executor.shutdown()
+        recorded.set()
         spinner.join(timeout=5.0)
+        recording.shutdown()
         recorder.destroy_node()
         rclpy.try_shutdown()
         bag.close()
@@ -418,9 +424,12 @@ def _stop_nodes(nodes: GraphProcesses, result: RunResult) -> None:
             result.fail(f"{name} {describe_exit(code)} when stopped (see logs/{name}.log)")
 
 
-def _spin_recorder(executor: SingleThreadedExecutor, result: RunResult) -> None:
+def _spin_recorder(executor: Executor, done: threading.Event, result: RunResult) -> None:
+    """Spin until `done`. The executor is shut down by its owner after this returns: rclpy's
+    EventsExecutor hung, spinning a core, when shut down from another thread during spin()."""
     try:
-        executor.spin()
+        while not done.is_set():
+            executor.spin_once(timeout_sec=0.1)
     except Exception as error:  # a failing recorder ends the recording, not the process
         result.fail(f"the recorder failed: {error!r}")
 
@@ -607,10 +616,11 @@ def main(argv: list[str] | None = None) -> int:
     )
     parser.add_argument(
         "--executor",
-        choices=["single", "multi", "events"],
-        default="single",
-        help="--single-process: rclpy's SingleThreadedExecutor, MultiThreadedExecutor or the "
-        "experimental EventsExecutor",
+        choices=list(EXECUTORS),
+        default=DEFAULT_EXECUTOR,
+        help="the rclpy executor of every node process (or of the one with --single-process) and "
+        "of the recorder: events (rclpy's EventsExecutor, the default), single "
+        "(SingleThreadedExecutor) or multi (MultiThreadedExecutor)",
     )
     parser.add_argument(
         "--live",
@@ -663,7 +673,7 @@ def main(argv: list[str] | None = None) -> int:
         respawn_limit=RESPAWN_LIMIT if args.respawn else 0,
         raw_images=args.raw_images,
         single_process=args.single_process,
-        host_executor=args.executor,
+        executor=args.executor,
     )
     try:
         summary = report(run.bag, args.out, render=not args.no_video, run=run)

@@ -17,7 +17,14 @@ import time
 from collections.abc import Callable, Sequence
 
 from tracker_msgs_py import stop_signals
-from tracker_msgs_py.node_main import EXECUTORS, NodeGroup, StartupError, SuiteNode, run_nodes
+from tracker_msgs_py.node_main import (
+    DEFAULT_EXECUTOR,
+    EXECUTORS,
+    NodeGroup,
+    StartupError,
+    SuiteNode,
+    run_nodes,
+)
 from tracker_ptz_sim.bringup.graph import (
     GRAPHS,
     Graph,
@@ -90,7 +97,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--set", action="append", default=[], metavar="NODE.PARAM=VALUE")
     parser.add_argument("--live", action="store_true", help="with the live_view node")
     parser.add_argument(
-        "--executor", choices=list(EXECUTORS), default="single", help="rclpy executor"
+        "--executor", choices=list(EXECUTORS), default=DEFAULT_EXECUTOR, help="rclpy executor"
     )
     args, ros = parser.parse_known_args(argv)
     graph = load_graph(args.graph)

@@ -44,8 +44,12 @@ class GraphProcesses:
         install_dir: Path,
         log_dir: Path,
         environment: dict[str, str] | None = None,
+        executor: str | None = None,
     ) -> None:
+        """`executor`: the rclpy executor every node process spins (`node_main.EXECUTORS`;
+        None: the nodes' default)."""
         self.graph = graph
+        self.executor_arguments = [] if executor is None else ["--executor", executor]
         self.environment = environment or {}  # set for every node, over this process's
         self.install_dir = install_dir
         self.log_dir = log_dir
@@ -58,18 +62,18 @@ class GraphProcesses:
 
     def start(self, name: str, overrides: dict[str, Any] | None = None) -> subprocess.Popen:
         node = self.graph.node(name)
-        command = [str(executable_path(self.install_dir, node))]
+        command = [str(executable_path(self.install_dir, node)), *self.executor_arguments]
         command += ros_args(node, self.graph.params_files, overrides)
         return self._spawn(name, command)
 
     def start_host(
-        self, overrides: dict[str, dict[str, Any]], live: bool = False, executor: str = "single"
+        self, overrides: dict[str, dict[str, Any]], live: bool = False
     ) -> subprocess.Popen:
         """Every node of the graph in one process (graph_host), watched as `graph_host`."""
         host = NodeSpec("tracker_ptz_sim", "graph_host", HOST)
         command = [str(executable_path(self.install_dir, host)), "--graph", self.graph.name]
         command += override_arguments(overrides) + (["--live"] if live else [])
-        command += ["--executor", executor]
+        command += self.executor_arguments
         return self._spawn(HOST, command)
 
     def _spawn(self, name: str, command: list[str]) -> subprocess.Popen:
