@@ -1,5 +1,6 @@
 """/diagnostics from a node: its state and, per input topic, the message rate, the callback's time
-and the data's age on arrival, besides the dropped input."""
+and the data's age on arrival, besides the dropped input; per published topic, the readers its
+publisher has matched."""
 
 from __future__ import annotations
 
@@ -31,6 +32,7 @@ def test_the_controller_reports_its_state_and_its_inputs():
     from ptz_messages import state_msg, target_msg
 
     from tracker_msgs.msg import PtzState, Target
+    from tracker_msgs_py.node_main import matched_readers
     from tracker_ptz_sim.control.ptz_controller_node import PtzControllerNode
 
     h = NodeHarness(
@@ -60,5 +62,8 @@ def test_the_controller_reports_its_state_and_its_inputs():
         values = {v.key: v.value for v in statuses["/ptz_controller: input"].values}
         assert {"/target rate [Hz]", "/ptz/state processing mean/max [ms]"} <= values.keys()
         assert "/target age on arrival mean [ms]" in values
+        # Its publishers' own matched readers: this test reads /diagnostics, nothing ptz/command.
+        readers = matched_readers(next(a for a in h.received["/diagnostics"] if a.status))
+        assert readers["/diagnostics"] == 1 and readers["/ptz/command"] == 0
     finally:
         h.close()

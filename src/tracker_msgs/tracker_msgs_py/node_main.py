@@ -53,6 +53,8 @@ from tracker_msgs_py.node_stats import InputStats
 from tracker_msgs_py.params import ParameterError
 from tracker_msgs_py.problems import ProblemLog
 
+OUTPUT_SUFFIX = ": output"  # the diagnostic status of a node's published topics
+READERS_SUFFIX = " readers"  # its values: "<topic> readers" = readers matched by the publisher
 SIGNAL_POLL_S = 0.1  # longest a stop signal waits for the executor to return to Python
 WORKER_JOIN_S = 1.5  # workers get this long to leave (the node must exit within 2 s)
 TEARDOWN_S = 1.8  # the whole teardown, workers included, before the process exits regardless
@@ -75,12 +77,15 @@ class SuiteNode(Node):
     status "<node>: state" (`diagnostic_state()`, which nodes override: what it is doing) and a
     status "<node>: input": the dropped input by cause, and per subscribed topic the message rate,
     the time its callback took (mean/max) and the data's age on arrival (the node's clock minus
-    the header stamp: on a live camera how old the image is; in a replay, on the replay's clock).
+    the header stamp: on a live camera how old the image is; in a replay, on the replay's clock);
+    and a status "<node>: output": per published topic, the readers its publisher has matched
+    (`READERS_SUFFIX`; a runner waits on these before frame 0, see `matched_readers`).
     """
 
     def __init__(self, node_name: str, **node_options: Any) -> None:
         # Before Node's own __init__: with use_sim_time it already subscribes to /clock.
         self._inputs: dict[str, InputStats] = {}
+        self._outputs: dict[str, Publisher] = {}
         super().__init__(node_name, **node_options)
         self.stopping = threading.Event()
         self.finished = threading.Event()
@@ -189,7 +194,14 @@ class SuiteNode(Node):
             kwargs["event_callbacks"] = PublisherEventCallbacks(
                 incompatible_qos=lambda event: self._incompatible_qos(topic, qos_profile, event)
             )
-        return super().create_publisher(msg_type, topic, qos_profile, **kwargs)
+        publisher = super().create_publisher(msg_type, topic, qos_profile, **kwargs)
+        self._outputs[publisher.topic_name] = publisher
+        return publisher
+
+    def destroy_publisher(self, publisher: Publisher) -> bool:
+        if self._outputs.get(publisher.topic_name) is publisher:
+            del self._outputs[publisher.topic_name]
+        return super().destroy_publisher(publisher)
 
     def _incompatible_qos(self, topic: str, qos: QoSProfile | int, event: Any) -> None:
         policy = QoSPolicyKind(event.last_policy_kind)
@@ -238,6 +250,18 @@ class SuiteNode(Node):
                     name=f"{name}: input",
                     message=self.problems.summary() or "no input dropped",
                     values=[KeyValue(key=k, value=v) for k, v in figures],
+                ),
+                DiagnosticStatus(
+                    level=DiagnosticStatus.OK,
+                    name=f"{name}{OUTPUT_SUFFIX}",
+                    message=f"{len(self._outputs)} published topics",
+                    values=[
+                        KeyValue(
+                            key=f"{topic}{READERS_SUFFIX}",
+                            value=str(publisher.get_subscription_count()),
+                        )
+                        for topic, publisher in sorted(self._outputs.items())
+                    ],
                 ),
             ]
         )
@@ -339,3 +363,16 @@ def run_node(make_node: Callable[[], SuiteNode], args: Sequence[str] | None = No
     """Create the node, spin it until a stop signal or until it finishes, tear it down in order,
     and return the process exit code (see the module docstring)."""
     return run_nodes(lambda group: group.add(make_node()), args)
+
+
+def matched_readers(array: DiagnosticArray) -> dict[str, int]:
+    """Per published topic, the readers its publisher had matched, from a node's diagnostics
+    (the "<node>: output" status; empty for other arrays). The graph's view from any one node
+    can list a reader that the publisher itself has not matched yet: this is the publisher's."""
+    counts: dict[str, int] = {}
+    for status in array.status:
+        if status.name.endswith(OUTPUT_SUFFIX):
+            for value in status.values:
+                if value.key.endswith(READERS_SUFFIX) and value.value.isdigit():
+                    counts[value.key[: -len(READERS_SUFFIX)]] = int(value.value)
+    return counts

@@ -40,6 +40,7 @@ from pathlib import Path
 from typing import Any
 
 import rclpy
+from diagnostic_msgs.msg import DiagnosticArray
 from rclpy.event_handler import SubscriptionEventCallbacks
 from rclpy.executors import Executor
 from rclpy.node import Node
@@ -49,7 +50,7 @@ from rclpy.signals import SignalHandlerOptions
 from tracker_msgs.msg import ReplayStatus
 from tracker_msgs_py import stop_signals
 from tracker_msgs_py.codec import result_qos
-from tracker_msgs_py.node_main import DEFAULT_EXECUTOR, EXECUTORS
+from tracker_msgs_py.node_main import DEFAULT_EXECUTOR, EXECUTORS, matched_readers
 from tracker_msgs_py.params import config_from_params
 from tracker_ptz_sim.bringup.graph import (
     GRAPHS,
@@ -77,7 +78,9 @@ from tracker_ptz_sim.simulation.camera_model import PtzCameraModel, PtzConfig
 from tracker_ptz_sim.simulation.frame_sources import open_source
 from tracker_ptz_sim.simulation.video_source_node import STATUS_QOS
 
+MATCH_TIMEOUT_S = 10.0  # longest the replay waits for the publishers to match their readers
 STATUS_QUIET_S = 0.3  # no replay status for this long: a killed source's last ones have arrived
+RECORDING_QUIET_S = 0.5  # nothing recorded for this long after the end: the last messages are in
 RESPAWN_LIMIT = 5  # --respawn: restarts per node before the run gives up on it
 
 #: What the suite's nodes publish with `codec.result_qos` (transient local): the recorder asks for
@@ -109,6 +112,7 @@ class Recorder(Node):
         self.bag = bag
         self.status: ReplayStatus | None = None
         self.status_received = time.monotonic()
+        self.recorded_at = time.monotonic()  # when the last message was recorded
         self._keep = []
         for topic in graph.topics:
             msg_type = _import_type(topic.type)
@@ -129,6 +133,8 @@ class Recorder(Node):
                 )
             )
         self.create_subscription(ReplayStatus, "/replay/status", self._on_status, STATUS_QOS)
+        self.readers: dict[str, int] = {}  # per topic, the readers its publisher has matched
+        self.create_subscription(DiagnosticArray, "/diagnostics", self._on_diagnostics, 50)
 
     def _incompatible(self, topic: str, _event: object) -> None:
         self.get_logger().error(
@@ -139,10 +145,24 @@ class Recorder(Node):
 
     def _record(self, topic: str, data: bytes) -> None:
         self.bag.write(topic, time.time_ns(), data)
+        self.recorded_at = time.monotonic()
 
     def _record_jpeg(self, topic: str, data: bytes) -> None:
         received = time.time_ns()  # the receive time, before the encoding
         self.bag.write(topic, received, jpeg_cdr(data))
+        self.recorded_at = time.monotonic()
+
+    def wait_until_quiet(self, quiet: float = RECORDING_QUIET_S, limit: float = 10.0) -> None:
+        """Until nothing was recorded for `quiet` s (`limit` s at most): the last frames'
+        messages are in, also when this process runs behind the graph."""
+        started = time.monotonic()
+        while time.monotonic() - started < limit and not stop_signals.requested():
+            if time.monotonic() - max(self.recorded_at, started) >= quiet:
+                return
+            stop_signals.wait(0.05)
+
+    def _on_diagnostics(self, array: DiagnosticArray) -> None:
+        self.readers.update(matched_readers(array))
 
     def _on_status(self, status: ReplayStatus) -> None:
         self.status = status
@@ -265,13 +285,17 @@ class Supervisor:
             self.nodes.start(name, self._restart_overrides(name))
         return Watch.RUNNING
 
-    def _stream_ended(self, wait: float = 1.0) -> bool:
-        """video_source exited 0: at the end of the stream, or stopped from outside?"""
-        deadline = time.monotonic() + wait
-        while time.monotonic() < deadline:
+    def _stream_ended(self, quiet: float = 1.0, limit: float = 30.0) -> bool:
+        """video_source exited 0: at the end of the stream, or stopped from outside? Its last
+        status is waited for while statuses still arrive (a recorder behind on a loaded machine
+        catches up): until none came for `quiet` s, `limit` s at most."""
+        started = time.monotonic()
+        while time.monotonic() - started < limit:
             status = self.recorder.status
             if status is not None and status.state != ReplayStatus.STATE_PLAYING:
                 return status.state == ReplayStatus.STATE_ENDED
+            if time.monotonic() - max(self.recorder.status_received, started) > quiet:
+                return False
             time.sleep(0.05)
         return False
 
@@ -397,10 +421,7 @@ def run_graph(
         for node in graph.nodes:
             if node.name != "video_source":
                 nodes.start(node.name, overrides.get(node.name))
-        if _wait_for_graph(graph, recorder, supervisor):
-            # The counts above are this process's view; give the nodes a moment to finish
-            # matching each other too, so frame 0 is not published into a half-discovered graph.
-            stop_signals.wait(1.0)
+        if _wait_for_graph(graph, recorder, supervisor) and _wait_for_matches(graph, recorder):
             _replay(nodes, recorder, supervisor, source_overrides, timeout, during)
     finally:
         _stop_nodes(nodes, result)
@@ -483,7 +504,7 @@ def _supervise(
         nodes.cpu_seconds()  # keeps each node's CPU time up to date, also for one about to exit
     result.wall_seconds = time.monotonic() - started
     if watch is Watch.ENDED:
-        stop_signals.wait(1.0)  # the last frame's messages
+        recorder.wait_until_quiet()  # the last frames' messages
     progress.done()
     result.cpu_seconds = {**nodes.cpu_seconds(), "recorder": time.process_time() - recorder_cpu}
 
@@ -525,6 +546,30 @@ def _wait_for_graph(
         if time.monotonic() > deadline:
             result.fail(f"the graph did not come up within {timeout:.0f} s (waiting for {missing})")
             return False
+    return False
+
+
+def _wait_for_matches(graph: Graph, recorder: Recorder, timeout: float = MATCH_TIMEOUT_S) -> bool:
+    """Until each topic of `graph.ready` has as many readers as it needs matched by its own
+    publisher (the nodes' diagnostics say), or `timeout`: the counts `_wait_for_graph` reads are
+    this process's view of the graph, and under load a node's publisher has been seen to match a
+    reader seconds after the recorder saw it, so frame 0 went unanswered. False: a stop arrived."""
+    deadline = time.monotonic() + timeout
+    while not stop_signals.requested():
+        short = {
+            topic: recorder.readers.get(topic, 0)
+            for topic, wanted in graph.ready.items()
+            if recorder.readers.get(topic, 0) < wanted
+        }
+        if not short:
+            return True
+        if time.monotonic() > deadline:
+            recorder.get_logger().warning(
+                f"publishers still lack readers after {timeout:.0f} s ({short} matched); "
+                "replaying anyway: the first frames may go unanswered"
+            )
+            return True
+        stop_signals.wait(0.05)
     return False
 
 

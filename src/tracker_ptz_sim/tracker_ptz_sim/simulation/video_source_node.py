@@ -152,8 +152,11 @@ class VideoSourceNode(SuiteNode):
         self.ack_event = threading.Event()
         self.pace_event = threading.Event()
         self.pacer = Pacer(self.params["rate"])
-        if self.params["lockstep"]:
+        self.ack_sub = (
             self.create_subscription(PtzCommand, self.params["ack_topic"], self._on_ack, 10)
+            if self.params["lockstep"]
+            else None
+        )
         self.status = ReplayStatus(source=str(self.source.path), state=ReplayStatus.STATE_PLAYING)
         self.add_waker(self.ack_event.set)
         self.add_waker(self.pace_event.set)
@@ -216,16 +219,17 @@ class VideoSourceNode(SuiteNode):
 
     def _wait_for_subscribers(self) -> None:
         """Lockstep: wait for the image subscribers and for someone publishing acknowledgements,
+        each matched by this node's own publisher and subscription (not only seen in the graph),
         so frame 0 is neither lost nor waits for an ack that cannot come."""
-        if not self.params["lockstep"]:
+        if self.ack_sub is None:
             return
         wanted = self.params["wait_for_subscribers"]
-        ack_topic = self.params["ack_topic"]
+        ack_topic, ack_sub = self.params["ack_topic"], self.ack_sub
 
         def ready() -> bool:
             return (
                 self.image_pub.get_subscription_count() >= wanted
-                and self.count_publishers(ack_topic) > 0
+                and ack_sub.get_publisher_count() > 0
             )
 
         if not ready():
