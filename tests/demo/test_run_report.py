@@ -291,6 +291,16 @@ def test_launch_file_adds_the_live_view_on_request(monkeypatch):
     assert created[-1]["name"] == "live_view" and created[-1]["executable"] == "live_view"
 
 
+def test_launch_file_pipelines_the_replay_on_request(monkeypatch):
+    entities, created = _launch_actions(monkeypatch, video="v.avi", frames_in_flight="2")
+    assert ("arg", "frames_in_flight", "1") in entities
+    by_name = {n["name"]: n for n in created}
+    assert by_name["video_source"]["parameters"][-1]["frames_in_flight"] == 2
+    assert by_name["ptz_camera"]["parameters"][-1]["command_delay_frames"] == 2
+    with pytest.raises(ValueError, match="frames_in_flight must be a whole number, got 'two'"):
+        _launch_actions(monkeypatch, video="v.avi", frames_in_flight="two")
+
+
 def test_launch_file_runs_behind_a_live_camera_under_a_namespace(monkeypatch):
     _, created = _launch_actions(monkeypatch, camera="live", namespace="cam1")
     assert [n["name"] for n in created][0] == "ptz_state_bridge"
