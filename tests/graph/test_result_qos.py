@@ -112,6 +112,7 @@ def test_the_recorder_gets_results_published_before_it_was_discovered():
         deadline = time.monotonic() + 10.0
         while bag.written.get("/target", 0) < 3 and time.monotonic() < deadline:
             executor.spin_once(timeout_sec=0.05)
+        recorder.close()
         assert bag.written.get("/target") == 3
         recorder.destroy_node()
         early.destroy_node()

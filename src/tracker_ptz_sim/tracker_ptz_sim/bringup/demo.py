@@ -28,10 +28,12 @@ from __future__ import annotations
 
 import argparse
 import os
+import queue
 import shutil
 import sys
 import threading
 import time
+from collections import Counter
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from enum import Enum
@@ -78,6 +80,7 @@ from tracker_ptz_sim.simulation.camera_model import PtzCameraModel, PtzConfig
 from tracker_ptz_sim.simulation.frame_sources import open_source
 from tracker_ptz_sim.simulation.video_source_node import STATUS_QOS
 
+SCENE_TOPIC = "/scene/image_raw"
 MATCH_TIMEOUT_S = 10.0  # longest the replay waits for the publishers to match their readers
 STATUS_QUIET_S = 0.3  # no replay status for this long: a killed source's last ones have arrived
 RECORDING_QUIET_S = 0.5  # nothing recorded for this long after the end: the last messages are in
@@ -103,7 +106,12 @@ CLOCK_QOS = QoSProfile(
 
 class Recorder(Node):
     """Records the graph's topics (serialized, as received; images as JPEG on `<topic>/compressed`
-    unless `raw_images`) and follows the replay's progress."""
+    unless `raw_images`) and follows the replay's progress.
+
+    A subscription callback only queues what arrived; a writer thread encodes and writes it. A
+    recorder that encoded in its callbacks fell seconds behind on a loaded machine, and the
+    readers' histories (200 results, 30 images) then overflowed: a run lost half its scene
+    images with nothing said. `close()` writes what is queued and stops the writer."""
 
     def __init__(
         self, graph: Graph, bag: BagWriter, raw_images: bool = False, context: Any = None
@@ -112,7 +120,12 @@ class Recorder(Node):
         self.bag = bag
         self.status: ReplayStatus | None = None
         self.status_received = time.monotonic()
-        self.recorded_at = time.monotonic()  # when the last message was recorded
+        self.received_at = time.monotonic()  # when the last message to record arrived
+        self.received: Counter[str] = Counter()  # messages to record, per graph topic
+        self.write_error: Exception | None = None  # the first message the bag could not take
+        self._pending: queue.SimpleQueue[tuple[str, int, bytes, bool] | None] = queue.SimpleQueue()
+        self._writer = threading.Thread(target=self._write, name="recorder.writer", daemon=True)
+        self._writer.start()
         self._keep = []
         for topic in graph.topics:
             msg_type = _import_type(topic.type)
@@ -144,20 +157,36 @@ class Recorder(Node):
         )
 
     def _record(self, topic: str, data: bytes) -> None:
-        self.bag.write(topic, time.time_ns(), data)
-        self.recorded_at = time.monotonic()
+        self._pending.put((topic, time.time_ns(), data, False))
+        self._received(topic)
 
     def _record_jpeg(self, topic: str, data: bytes) -> None:
-        received = time.time_ns()  # the receive time, before the encoding
-        self.bag.write(topic, received, jpeg_cdr(data))
-        self.recorded_at = time.monotonic()
+        self._pending.put((topic, time.time_ns(), data, True))  # the receive time
+        self._received(topic)
+
+    def _received(self, topic: str) -> None:
+        self.received[topic.removesuffix(COMPRESSED)] += 1
+        self.received_at = time.monotonic()
+
+    def _write(self) -> None:
+        while (item := self._pending.get()) is not None:
+            topic, received, data, jpeg = item
+            try:
+                self.bag.write(topic, received, jpeg_cdr(data) if jpeg else data)
+            except Exception as error:  # one bad message must not end the recording
+                self.write_error = self.write_error or error
+
+    def close(self, timeout: float = 120.0) -> None:
+        """Write what is still queued (up to `timeout` s) and stop the writer thread."""
+        self._pending.put(None)
+        self._writer.join(timeout)
 
     def wait_until_quiet(self, quiet: float = RECORDING_QUIET_S, limit: float = 10.0) -> None:
-        """Until nothing was recorded for `quiet` s (`limit` s at most): the last frames'
-        messages are in, also when this process runs behind the graph."""
+        """Until nothing arrived for `quiet` s (`limit` s at most): the last frames' messages
+        are in, also when this process runs behind the graph."""
         started = time.monotonic()
         while time.monotonic() - started < limit and not stop_signals.requested():
-            if time.monotonic() - max(self.recorded_at, started) >= quiet:
+            if time.monotonic() - max(self.received_at, started) >= quiet:
                 return
             stop_signals.wait(0.05)
 
@@ -428,11 +457,30 @@ def run_graph(
         recorded.set()
         spinner.join(timeout=5.0)
         recording.shutdown()
+        recorder.close()
+        if recorder.write_error is not None:
+            result.fail(f"the recorder could not write a message: {recorder.write_error!r}")
         recorder.destroy_node()
         rclpy.try_shutdown()
         bag.close()
         result.replay = _replay_summary(recorder.status)
+        _check_recording(recorder, result)
     return result
+
+
+def _check_recording(recorder: Recorder, result: RunResult) -> None:
+    """A finished replay whose scene images did not all reach the recorder is incomplete: the
+    recorder is not part of the lockstep, and on a machine too loaded for it to keep up the
+    publishers' histories overflow before it takes their messages."""
+    published = int(result.replay.get("frames_published", 0))
+    if result.restarts or result.replay.get("state") != "ended":
+        return
+    got = recorder.received[SCENE_TOPIC]
+    if got < published:
+        result.fail(
+            f"the recorder got {got} of the {published} scene images (the machine was too "
+            "loaded for it to keep up): the bag misses frames"
+        )
 
 
 def _stop_nodes(nodes: GraphProcesses, result: RunResult) -> None:
