@@ -24,8 +24,10 @@ import itertools
 import json
 import sys
 import time
+from collections.abc import Iterator
 from dataclasses import asdict
 from pathlib import Path
+from typing import Any
 
 from tracker_ptz_sim.bringup import demo, pipeline
 from tracker_ptz_sim.bringup.graph import Graph, load_graph, pipelined
@@ -129,14 +131,7 @@ def pipelined_run(graph: Graph, video: Path, frames_in_flight: int) -> dict:
     frames = run_report.collect(run.bag)
     summary = run_report.summarize(frames, run_report.message_counts(frames))
     recorded = scoring.trace_from_frames(frames)
-    source = open_source(video)
-    images, stamps = itertools.tee(source.frames())
-    steps = pipeline.run(
-        (frame.image for frame in images),
-        (frame.stamp_ns for frame in stamps),
-        pipeline.PipelineSettings.from_graph(graph, overrides),
-    )
-    expected = scoring.trace_from_steps(steps, source.fps)
+    expected = scoring.trace_from_steps(in_process_steps(graph, video, overrides), recorded.fps)
     latency = summary.latency_ms["camera image -> command"]
     return {
         "fps": summary.throughput_fps,
@@ -178,15 +173,25 @@ def executor_run(
     }
 
 
+def in_process_steps(
+    graph: Graph, video: Path, overrides: dict[str, dict[str, Any]] | None = None
+) -> Iterator[pipeline.Step]:
+    """The graph's components stepped in one loop over the video's frames, decoded as the steps
+    are taken (nothing runs before the first is asked for)."""
+    images, stamps = itertools.tee(open_source(video).frames())  # zip() keeps them in step
+    return pipeline.run(
+        (frame.image for frame in images),
+        (frame.stamp_ns for frame in stamps),
+        pipeline.PipelineSettings.from_graph(graph, overrides),
+    )
+
+
 def in_process_frames_per_second(graph: Graph, video: Path) -> float:
     """The same components in one loop on the same frames, decoding included (one core)."""
-    images, stamps = itertools.tee(open_source(video).frames())  # zip() keeps them in step
-    frames = (frame.image for frame in images)
-    stamp_ns = (frame.stamp_ns for frame in stamps)
-    settings = pipeline.PipelineSettings.from_graph(graph)
+    steps = in_process_steps(graph, video)
     started = time.perf_counter()
-    steps = sum(1 for _ in pipeline.run(frames, stamp_ns, settings))
-    return steps / (time.perf_counter() - started)
+    count = sum(1 for _ in steps)
+    return count / (time.perf_counter() - started)
 
 
 if __name__ == "__main__":

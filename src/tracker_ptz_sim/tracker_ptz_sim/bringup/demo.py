@@ -737,9 +737,11 @@ def main(argv: list[str] | None = None) -> int:
     print(note, flush=True)
     overrides = parse_overrides(args.set)
     if args.frames_in_flight is not None:
-        if not 1 <= args.frames_in_flight <= 32:
-            parser.error("--frames-in-flight must be in [1, 32]")
-        for node, values in pipelined(args.frames_in_flight).items():
+        try:
+            in_flight = pipelined(args.frames_in_flight)
+        except ValueError as error:
+            parser.error(f"--frames-in-flight: {error}")
+        for node, values in in_flight.items():
             overrides.setdefault(node, {}).update(values)
     if args.mode:
         overrides.setdefault("ptz_controller", {})["mode"] = args.mode

@@ -22,6 +22,7 @@ from typing import Any
 import yaml
 
 from tracker_msgs_py.package_files import package_data
+from tracker_ptz_sim.simulation.camera_model import MAX_COMMAND_DELAY_FRAMES
 
 
 @dataclass(frozen=True)
@@ -216,7 +217,12 @@ def parse_overrides(items: Sequence[str]) -> dict[str, dict[str, Any]]:
 def pipelined(frames_in_flight: int) -> dict[str, dict[str, Any]]:
     """Overrides for a lockstep replay with `frames_in_flight` frames in flight: the source runs
     that many frames ahead of the acknowledgements, and the camera applies each command that many
-    frames after the image it answers, so the replay stays deterministic."""
+    frames after the image it answers, so the replay stays deterministic. ValueError, naming the
+    range, for a count the camera cannot delay by."""
+    if not 1 <= frames_in_flight <= MAX_COMMAND_DELAY_FRAMES:
+        raise ValueError(
+            f"frames_in_flight must be in [1, {MAX_COMMAND_DELAY_FRAMES}], got {frames_in_flight}"
+        )
     return {
         "video_source": {"frames_in_flight": frames_in_flight},
         "ptz_camera": {"command_delay_frames": frames_in_flight},

@@ -37,7 +37,6 @@ CONTROLLER_MODES = ("graph", "servo", "direct", "hold")  # graph: the graph's ow
 SIMULATOR_NODES = ("video_source", "ptz_camera")
 BRIDGE = NodeSpec("tracker_ptz_sim", "ptz_state_bridge", "ptz_state_bridge")
 LIVE_PARAMETERS = "live.yaml"  # in the graph's config directory
-MAX_FRAMES_IN_FLIGHT = 32
 
 
 @dataclass(frozen=True)
@@ -121,11 +120,7 @@ def _check(arguments: LaunchArguments) -> None:
         raise ValueError(
             f"use_sim_time must be one of {', '.join(SIM_TIMES)}, got '{arguments.use_sim_time}'"
         )
-    if not 1 <= arguments.frames_in_flight <= MAX_FRAMES_IN_FLIGHT:
-        raise ValueError(
-            f"frames_in_flight must be in [1, {MAX_FRAMES_IN_FLIGHT}], got "
-            f"{arguments.frames_in_flight}"
-        )
+    pipelined(arguments.frames_in_flight)  # raises for a count out of range
     if arguments.camera == "sim" and not arguments.video:
         raise ValueError("camera:=sim replays a recording: give video:=/path/to/video")
     if arguments.use_sim_time == "true" and _clock(arguments) == "off":

@@ -34,6 +34,7 @@ from tracker_msgs_py.codec import (
 )
 from tracker_msgs_py.node_main import StartupError, SuiteNode, run_node
 from tracker_msgs_py.params import ParamSpec, declare_parameters
+from tracker_ptz_sim.simulation.camera_model import MAX_COMMAND_DELAY_FRAMES
 from tracker_ptz_sim.simulation.frame_sources import Frame, FrameSource, SourceError, open_source
 from tracker_ptz_sim.simulation.replay import Pacer, Prefetcher
 
@@ -88,7 +89,7 @@ PARAMS = [
         "lockstep: frames published ahead of the oldest one not yet acknowledged (1 = in "
         "series; ptz_camera's command_delay_frames must be at least this)",
         1,
-        32,
+        MAX_COMMAND_DELAY_FRAMES,
         read_only=True,
     ),
     ParamSpec(
