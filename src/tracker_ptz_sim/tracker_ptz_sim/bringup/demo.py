@@ -432,9 +432,13 @@ def run_graph(
         shared_memory = respawn_limit == 0 and during is None
     environment = {} if shared_memory else GraphProcesses.without_shared_memory(graph)
     nodes = GraphProcesses(graph, install_dir, out / "logs", environment, executor)
+    live = any(node.name == LIVE_VIEW.name for node in graph.nodes)
     source_overrides = {
         "path": str(video),
-        "wait_for_subscribers": 2,  # the first frame goes out once ptz_camera and we listen
+        # The first frame goes out once every scene reader has matched: ptz_camera, this
+        # recorder and the live view (counting 2 with the live view on let the source start
+        # before the recorder matched: its bag lacked the first frames).
+        "wait_for_subscribers": 3 if live else 2,
         **overrides.get("video_source", {}),
     }
     overrides = {**overrides, **stand_in_scene(graph, video, overrides)}
@@ -443,7 +447,6 @@ def run_graph(
     )
     try:
         if single_process:
-            live = any(node.name == LIVE_VIEW.name for node in graph.nodes)
             nodes.start_host({**overrides, "video_source": source_overrides}, live)
             _supervise(recorder, supervisor, timeout, during, nodes, video.name)
             return result
