@@ -157,3 +157,14 @@ def test_parameters_are_validated_at_startup_and_on_change():
         node.destroy_node()
     finally:
         rclpy.shutdown(context=context)
+
+
+def test_the_header_stamp_of_a_serialized_image_is_read_without_deserializing():
+    pytest.importorskip("rclpy")
+    from rclpy.serialization import serialize_message
+
+    from tracker_msgs_py.codec import array_to_image, header_stamp_ns, ns_to_stamp
+
+    stamp_ns = 1_795_704_779_012_524_643
+    image = array_to_image(np.zeros((4, 6, 3), np.uint8), "bgr8", ns_to_stamp(stamp_ns), "scene")
+    assert header_stamp_ns(serialize_message(image)) == stamp_ns

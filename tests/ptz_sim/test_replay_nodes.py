@@ -63,6 +63,17 @@ class Controller:
             ReplayStatus, "replay/status", self.statuses.append, STATUS_QOS
         )
         self.pending: list = []
+        # as run_demo's recorder: says which scene images arrived (while `recording`)
+        from std_msgs.msg import Header
+
+        self.Header = Header
+        self.recorded_pub = self.node.create_publisher(Header, "replay/recorded", 10)
+        self.node.create_subscription(Image, "scene/image_raw", self._on_scene, image_qos(True))
+        self.scenes: list = []
+        self.recording = True
+
+    def _on_scene(self, msg):
+        self.scenes.append(msg.header.stamp)
 
     def _on_view(self, msg):
         from tracker_msgs_py.codec import image_to_array, stamp_to_ns
@@ -83,7 +94,10 @@ class Controller:
 
     def acknowledge(self):
         """Answer each camera image with the command planned for its frame (the latest PLAN
-        entry at or before it, so velocity commands are refreshed every frame)."""
+        entry at or before it, so velocity commands are refreshed every frame), and each scene
+        image with a recorder's acknowledgement while `recording`."""
+        while self.recording and self.scenes:
+            self.recorded_pub.publish(self.Header(stamp=self.scenes.pop(0)))
         PtzCommand = self.PtzCommand
         while self.pending:
             stamp = self.pending.pop(0)
@@ -118,7 +132,7 @@ class Controller:
         self.context.try_shutdown()
 
 
-def replay(paths, tmp_path, servo="instant", in_flight=1, before_acks=None):
+def replay(paths, tmp_path, servo="instant", in_flight=1, before_acks=None, recorder=False):
     """One lockstep replay with `in_flight` frames in flight (the camera delaying commands as
     many frames); the views, states, joint states and statuses received. `before_acks(controller)`
     runs once the replay has started, before any image is acknowledged."""
@@ -146,8 +160,9 @@ def replay(paths, tmp_path, servo="instant", in_flight=1, before_acks=None):
             **common,
             "path": str(paths.video),
             "rate": 0.0,
-            "wait_for_subscribers": 1,
+            "wait_for_subscribers": 2,  # the camera and this test's recorder stand-in
             "frames_in_flight": in_flight,
+            **({"recorder_topic": "replay/recorded"} if recorder else {}),
         },
     )
     try:
@@ -468,6 +483,32 @@ def test_a_pipelined_replay_keeps_its_frames_in_flight_and_delays_commands_as_ma
     xs = [states[stamp].window.x for stamp in stamps]
     assert xs[:3] == [xs[0]] * 3 and xs[0] > 0  # frame 0's command (far left) ...
     assert xs[3] == 0  # ... acts from frame 3
+    ended = statuses[-1]
+    assert ended.state == ended.STATE_ENDED and ended.frames_published == FRAMES
+    assert ended.lockstep_timeouts == 0
+
+
+def test_a_replay_with_a_recorder_waits_for_it_too(scene, tmp_path):
+    """recorder_topic: a frame the controller has answered still waits until the recorder has
+    it, so a recorder that falls behind slows the replay instead of losing frames."""
+    scene, paths = scene
+    held = {}
+
+    def stall_the_recorder(controller):
+        controller.recording = False
+        deadline = time.monotonic() + 20
+        while not controller.views and time.monotonic() < deadline:
+            controller._spin()
+        end = time.monotonic() + 0.5  # the commands are answered; the recorder is silent
+        while time.monotonic() < end:
+            controller._spin()
+            controller.acknowledge()
+        held["views"] = len(controller.views)
+        controller.recording = True
+
+    views, _, _, statuses = replay(paths, tmp_path, before_acks=stall_the_recorder, recorder=True)
+    assert held["views"] == 1  # in series: frame 1 waited for frame 0's recording
+    assert sorted(views) == scene.stamps_ns()
     ended = statuses[-1]
     assert ended.state == ended.STATE_ENDED and ended.frames_published == FRAMES
     assert ended.lockstep_timeouts == 0

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import array
 import math
+import struct
 from collections.abc import Sequence
 from functools import cache
 from typing import TYPE_CHECKING, Any
@@ -86,6 +87,14 @@ def _keep_last(depth: int, reliable: bool, durable: bool = False) -> QoSProfile:
 def stamp_to_ns(stamp: Time) -> int:
     """Nanoseconds of a builtin_interfaces/Time (rclpy or rosbags message)."""
     return int(stamp.sec) * NS_PER_S + int(stamp.nanosec)
+
+
+def header_stamp_ns(cdr: bytes) -> int:
+    """Nanoseconds of the header stamp of a serialized (CDR) message whose first field is a
+    std_msgs/Header (Image, CompressedImage, CameraInfo...), read without deserializing it."""
+    little = len(cdr) > 1 and cdr[1] & 1  # the encapsulation: CDR_LE or CDR_BE
+    sec, nanosec = struct.unpack_from("<iI" if little else ">iI", cdr, 4)
+    return sec * NS_PER_S + nanosec
 
 
 def joint_values(

@@ -33,7 +33,7 @@ import shutil
 import sys
 import threading
 import time
-from collections import Counter
+from collections import Counter, deque
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from enum import Enum
@@ -48,10 +48,11 @@ from rclpy.executors import Executor
 from rclpy.node import Node
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.signals import SignalHandlerOptions
+from std_msgs.msg import Header
 
 from tracker_msgs.msg import ReplayStatus
 from tracker_msgs_py import stop_signals
-from tracker_msgs_py.codec import result_qos
+from tracker_msgs_py.codec import header_stamp_ns, ns_to_stamp, result_qos, stamp_to_ns
 from tracker_msgs_py.node_main import DEFAULT_EXECUTOR, EXECUTORS, matched_readers
 from tracker_msgs_py.params import config_from_params
 from tracker_ptz_sim.bringup.graph import (
@@ -76,11 +77,18 @@ from tracker_ptz_sim.evaluation.recording import (
     jpeg_cdr,
     recorded_topics,
 )
-from tracker_ptz_sim.simulation.camera_model import PtzCameraModel, PtzConfig
+from tracker_ptz_sim.simulation.camera_model import (
+    MAX_COMMAND_DELAY_FRAMES,
+    PtzCameraModel,
+    PtzConfig,
+)
 from tracker_ptz_sim.simulation.frame_sources import open_source
 from tracker_ptz_sim.simulation.video_source_node import STATUS_QOS
 
 SCENE_TOPIC = "/scene/image_raw"
+#: The recorder says here which scene images it has received (std_msgs/Header with the image's
+#: stamp); a lockstep video_source waits for it too (its `recorder_topic`).
+RECORDED_TOPIC = "/replay/recorded"
 MATCH_TIMEOUT_S = 10.0  # longest the replay waits for the publishers to match their readers
 STATUS_QUIET_S = 0.3  # no replay status for this long: a killed source's last ones have arrived
 RECORDING_QUIET_S = 0.5  # nothing recorded for this long after the end: the last messages are in
@@ -146,6 +154,8 @@ class Recorder(Node):
                 )
             )
         self.create_subscription(ReplayStatus, "/replay/status", self._on_status, STATUS_QOS)
+        self.scene_stamps: deque[int] = deque(maxlen=MAX_COMMAND_DELAY_FRAMES + 2)
+        self._recorded_pub = self.create_publisher(Header, RECORDED_TOPIC, 10)
         self.readers: dict[str, int] = {}  # per topic, the readers its publisher has matched
         self.create_subscription(DiagnosticArray, "/diagnostics", self._on_diagnostics, 50)
 
@@ -158,15 +168,25 @@ class Recorder(Node):
 
     def _record(self, topic: str, data: bytes) -> None:
         self._pending.put((topic, time.time_ns(), data, False))
-        self._received(topic)
+        self._received(topic, data)
 
     def _record_jpeg(self, topic: str, data: bytes) -> None:
         self._pending.put((topic, time.time_ns(), data, True))  # the receive time
-        self._received(topic)
+        self._received(topic, data)
 
-    def _received(self, topic: str) -> None:
-        self.received[topic.removesuffix(COMPRESSED)] += 1
+    def _received(self, topic: str, data: bytes) -> None:
+        topic = topic.removesuffix(COMPRESSED)
+        self.received[topic] += 1
         self.received_at = time.monotonic()
+        if topic == SCENE_TOPIC:
+            stamp = header_stamp_ns(data)
+            self.scene_stamps.append(stamp)
+            self._recorded_pub.publish(Header(stamp=ns_to_stamp(stamp)))
+
+    def scene_frames_after(self, stamp_ns: int) -> int:
+        """How many of the scene images received are stamped after `stamp_ns` (the newest
+        kept)."""
+        return sum(1 for stamp in self.scene_stamps if stamp > stamp_ns)
 
     def _write(self) -> None:
         while (item := self._pending.get()) is not None:
@@ -334,7 +354,10 @@ class Supervisor:
             return overrides
         status = self.recorder.settled_status()
         if status is not None and status.frames_published:
-            overrides["start_frame"] = int(status.frame_index) + 1
+            # The statuses of a killed source's last frames can be lost with it while their
+            # images got through (the camera rendered them): resume after those too.
+            beyond = self.recorder.scene_frames_after(stamp_to_ns(status.header.stamp))
+            overrides["start_frame"] = int(status.frame_index) + 1 + beyond
         return overrides
 
 
@@ -439,6 +462,9 @@ def run_graph(
         # recorder and the live view (counting 2 with the live view on let the source start
         # before the recorder matched: its bag lacked the first frames).
         "wait_for_subscribers": 3 if live else 2,
+        # and each frame waits until this recorder has it: a loaded machine slows the replay
+        # down instead of the bag losing frames
+        "recorder_topic": RECORDED_TOPIC,
         **overrides.get("video_source", {}),
     }
     overrides = {**overrides, **stand_in_scene(graph, video, overrides)}
@@ -472,9 +498,9 @@ def run_graph(
 
 
 def _check_recording(recorder: Recorder, result: RunResult) -> None:
-    """A finished replay whose scene images did not all reach the recorder is incomplete: the
-    recorder is not part of the lockstep, and on a machine too loaded for it to keep up the
-    publishers' histories overflow before it takes their messages."""
+    """A finished replay whose scene images did not all reach the recorder is incomplete. The
+    lockstep waits for the recorder, but a frame goes on unrecorded after a lockstep timeout, and
+    without lockstep the publishers' histories overflow when the recorder falls behind."""
     published = int(result.replay.get("frames_published", 0))
     if result.restarts or result.replay.get("state") != "ended":
         return

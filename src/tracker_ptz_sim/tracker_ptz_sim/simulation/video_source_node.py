@@ -4,7 +4,9 @@ Publishes `scene/image_raw` (sensor_msgs/Image, bgr8 or mono8), `scene/camera_in
 (so the graph can run on the recording's time) and `replay/status` (tracker_msgs/ReplayStatus).
 Frames are stamped from the recording. Pacing: `rate` x real time, or as fast as possible (rate 0);
 with lockstep, frame n also waits for an acknowledgement stamped >= frame n - `frames_in_flight`
-on `ack_topic` (tracker_msgs/PtzCommand by default), or for `lockstep_timeout` with a warning:
+on `ack_topic` (tracker_msgs/PtzCommand by default) -- and, given a `recorder_topic`, until a
+recorder has received it (run_demo's recorder says so there) -- or for `lockstep_timeout` with a
+warning:
 1 frame in flight runs the graph in series; more let its nodes work on different frames at once
 (give ptz_camera the same `command_delay_frames`, so the replay stays deterministic). At the end
 of the stream it waits for the last frames' acknowledgements, publishes STATE_ENDED and exits 0
@@ -22,6 +24,7 @@ from rclpy.duration import Duration
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import CameraInfo, Image
+from std_msgs.msg import Header
 
 from tracker_msgs.msg import PtzCommand, ReplayStatus
 from tracker_msgs_py.codec import (
@@ -99,6 +102,14 @@ PARAMS = [
         read_only=True,
     ),
     ParamSpec(
+        "recorder_topic",
+        "",
+        "lockstep: also wait until a recorder has received each frame (std_msgs/Header stamped "
+        "with it, on this topic; empty: no recorder), so a recording misses none however loaded "
+        "the machine",
+        read_only=True,
+    ),
+    ParamSpec(
         "lockstep_timeout",
         2.0,
         "give up waiting for an acknowledgement after this [s]",
@@ -147,7 +158,9 @@ class VideoSourceNode(SuiteNode):
             if self.params["publish_clock"]
             else None
         )
-        self.acked_ns = -1
+        self.answered_ns = -1  # the newest frame acknowledged on ack_topic
+        # the newest frame the recorder has received (None: no recorder to wait for)
+        self.recorded_ns: int | None = None
         self.published_ns = -1  # stamp of the newest frame published (set before it goes out)
         self.in_flight: deque[int] = deque()  # lockstep: stamps published, not yet acknowledged
         self.ack_event = threading.Event()
@@ -158,6 +171,12 @@ class VideoSourceNode(SuiteNode):
             if self.params["lockstep"]
             else None
         )
+        self.recorder_sub = None
+        if self.params["lockstep"] and self.params["recorder_topic"]:
+            self.recorded_ns = -1
+            self.recorder_sub = self.create_subscription(
+                Header, self.params["recorder_topic"], self._on_recorded, 10
+            )
         self.status = ReplayStatus(source=str(self.source.path), state=ReplayStatus.STATE_PLAYING)
         self.add_waker(self.ack_event.set)
         self.add_waker(self.pace_event.set)
@@ -177,14 +196,34 @@ class VideoSourceNode(SuiteNode):
         }
         return names.get(status.state, str(status.state)), details
 
+    @property
+    def acked_ns(self) -> int:
+        """The newest frame both answered and (with a recorder) recorded."""
+        if self.recorded_ns is None:
+            return self.answered_ns
+        return min(self.answered_ns, self.recorded_ns)
+
+    def _forget_acks(self) -> None:
+        self.answered_ns = -1
+        if self.recorded_ns is not None:
+            self.recorded_ns = -1
+
+    def _current(self, stamp_ns: int) -> bool:
+        """An acknowledgement stamped after every frame published answers another replay (the
+        one before a restart, still draining the graph): taken, it would let frames through
+        unanswered."""
+        return stamp_ns <= self.published_ns
+
     def _on_ack(self, msg: PtzCommand) -> None:
         stamp = stamp_to_ns(msg.header.stamp)
-        # An acknowledgement stamped after every frame published answers another replay (the one
-        # before a restart, still draining the graph): taken, it would let frames through unanswered.
-        if stamp > self.published_ns:
-            return
-        if stamp > self.acked_ns:
-            self.acked_ns = stamp
+        if self._current(stamp) and stamp > self.answered_ns:
+            self.answered_ns = stamp
+            self.ack_event.set()
+
+    def _on_recorded(self, msg: Header) -> None:
+        stamp = stamp_to_ns(msg.stamp)
+        if self._current(stamp) and self.recorded_ns is not None and stamp > self.recorded_ns:
+            self.recorded_ns = stamp
             self.ack_event.set()
 
     def _on_change(self, changed: dict[str, Any]) -> None:
@@ -227,16 +266,20 @@ class VideoSourceNode(SuiteNode):
         wanted = self.params["wait_for_subscribers"]
         ack_topic, ack_sub = self.params["ack_topic"], self.ack_sub
 
+        recorder_sub = self.recorder_sub
+
         def ready() -> bool:
             return (
                 self.image_pub.get_subscription_count() >= wanted
                 and ack_sub.get_publisher_count() > 0
+                and (recorder_sub is None or recorder_sub.get_publisher_count() > 0)
             )
 
         if not ready():
+            recorder = "" if recorder_sub is None else f" and of {self.params['recorder_topic']}"
             self.get_logger().info(
                 f"lockstep: waiting for {wanted} subscriber(s) of scene/image_raw and a publisher "
-                f"of {ack_topic}"
+                f"of {ack_topic}{recorder}"
             )
         while not self.stopping.is_set() and not ready():
             self.stopping.wait(0.02)
@@ -279,7 +322,7 @@ class VideoSourceNode(SuiteNode):
 
     def _publish(self, frame: Frame, stamp_ns: int) -> None:
         if stamp_ns <= self.published_ns:
-            self.acked_ns = -1  # time went back (a loop): older acknowledgements answer nothing
+            self._forget_acks()  # time went back (a loop): older acknowledgements answer nothing
             self.in_flight.clear()
         self.published_ns = stamp_ns
         stamp = ns_to_stamp(stamp_ns)
@@ -345,9 +388,14 @@ class VideoSourceNode(SuiteNode):
             remaining = deadline - time.monotonic()
             if remaining <= 0:
                 self.status.lockstep_timeouts += 1
+                waited_for = (
+                    f"recording on {self.params['recorder_topic']}"
+                    if self.answered_ns >= stamp_ns
+                    else f"acknowledgement on {self.params['ack_topic']}"
+                )
                 self.get_logger().warning(
-                    f"no acknowledgement of the frame stamped {stamp_ns / NS_PER_S:.3f} s on "
-                    f"{self.params['ack_topic']} within {self.params['lockstep_timeout']} s; going on",
+                    f"no {waited_for} of the frame stamped {stamp_ns / NS_PER_S:.3f} s within "
+                    f"{self.params['lockstep_timeout']} s; going on",
                     throttle_duration_sec=5.0,
                 )
                 return
