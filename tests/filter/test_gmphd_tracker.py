@@ -8,7 +8,7 @@ import pytest
 from tracker_filter.gmphd import Estimates
 from tracker_filter.gmphd_tracker import METHOD
 from tracker_filter.observation import Detections, Observation
-from tracker_filter.phd_labels import LabelledStates, assign, labelling_costs
+from tracker_filter.phd_labels import LabelledStates, assign, inside_merged_blob, labelling_costs
 from tracker_filter.phd_occlusion import OcclusionConfig, OcclusionMonitor
 from tracker_filter.tracking import TrackStatus
 from tracker_msgs_py.geometry import Rect
@@ -260,3 +260,28 @@ def test_a_target_found_again_after_its_track_was_lost_gets_its_label_back():
     assert before is not None and after == before
     before, after = label_after_a_gap(stitch_frames=0)
     assert after is not None and after != before
+
+
+def merged_case(other_hit: bool, gap: float) -> bool:
+    """Track 1 hidden and hit at (100, 100); track 2 in the same occlusion region, placed `gap`
+    px away, hit itself or not. Is track 1's hit inside a merged blob (radius 20 px)?"""
+    states = tracks(
+        [[100.0, 100.0], [100.0 + gap, 100.0]], centres=[[100.0, 100.0], [100.0, 100.0]]
+    )
+    states = LabelledStates(
+        states.labels,
+        states.positions,
+        states.velocities,
+        states.variances,
+        states.occlusion_centres,
+        np.array([True, False]),
+    )
+    hit = np.array([True, other_hit])
+    points = np.array([[102.0, 101.0], [100.0 + gap, 100.0]])
+    return bool(inside_merged_blob(states, hit, points, 20.0)[0])
+
+
+def test_a_hidden_tracks_hit_on_a_blob_still_holding_another_does_not_end_its_occlusion():
+    assert merged_case(other_hit=False, gap=12.0)  # the other is in that blob too
+    assert not merged_case(other_hit=False, gap=40.0)  # the blob has come apart
+    assert not merged_case(other_hit=True, gap=12.0)  # the other has a measurement of its own

@@ -38,7 +38,13 @@ from tracker_filter.gmphd import Estimates, GmPhdConfig, GmPhdFilter, Mixture
 from tracker_filter.layout import StateLayout
 from tracker_filter.models import CONSTANT_VELOCITY
 from tracker_filter.observation import Detections, Need, Observation
-from tracker_filter.phd_labels import BARRED, LabelledStates, assign, labelling_costs
+from tracker_filter.phd_labels import (
+    BARRED,
+    LabelledStates,
+    assign,
+    inside_merged_blob,
+    labelling_costs,
+)
 from tracker_filter.phd_occlusion import OcclusionConfig, OcclusionMonitor
 from tracker_filter.tracking import TrackBook, TrackSet
 from tracker_msgs_py.params import ParamSpec
@@ -203,11 +209,14 @@ class GmPhdTracker:
         sizes = sizes[sizes > 0]
         return float(sizes.mean()) if len(sizes) else self.monitor.config.object_size
 
-    def _label(self, estimates: Estimates) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Assigned rows and estimate columns, and per row whether its state is a hit; marks
-        in `self._explained` the estimates an existing track could have taken (within the gate
-        of one): they never start a track (the PHD update gives a clutter point near a target
-        almost the target's whole weight; that is one target, not two)."""
+    def _label(
+        self, estimates: Estimates, measured: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Assigned rows and estimate columns, and per row whether its state is a hit (of the
+        `measured` positions); marks in `self._explained` the estimates an existing track could
+        have taken (within the gate of one): they never start a track (the PHD update gives a
+        clutter point near a target almost the target's whole weight; that is one target, not
+        two)."""
         tracks = self._labelled_states()
         costs = labelling_costs(
             tracks, estimates, self.config.measurement_noise**2, self.impulse, self.label_gate
@@ -226,6 +235,9 @@ class GmPhdTracker:
             sharing = np.flatnonzero(sources == source)
             best = sharing[np.argmin(costs[rows[sharing], cols[sharing]])]
             hit[rows[best]] = True
+        hit_points = np.full((len(hit), 2), np.nan)
+        hit_points[rows[sources >= 0]] = measured[sources[sources >= 0]]
+        hit &= ~inside_merged_blob(tracks, hit, hit_points, self._epsilon_now)
         return rows, cols, hit
 
     def step(self, observation: Observation) -> TrackSet:
@@ -255,7 +267,7 @@ class GmPhdTracker:
         self.states = self.states @ transition.T
         self.covariances = transition @ self.covariances @ transition.T + noise
         self.weights = config.survival * self.weights
-        rows, cols, hit = self._label(estimates)
+        rows, cols, hit = self._label(estimates, detections.positions)
         self.states[rows] = estimates.means[cols]
         self.covariances[rows] = estimates.covariances[cols]
         self.weights[rows] = estimates.weights[cols]

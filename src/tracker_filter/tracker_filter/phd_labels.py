@@ -16,7 +16,9 @@ drifted); but `gate_inside` for a visible track's guess that no measurement made
 copy never displaces a detection near it, while a hidden track keeps to its guess and leaves
 the blob that hides it to the visible one). The "impulse": for a track inside an
 occlusion region, the region is split in four quadrants around the track's last position and
-candidates in the quadrant its heading points to cost `impulse` x as much.
+candidates in the quadrant its heading points to cost `impulse` x as much. A hidden track's
+hit does not end its occlusion while the point lies within the occlusion radius of another
+undetected track of a region (`inside_merged_blob`: not in the thesis).
 """
 
 from __future__ import annotations
@@ -97,3 +99,21 @@ def assign(costs: np.ndarray, gate: float) -> tuple[np.ndarray, np.ndarray]:
     rows, cols = linear_sum_assignment(np.where(costs <= gate, costs, BARRED))
     kept = costs[rows, cols] <= gate
     return rows[kept].astype(np.int64), cols[kept].astype(np.int64)
+
+
+def inside_merged_blob(
+    tracks: LabelledStates, hit: np.ndarray, hit_points: np.ndarray, radius: float
+) -> np.ndarray:
+    """Per track: hidden and hit, at a point (`hit_points`, (N, 2)) within `radius` of where
+    another track of an occlusion region that has no hit of its own is placed. That blob is
+    still the merged one (several targets meet in it), not the hidden target come out: taken
+    as its hit, it ended the occlusion inside the blob, and the track followed the blob off its
+    target's line."""
+    inside = np.zeros(len(hit), dtype=bool)
+    waiting = np.isfinite(tracks.occlusion_centres[:, 0]) & ~hit
+    for row in np.flatnonzero(hit & tracks.hidden & waiting.any()):
+        others = waiting.copy()
+        others[row] = False
+        gaps = np.hypot(*(tracks.positions[others] - hit_points[row]).T)
+        inside[row] = bool((gaps <= radius).any())
+    return inside
