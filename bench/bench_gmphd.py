@@ -285,7 +285,7 @@ def main() -> int:
     timing = speed(args.quick)
     print(f"== the gm_phd tracker on the thesis's scenarios, {len(tracker_seeds)} seeds each")
     tracked = phd_benchmark.evaluate(list(phd_scenarios.SCENARIOS), tracker_seeds)
-    print(phd_benchmark.table(tracked, len(tracker_seeds), stone_soup=alone))
+    print(phd_benchmark.table(tracked, tracker_seeds, stone_soup=alone))
     results = {
         "machine": machine(),
         "filters_alone": alone,

@@ -100,3 +100,15 @@ def test_a_track_pulled_off_course_before_the_blob_hides_it_is_still_taken_as_hi
     assert missed() == 0
     monkeypatch.setattr(GmPhdTracker, "_begin_reckoned", lambda *_: [])
     assert missed() >= 1
+
+
+def test_the_benchmark_scores_the_seeds_it_is_given(tmp_path):
+    from tracker_ptz_sim.bringup.phd_benchmark import main
+
+    assert (
+        main(["--scenarios", "2", "--first-seed", "50", "--seeds", "2", "--out", str(tmp_path)])
+        == 0
+    )
+    table = (tmp_path / "table.md").read_text()
+    assert "2 Monte Carlo runs per scenario (seeds 50-51)." in table
+    assert table.count("\n| 2 |") == 1
