@@ -23,7 +23,7 @@ from tracker_ptz_sim.evaluation.single_target import (
 def test_a_perfect_estimate_scores_one_everywhere():
     truth = {k: Rect(10.0 + k, 20.0, 40.0, 80.0) for k in range(5)}
     scores = score_single_target(truth, dict(truth))
-    assert scores == SingleTargetScores(5, 1.0, 1.0, 1.0, 0)
+    assert scores == SingleTargetScores(5, 1.0, 1.0, 1.0, 0, 1.0, 1.0)
 
 
 def test_q2_square_is_0_8_of_the_shorter_side_centred_on_the_truth():
@@ -133,3 +133,13 @@ def test_the_table_gives_the_mean_and_spread_over_runs_and_pools_the_fixed_camer
     assert rows["occluded (moving camera)"][-1] == "1/2 |"
     assert rows[FIXED_CAMERA][4] == "0.500"  # walkers only
     assert rows["all"][4:6] == ["0.350", "0.071"]  # runs 0: 0.3, 1: 0.4 over both scenes
+
+
+def test_q1_is_split_into_what_the_centre_and_the_size_cost():
+    truth = {0: Rect.from_center(100.0, 100.0, 40.0, 80.0)}
+    shifted = {0: Rect.from_center(120.0, 100.0, 40.0, 80.0)}  # right size, 20 px off
+    shrunk = {0: Rect.from_center(100.0, 100.0, 20.0, 40.0)}  # right centre, a quarter the area
+    off = score_single_target(truth, shifted)
+    assert off.iou_true_size == pytest.approx(off.mean_iou) and off.iou_true_centre == 1.0
+    small = score_single_target(truth, shrunk)
+    assert small.iou_true_size == 1.0 and small.iou_true_centre == pytest.approx(0.25)

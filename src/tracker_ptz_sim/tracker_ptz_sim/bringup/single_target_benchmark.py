@@ -294,7 +294,8 @@ def table(runs: list[PersonRun], variants: Sequence[str]) -> str:
     averaged over runs, with their standard deviation over runs (sigma_Q, 0 for one run)."""
     header = (
         "| scenes | variant | people (refused) | frames | Q1 mean IoU | σ_Q1 | Q2 centre in box | "
-        "σ_Q2 | IoU >= 0.5 | missed | kept through occlusion |"
+        "σ_Q2 | IoU >= 0.5 | missed | Q1 at the true size | Q1 at the true centre | "
+        "kept through occlusion |"
     )
     lines = [header, "|" + "---|" * (header.count("|") - 1)]
     presets = sorted({preset_of(r) for r in runs})
@@ -330,13 +331,16 @@ def _row(preset: str, variant: str, chosen: list[PersonRun]) -> str:
     first = [r for r in chosen if r.run == 0]
     frames = by_run[0].frames
     missed = np.mean([t.missed / t.frames for t in by_run]) if frames else math.nan
+    true_size = np.mean([t.iou_true_size for t in by_run])
+    true_centre = np.mean([t.iou_true_centre for t in by_run])
     kept = [k for r in chosen for k in r.kept]
     label = f"{preset} (moving camera)" if preset in MOVING_CAMERA else preset
     return (
         f"| {label} | {variant} | {len(first)} ({sum(1 for r in first if r.refused)}) | "
         f"{frames} | {q1.mean():.3f} | {spread(q1):.3f} | {100 * q2.mean():.1f} % | "
         f"{100 * spread(q2):.1f} % | {100 * np.mean([t.success for t in by_run]):.1f} % | "
-        f"{100 * missed:.1f} % | " + (f"{sum(kept)}/{len(kept)} |" if kept else "– |")
+        f"{100 * missed:.1f} % | {true_size:.3f} | {true_centre:.3f} | "
+        + (f"{sum(kept)}/{len(kept)} |" if kept else "– |")
     )
 
 

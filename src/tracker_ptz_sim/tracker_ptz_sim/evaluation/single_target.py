@@ -43,6 +43,11 @@ class SingleTargetScores:
     centre_in_box: float  # Q2
     success: float  # share of frames with IoU >= SUCCESS_IOU
     missed: int  # frames with a true box and no estimate
+    # Q1's two errors apart (a miss scores 0 in both): the mean IoU of a box of the true size
+    # at the estimate's centre (what the centre costs), of the estimate's size at the true
+    # centre (what the size costs)
+    iou_true_size: float = 0.0
+    iou_true_centre: float = 0.0
 
 
 def centre_inside(estimate: Rect, truth: Rect, side_factor: float = CENTRE_SQUARE) -> bool:
@@ -57,7 +62,7 @@ def score_single_target(
     truth: Mapping[int, Rect], estimates: Mapping[int, Rect | None]
 ) -> SingleTargetScores:
     """Scores over the frames of `truth`; `estimates` may lack frames or hold None (a miss)."""
-    ious, inside, missed = [], 0, 0
+    ious, inside, missed, true_size, true_centre = [], 0, 0, 0.0, 0.0
     for frame, box in truth.items():
         estimate = estimates.get(frame)
         if estimate is None:
@@ -66,11 +71,14 @@ def score_single_target(
             continue
         ious.append(box.iou(estimate))
         inside += centre_inside(estimate, box)
+        true_size += box.iou(Rect.from_center(*estimate.center, box.width, box.height))
+        true_centre += box.iou(Rect.from_center(*box.center, estimate.width, estimate.height))
     n = len(ious)
     if n == 0:
         return SingleTargetScores(0, 0.0, 0.0, 0.0, 0)
+    success = sum(i >= SUCCESS_IOU for i in ious) / n
     return SingleTargetScores(
-        n, sum(ious) / n, inside / n, sum(i >= SUCCESS_IOU for i in ious) / n, missed
+        n, sum(ious) / n, inside / n, success, missed, true_size / n, true_centre / n
     )
 
 
@@ -89,6 +97,8 @@ def pooled(scores: list[SingleTargetScores]) -> SingleTargetScores:
         weighted("centre_in_box"),
         weighted("success"),
         sum(s.missed for s in scores),
+        weighted("iou_true_size"),
+        weighted("iou_true_centre"),
     )
 
 
