@@ -20,7 +20,6 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from rclpy.clock import Clock, ClockType
 from sensor_msgs.msg import CameraInfo, Image, JointState
 from std_msgs.msg import Header
 
@@ -205,12 +204,7 @@ class DetectorNode(SuiteNode):
                     self.params["guide_from_target"],
                     self.params["target_timeout"],
                 )
-                # Wall time: with use_sim_time the clock stands still while the replay waits.
-                self.create_timer(
-                    0.05,
-                    self._expire_held_images,
-                    clock=Clock(clock_type=ClockType.STEADY_TIME),
-                )
+                self.create_steady_timer(0.05, self._expire_held_images)
         self.get_logger().info(f"detector ready: method {self.method.name}, pose {source}")
 
     # --- parameters ---------------------------------------------------------------------------

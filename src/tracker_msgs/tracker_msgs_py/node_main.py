@@ -45,6 +45,7 @@ from rclpy.publisher import Publisher
 from rclpy.qos import QoSPolicyKind, QoSProfile, ReliabilityPolicy
 from rclpy.signals import SignalHandlerOptions
 from rclpy.subscription import Subscription
+from rclpy.timer import Timer
 
 from tracker_msgs_py import stop_signals
 from tracker_msgs_py.codec import stamp_to_ns
@@ -96,11 +97,12 @@ class SuiteNode(Node):
         self._diagnostics_pub = self.create_publisher(DiagnosticArray, "/diagnostics", 10)
         self._diagnostics_seen = 0
         self._diagnostics_at = time.monotonic()
-        self.create_timer(
-            DIAGNOSTICS_PERIOD_S,
-            self._publish_diagnostics,
-            clock=Clock(clock_type=ClockType.STEADY_TIME),
-        )
+        self.create_steady_timer(DIAGNOSTICS_PERIOD_S, self._publish_diagnostics)
+
+    def create_steady_timer(self, period_s: float, callback: Callable[[], None]) -> Timer:
+        """A timer on wall time (the steady clock), for waits and reports: with use_sim_time
+        the node's own clock stands still while a lockstep replay waits."""
+        return self.create_timer(period_s, callback, clock=Clock(clock_type=ClockType.STEADY_TIME))
 
     # --- threads and ending -----------------------------------------------------------------
 

@@ -13,7 +13,6 @@ import math
 import time
 from typing import Any
 
-from rclpy.clock import Clock, ClockType
 from sensor_msgs.msg import JointState
 
 from tracker_msgs.msg import PtzCommand, PtzState, Target
@@ -151,7 +150,7 @@ class PtzControllerNode(SuiteNode):
         self.joint_pub = self._joint_publisher()
         self.create_subscription(Target, "target", self._on_target, 10)
         self.create_subscription(PtzState, "ptz/state", self._on_state, 10)
-        self.create_timer(0.05, self._answer_overdue, clock=Clock(clock_type=ClockType.STEADY_TIME))
+        self.create_steady_timer(0.05, self._answer_overdue)
 
     def destroy_node(self) -> None:
         # A unit turning at the last commanded rate stops now, not at its own watchdog. Stamped

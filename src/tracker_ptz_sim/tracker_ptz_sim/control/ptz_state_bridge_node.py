@@ -14,7 +14,6 @@ import math
 import time
 from typing import Any
 
-from rclpy.clock import Clock, ClockType
 from sensor_msgs.msg import CameraInfo, JointState
 
 from tracker_detect.image_pose_pairing import SceneSettings
@@ -92,9 +91,7 @@ class PtzStateBridgeNode(SuiteNode):
         qos = image_qos(self.params["reliable_images"], depth=self.params["joint_buffer_size"])
         self.create_subscription(JointState, "ptz/joint_states", self._on_joints, qos)
         self.create_subscription(CameraInfo, "camera/camera_info", self._on_camera_info, qos)
-        self.create_timer(
-            0.02, self._release_overdue, clock=Clock(clock_type=ClockType.STEADY_TIME)
-        )
+        self.create_steady_timer(0.02, self._release_overdue)
         self.get_logger().info("ptz_state_bridge ready")
 
     def _scene(self) -> SceneSettings:

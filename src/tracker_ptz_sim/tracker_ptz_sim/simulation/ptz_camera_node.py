@@ -26,7 +26,6 @@ from collections import deque
 from dataclasses import fields
 from typing import Any
 
-from rclpy.clock import Clock, ClockType
 from sensor_msgs.msg import CameraInfo, Image, JointState
 
 from tracker_msgs.msg import PtzCommand as PtzCommandMsg
@@ -188,10 +187,7 @@ class PtzCameraNode(SuiteNode):
         else:
             self.create_subscription(PtzCommandMsg, "ptz/command", self._on_command, 10)
         if self.params["lockstep"]:
-            # Wall time: with use_sim_time the node's clock stands still while the replay waits.
-            self.create_timer(
-                0.05, self._on_lockstep_timer, clock=Clock(clock_type=ClockType.STEADY_TIME)
-            )
+            self.create_steady_timer(0.05, self._on_lockstep_timer)
 
     def _check_parameters(self, values: dict[str, Any]) -> str | None:
         model = getattr(self, "model", None)
