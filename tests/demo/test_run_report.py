@@ -318,3 +318,18 @@ def test_the_malloc_setting_is_the_same_for_shells_runner_and_launch(monkeypatch
     monkeypatch.delenv("GLIBC_TUNABLES", raising=False)
     entities, _ = _launch_actions(monkeypatch, video="v.avi")
     assert ("env", "GLIBC_TUNABLES", MALLOC_TUNABLES) in entities
+
+
+def test_a_restarted_source_resumes_after_the_frames_whose_statuses_were_lost():
+    """The killed source's last status says frame 63 (6.3 s), but the recorder got the scene
+    images up to 6.6 s: those went out too (the camera may have rendered them), so the new
+    source starts at frame 67, not 64."""
+    from tracker_msgs.msg import ReplayStatus
+    from tracker_msgs_py.codec import ns_to_stamp
+    from tracker_ptz_sim.bringup.demo import resume_frame
+
+    status = ReplayStatus(frame_index=63, frames_published=64)
+    status.header.stamp = ns_to_stamp(6_300_000_000)
+    recorded = [k * 100_000_000 for k in range(60, 67)]  # 6.0 ... 6.6 s
+    assert resume_frame(status, recorded) == 67
+    assert resume_frame(status, recorded[:4]) == 64  # nothing recorded beyond the status

@@ -111,7 +111,9 @@ def inside_merged_blob(
     target's line."""
     inside = np.zeros(len(hit), dtype=bool)
     waiting = np.isfinite(tracks.occlusion_centres[:, 0]) & ~hit
-    for row in np.flatnonzero(hit & tracks.hidden & waiting.any()):
+    if not waiting.any():
+        return inside
+    for row in np.flatnonzero(hit & tracks.hidden):
         others = waiting.copy()
         others[row] = False
         gaps = np.hypot(*(tracks.positions[others] - hit_points[row]).T)

@@ -34,7 +34,7 @@ import sys
 import threading
 import time
 from collections import Counter, deque
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 from enum import Enum
 from functools import partial
@@ -154,6 +154,7 @@ class Recorder(Node):
                 )
             )
         self.create_subscription(ReplayStatus, "/replay/status", self._on_status, STATUS_QOS)
+        # the newest scene images' stamps (a restarted source resumes after them)
         self.scene_stamps: deque[int] = deque(maxlen=MAX_COMMAND_DELAY_FRAMES + 2)
         self._recorded_pub = self.create_publisher(Header, RECORDED_TOPIC, 10)
         self.readers: dict[str, int] = {}  # per topic, the readers its publisher has matched
@@ -182,11 +183,6 @@ class Recorder(Node):
             stamp = header_stamp_ns(data)
             self.scene_stamps.append(stamp)
             self._recorded_pub.publish(Header(stamp=ns_to_stamp(stamp)))
-
-    def scene_frames_after(self, stamp_ns: int) -> int:
-        """How many of the scene images received are stamped after `stamp_ns` (the newest
-        kept)."""
-        return sum(1 for stamp in self.scene_stamps if stamp > stamp_ns)
 
     def _write(self) -> None:
         while (item := self._pending.get()) is not None:
@@ -354,11 +350,16 @@ class Supervisor:
             return overrides
         status = self.recorder.settled_status()
         if status is not None and status.frames_published:
-            # The statuses of a killed source's last frames can be lost with it while their
-            # images got through (the camera rendered them): resume after those too.
-            beyond = self.recorder.scene_frames_after(stamp_to_ns(status.header.stamp))
-            overrides["start_frame"] = int(status.frame_index) + 1 + beyond
+            overrides["start_frame"] = resume_frame(status, self.recorder.scene_stamps)
         return overrides
+
+
+def resume_frame(status: ReplayStatus, scene_stamps: Iterable[int]) -> int:
+    """Where a restarted video_source starts: after its last status's frame, and after every
+    scene image recorded since (stamped later): the statuses of a killed source's last frames
+    can be lost with it while their images got through (the camera rendered them)."""
+    last = stamp_to_ns(status.header.stamp)
+    return int(status.frame_index) + 1 + sum(1 for stamp in scene_stamps if stamp > last)
 
 
 def stand_in_scene(

@@ -159,8 +159,7 @@ class VideoSourceNode(SuiteNode):
             else None
         )
         self.answered_ns = -1  # the newest frame acknowledged on ack_topic
-        # the newest frame the recorder has received (None: no recorder to wait for)
-        self.recorded_ns: int | None = None
+        self.recorded_ns = -1  # the newest frame the recorder has received (with recorder_topic)
         self.published_ns = -1  # stamp of the newest frame published (set before it goes out)
         self.in_flight: deque[int] = deque()  # lockstep: stamps published, not yet acknowledged
         self.ack_event = threading.Event()
@@ -173,7 +172,6 @@ class VideoSourceNode(SuiteNode):
         )
         self.recorder_sub = None
         if self.params["lockstep"] and self.params["recorder_topic"]:
-            self.recorded_ns = -1
             self.recorder_sub = self.create_subscription(
                 Header, self.params["recorder_topic"], self._on_recorded, 10
             )
@@ -199,14 +197,12 @@ class VideoSourceNode(SuiteNode):
     @property
     def acked_ns(self) -> int:
         """The newest frame both answered and (with a recorder) recorded."""
-        if self.recorded_ns is None:
+        if self.recorder_sub is None:
             return self.answered_ns
         return min(self.answered_ns, self.recorded_ns)
 
     def _forget_acks(self) -> None:
-        self.answered_ns = -1
-        if self.recorded_ns is not None:
-            self.recorded_ns = -1
+        self.answered_ns = self.recorded_ns = -1
 
     def _current(self, stamp_ns: int) -> bool:
         """An acknowledgement stamped after every frame published answers another replay (the
@@ -222,7 +218,7 @@ class VideoSourceNode(SuiteNode):
 
     def _on_recorded(self, msg: Header) -> None:
         stamp = stamp_to_ns(msg.stamp)
-        if self._current(stamp) and self.recorded_ns is not None and stamp > self.recorded_ns:
+        if self._current(stamp) and stamp > self.recorded_ns:
             self.recorded_ns = stamp
             self.ack_event.set()
 
@@ -264,9 +260,7 @@ class VideoSourceNode(SuiteNode):
         if self.ack_sub is None:
             return
         wanted = self.params["wait_for_subscribers"]
-        ack_topic, ack_sub = self.params["ack_topic"], self.ack_sub
-
-        recorder_sub = self.recorder_sub
+        ack_topic, ack_sub, recorder_sub = self.params["ack_topic"], self.ack_sub, self.recorder_sub
 
         def ready() -> bool:
             return (
