@@ -86,6 +86,8 @@ _MULTI: dict[str, Any] = {
     "confirm_travel_window": 30,
     "confirm_straightness": 0.0,
     "straightness_step": 0.0,
+    "confirm_min_height": 0.0,
+    "confirm_height_ratio": 0.0,
     "max_misses": 12,
     "split_merged": 0.0,
     "recover_overlap": 0.0,
@@ -193,6 +195,21 @@ TRACKING_PARAMETERS: tuple[ParamSpec, ...] = (
         0.0,
         10000.0,
     ),
+    _spec(
+        "confirm_min_height",
+        "px a tentative track's box must be tall to be confirmed (0: any size; the least height "
+        "of what is followed at this camera's scale)",
+        0.0,
+        10000.0,
+    ),
+    _spec(
+        "confirm_height_ratio",
+        "share of the height confirmed tracks have had where a tentative track stands (a line in "
+        "the row of the box's bottom, learned as they are seen) its box needs to be confirmed "
+        "(0: no need; a camera over a ground plane sees people smaller farther up the image)",
+        0.0,
+        1.0,
+    ),
     _spec("max_misses", "consecutive missed frames before a track is lost", 1, 10000),
     _spec(
         "split_merged",
@@ -280,6 +297,8 @@ class TrackerConfig:
     confirm_travel_window: int
     confirm_straightness: float
     straightness_step: float
+    confirm_min_height: float
+    confirm_height_ratio: float
     max_misses: int
     split_merged: float
     recover_overlap: float
@@ -321,6 +340,8 @@ class TrackerConfig:
             confirm_travel_window=params["confirm_travel_window"],
             confirm_straightness=params["confirm_straightness"],
             straightness_step=params["straightness_step"],
+            confirm_min_height=params["confirm_min_height"],
+            confirm_height_ratio=params["confirm_height_ratio"],
             max_misses=params["max_misses"],
             split_merged=params["split_merged"],
             recover_overlap=params["recover_overlap"],
@@ -351,6 +372,8 @@ class TrackerConfig:
                 self.confirm_travel_window,
                 self.confirm_straightness,
                 self.straightness_step,
+                self.confirm_min_height,
+                self.confirm_height_ratio,
             ),
             MissCountDeleter(self.max_misses),
             LargestDetection() if self.measurements == "largest" else AllDetections(),

@@ -21,6 +21,7 @@ from scipy.optimize import linear_sum_assignment
 from tracker_filter.association import Association, Associator
 from tracker_filter.filters import FilterFactory
 from tracker_filter.layout import StateLayout
+from tracker_filter.object_scale import HeightByRow
 from tracker_filter.observation import Detections, Need, Observation
 from tracker_filter.tracking import TrackBook, TrackSet
 from tracker_msgs_py.geometry import intersection_areas, iou_matrix
@@ -274,7 +275,12 @@ class MofNConfirmation:
     `min_travel` > 0, has moved at least that far (px) from where it was initiated, at least
     `min_straightness` of the way its detections went directly (net distance / path): a thing that
     flutters, sways or flickers in place is not a mover. It fails (is deleted) as soon as it can no
-    longer get there: too few hits for M of N, or not travelled within `travel_window` frames."""
+    longer get there: too few hits for M of N, or not travelled within `travel_window` frames.
+    When `min_height` > 0 a track is confirmed only while its last box is at least that tall (px),
+    and when `height_ratio` > 0 only while it is at least that share of the height the confirmed
+    tracks have had where it stands (`object_scale.HeightByRow`, learned as they are observed:
+    `learn`): most clutter that drifts (a healing ghost, a leaf, a flickering patch) is far
+    smaller than a person at its place."""
 
     def __init__(
         self,
@@ -284,6 +290,8 @@ class MofNConfirmation:
         travel_window: int = 30,
         min_straightness: float = 0.0,
         path_step: float = 0.0,
+        min_height: float = 0.0,
+        height_ratio: float = 0.0,
     ) -> None:
         if not 1 <= hits <= window:
             raise ValueError(f"confirmation needs 1 <= M <= N, got M = {hits}, N = {window}")
@@ -295,14 +303,41 @@ class MofNConfirmation:
         self.min_travel, self.travel_window = min_travel, travel_window
         self.min_straightness = min_straightness
         self.path_step = path_step  # px between the waypoints straightness is measured on
+        if not min_height >= 0.0:
+            raise ValueError(f"min_height must be >= 0 px, got {min_height}")
+        self.min_height = min_height
+        self.scale = HeightByRow(height_ratio) if height_ratio > 0 else None
 
     def confirmed(
-        self, hits: np.ndarray, frames: np.ndarray, travel: np.ndarray, straightness: np.ndarray
+        self,
+        hits: np.ndarray,
+        frames: np.ndarray,
+        travel: np.ndarray,
+        straightness: np.ndarray,
+        boxes: np.ndarray,
     ) -> np.ndarray:
+        """Which tracks pass now; `boxes` (N, 4) are their last measured boxes."""
         # A tentative track older than N frames has had its M hits (else it failed), so only
-        # the travel can still be missing.
+        # the travel (or the size) can still be missing.
         moved = (travel >= self.min_travel) & (straightness >= self.min_straightness)
-        return (hits >= self.hits) & moved
+        return (hits >= self.hits) & moved & self._tall_enough(boxes)
+
+    def _tall_enough(self, boxes: np.ndarray) -> np.ndarray:
+        least = self.min_height
+        if self.scale is not None:
+            least = np.maximum(least, self.scale.least_heights(boxes))
+        return boxes[:, 3] >= least
+
+    def learn(self, boxes: np.ndarray) -> None:
+        """Boxes (N, 4) of confirmed tracks observed this frame (the height rule learns from
+        them)."""
+        if self.scale is not None:
+            self.scale.observe(boxes)
+
+    def clear(self) -> None:
+        """Forget what was learned."""
+        if self.scale is not None:
+            self.scale.clear()
 
     def failed(self, hits: np.ndarray, frames: np.ndarray, travel: np.ndarray) -> np.ndarray:
         stalled = (frames >= self.travel_window) & (travel < self.min_travel)
@@ -379,6 +414,7 @@ class TrackManager:
     def reset(self, reset_ids: bool = False) -> int:
         """Forget every track (and the last time, so any stamp is accepted next); returns how many."""
         self.bank.clear()
+        self.confirmation.clear()
         return self.book.reset(reset_ids)
 
     def step(self, observation: Observation) -> TrackSet:
@@ -414,8 +450,11 @@ class TrackManager:
         updated = book.record_frame(rows, cols, detections, self.layout.positions(self.bank.means))
         travel = book.measured_travel()
         book.confirm(
-            self.confirmation.confirmed(book.hits, book.frames, travel, book.straightness())
+            self.confirmation.confirmed(
+                book.hits, book.frames, travel, book.straightness(), book.bboxes
+            )
         )
+        self.confirmation.learn(book.bboxes[book.confirmed & updated])
 
         lost = self.deleter.lost(book.misses, book.confirmed) | (
             ~book.confirmed & self.confirmation.failed(book.hits, book.frames, travel)
@@ -429,7 +468,7 @@ class TrackManager:
             self.bank.add(detections.positions[new])
             ones = np.ones(len(new), dtype=np.int64)
             confirmed = self.confirmation.confirmed(
-                ones, ones, np.zeros(len(new)), np.ones(len(new))
+                ones, ones, np.zeros(len(new)), np.ones(len(new)), detections.bboxes[new]
             )
             book.add(t, detections, new, confirmed)
         updated = np.concatenate([updated, np.ones(len(new), dtype=bool)])

@@ -1,0 +1,93 @@
+"""How tall the followed objects are where they stand, learned from the tracks (no rclpy).
+
+A camera looking down on a ground plane sees a person smaller the higher up the image they stand:
+the height of their box grows about linearly with the row of its bottom edge (h = a + b y; the
+horizon is where h reaches 0). `HeightByRow` fits that line to the boxes of confirmed tracks as
+they are observed, robustly (Huber-weighted least squares: a box that held a strip of tape or
+lost its legs is an outlier), and gives the least height a new track must have where it stands:
+`ratio` x the line's height there. Clutter that drifts (a healing ghost, a leaf, a flickering
+patch) is mostly far smaller than a person at its place; a person whose legs go unseen for a
+frame is still more than half of one. Until `min_samples` boxes have been seen nothing is
+required, so a camera's first movers are confirmed as before.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+HUBER_K = 1.345  # residuals beyond this many robust standard deviations are down-weighted
+MAD_TO_STD = 1.4826
+FIT_ITERATIONS = 4
+
+
+def robust_line(x: np.ndarray, y: np.ndarray) -> tuple[float, float]:
+    """(intercept, slope) of y = a + b x by iteratively reweighted least squares, Huber
+    weights on residuals scaled by their median absolute deviation."""
+    design = np.column_stack([np.ones_like(x), x])
+    weights = np.ones_like(x)
+    coefficients = np.zeros(2)
+    for _ in range(FIT_ITERATIONS):
+        root = np.sqrt(weights)
+        coefficients = np.linalg.lstsq(design * root[:, None], y * root, rcond=None)[0]
+        residuals = y - design @ coefficients
+        scale = MAD_TO_STD * float(np.median(np.abs(residuals)))
+        if scale <= 1e-9:
+            break
+        ratio = np.abs(residuals) / (HUBER_K * scale)
+        weights = np.where(ratio <= 1.0, 1.0, 1.0 / np.maximum(ratio, 1e-12))
+    return float(coefficients[0]), float(coefficients[1])
+
+
+class HeightByRow:
+    """The height (px) of confirmed objects as a line in the row of their boxes' bottom edge.
+
+    `observe` adds boxes (x, y, width, height); the newest `capacity` are kept. The line is
+    refitted when `refit_every` boxes have arrived since the last fit."""
+
+    def __init__(
+        self,
+        ratio: float,
+        min_samples: int = 30,
+        capacity: int = 2000,
+        refit_every: int = 10,
+    ) -> None:
+        if not 0.0 <= ratio <= 1.0:
+            raise ValueError(f"the height ratio must be in [0, 1], got {ratio}")
+        if min_samples < 2 or capacity < min_samples or refit_every < 1:
+            raise ValueError("need min_samples >= 2, capacity >= min_samples, refit_every >= 1")
+        self.ratio, self.min_samples = ratio, min_samples
+        self.capacity, self.refit_every = capacity, refit_every
+        self.clear()
+
+    def clear(self) -> None:
+        self._rows = np.zeros(0)
+        self._heights = np.zeros(0)
+        self._unfitted = 0
+        self.line: tuple[float, float] | None = None  # (intercept px, px per row)
+
+    def __len__(self) -> int:
+        return len(self._rows)
+
+    def observe(self, boxes: np.ndarray) -> None:
+        """Boxes (N, 4) of objects known to be what is followed (confirmed, observed now)."""
+        if len(boxes) == 0:
+            return
+        self._rows = np.concatenate([self._rows, boxes[:, 1] + boxes[:, 3]])[-self.capacity :]
+        self._heights = np.concatenate([self._heights, boxes[:, 3]])[-self.capacity :]
+        self._unfitted += len(boxes)
+        if len(self) >= self.min_samples and (
+            self.line is None or self._unfitted >= self.refit_every
+        ):
+            self.line = robust_line(self._rows, self._heights)
+            self._unfitted = 0
+
+    def expected_heights(self, boxes: np.ndarray) -> np.ndarray:
+        """The fitted height (px, at least 0) at each box's bottom row; 0 before the first fit."""
+        if self.line is None:
+            return np.zeros(len(boxes))
+        intercept, slope = self.line
+        return np.maximum(intercept + slope * (boxes[:, 1] + boxes[:, 3]), 0.0)
+
+    def least_heights(self, boxes: np.ndarray) -> np.ndarray:
+        """The height (px) each box (N, 4) needs to be taken for a followed object there."""
+        return self.ratio * self.expected_heights(boxes)

@@ -1,0 +1,102 @@
+"""The learned height of followed objects by image row (object_scale), and the confirmation rule
+that uses it: clutter far smaller than a person where it stands is not confirmed."""
+
+import numpy as np
+import pytest
+
+from tracker_filter.config import TrackerConfig
+from tracker_filter.object_scale import HeightByRow, robust_line
+from tracker_filter.observation import Detections, Observation
+from tracker_filter.tracking import TrackStatus
+
+
+def _ground_plane_boxes(rng: np.random.Generator, count: int) -> np.ndarray:
+    """People on a ground plane: height 0.5 x (bottom row - 100) px, +-5 % noise."""
+    bottoms = rng.uniform(200.0, 560.0, count)
+    heights = 0.5 * (bottoms - 100.0) * rng.uniform(0.95, 1.05, count)
+    widths = 0.4 * heights
+    return np.column_stack([rng.uniform(0, 700, count), bottoms - heights, widths, heights])
+
+
+def test_the_line_is_found_through_outliers():
+    rng = np.random.default_rng(1)
+    x = rng.uniform(0, 500, 200)
+    y = 20.0 + 0.3 * x + rng.normal(0, 1.0, 200)
+    y[:30] = rng.uniform(0, 10, 30)  # legs lost, tape joined: 15 % of the boxes far off
+    intercept, slope = robust_line(x, y)
+    assert intercept == pytest.approx(20.0, abs=2.5) and slope == pytest.approx(0.3, abs=0.01)
+    naive = np.polyfit(x, y, 1)
+    assert abs(naive[0] - 0.3) > 0.03  # plain least squares is pulled away
+
+
+def test_nothing_is_required_until_enough_boxes_were_seen():
+    scale = HeightByRow(0.5, min_samples=30)
+    boxes = _ground_plane_boxes(np.random.default_rng(2), 60)
+    scale.observe(boxes[:29])
+    assert scale.line is None and scale.least_heights(boxes).tolist() == [0.0] * 60
+    scale.observe(boxes[29:])
+    query = np.array([[0.0, 300.0, 20.0, 100.0], [0.0, 0.0, 5.0, 50.0]])  # bottoms 400, 50
+    assert scale.expected_heights(query) == pytest.approx([150.0, 0.0], abs=5.0)  # 0 above horizon
+    assert scale.least_heights(query)[0] == pytest.approx(75.0, abs=2.5)
+    scale.clear()
+    assert len(scale) == 0 and scale.line is None
+
+
+def test_bad_settings_are_refused():
+    with pytest.raises(ValueError):
+        HeightByRow(1.5)
+    with pytest.raises(ValueError):
+        HeightByRow(0.5, min_samples=1)
+    with pytest.raises(ValueError, match="confirm_height_ratio"):
+        TrackerConfig.preset("multi", confirm_height_ratio=-0.1)
+
+
+def _walker_boxes(x0: float, bottom: float, height: float, frames: int) -> list[np.ndarray]:
+    return [np.array([x0 + 5.0 * k, bottom - height, 0.4 * height, height]) for k in range(frames)]
+
+
+def _run(tracker, per_frame: list[list[np.ndarray]]) -> list:
+    sets = []
+    for k, boxes in enumerate(per_frame):
+        box = np.array(boxes).reshape(-1, 4)
+        detections = Detections(
+            box[:, :2] + box[:, 2:] / 2, box[:, 2] * box[:, 3], box, np.zeros(len(box))
+        )
+        sets.append(tracker.step(Observation(k * 0.1, detections)))
+    return sets
+
+
+def _confirmed_heights(sets: list) -> set[int]:
+    return {
+        int(round(t.bboxes[i, 3]))
+        for t in sets
+        for i in np.flatnonzero(t.status == TrackStatus.CONFIRMED)
+    }
+
+
+@pytest.mark.parametrize("ratio, expected", [(0.5, {60, 120}), (0.0, {10, 60, 120})])
+def test_a_drifting_patch_far_smaller_than_a_person_there_is_not_confirmed(ratio, expected):
+    """Two walkers (120 px tall at row 400, 60 px at row 250) teach the rule the scene's scale;
+    then a 10 px patch drifts steadily at row 400 (a ghost healing, a leaf) and a third walker,
+    60 px tall, enters at row 250: the walker is confirmed, the patch is not (it is with the
+    rule off)."""
+    rules = {"confirm_travel": 12.0, "confirm_straightness": 0.7, "confirm_height_ratio": ratio}
+    tracker = TrackerConfig.preset("multi", **rules).build_tracker()
+    near, far = _walker_boxes(50, 400, 120, 60), _walker_boxes(400, 250, 60, 60)
+    newcomer, patch = _walker_boxes(100, 250, 60, 30), _walker_boxes(600, 400, 10, 30)
+    frames = [[near[k], far[k]] for k in range(30)]
+    frames += [[near[30 + k], far[30 + k], newcomer[k], patch[k]] for k in range(30)]
+    assert _confirmed_heights(_run(tracker, frames)) == expected
+
+
+def test_a_minimum_height_keeps_small_things_tentative():
+    tracker = TrackerConfig.preset(
+        "multi", confirm_travel=12.0, confirm_min_height=30.0
+    ).build_tracker()
+    frames = [
+        [a, b]
+        for a, b in zip(
+            _walker_boxes(50, 400, 120, 20), _walker_boxes(600, 400, 20, 20), strict=True
+        )
+    ]
+    assert _confirmed_heights(_run(tracker, frames)) == {120}
