@@ -187,8 +187,9 @@ def test_search_locks_a_newcomer_then_scans_and_returns_home(tmp_path):
 
     The object is an ellipse, not a standing person, and its path grazes the bottom of the sweep:
     the sweep first sees thin slices of it (6-15 px of 44), which the surveillance graph's person
-    prior (min_aspect) rightly takes for something lying flat. This test is about the search,
-    lock, scan and home sequence, so that prior is off here."""
+    prior (min_aspect) rightly takes for something lying flat, and its tracker's least height
+    (confirm_min_height, 24 px) for clutter. This test is about the search, lock, scan and home
+    sequence, so those priors are off here."""
     from tracker_ptz_sim.evaluation import run_report
     from tracker_ptz_sim.evaluation.metrics import load_mot
     from tracker_ptz_sim.evaluation.scoring import windows_and_targets
@@ -214,6 +215,7 @@ def test_search_locks_a_newcomer_then_scans_and_returns_home(tmp_path):
         f"ptz_controller.home=[{home[0]}, {home[1]}]",
         "ptz_controller.home_dwell_time=100.0",
         "ssim_detector.min_aspect=0.0",
+        "tracker.confirm_min_height=0.0",
         mode="servo",
     )
     frames = run_report.collect(out / "bag")
