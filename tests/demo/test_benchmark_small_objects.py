@@ -12,6 +12,7 @@ import pytest
 from ros_process import executable
 
 from tracker_ptz_sim.bringup import benchmark
+from tracker_ptz_sim.evaluation import error_classes
 
 
 def test_the_small_object_scene_is_cached_and_its_configurations_paired(tmp_path, capsys):
@@ -43,6 +44,13 @@ def test_a_short_gmphd_run_reports_ospa_and_centre_mota(tmp_path):
     table = (out / "table.md").read_text()
     assert "| centre MOTA | centre IDF1 |" in table and "OSPA c=10 px" in table
     assert "| small_objects | gmphd | in-process | 1 |" in table
+    # every miss and false box of the run in one class
+    errors = result["scores"]["errors_in_view"]
+    misses = sum(errors[n] for n in error_classes.MISSES)
+    false = sum(errors[n] for n in error_classes.FALSE_POSITIVES)
+    assert errors["people"] > 0 and 0 <= misses <= errors["people"]
+    assert 0 <= false <= errors["reported"]
+    assert "Why boxes missed, in view" in table and "| misses: tentative track |" in table
 
 
 def test_ctrl_c_ends_the_benchmark_with_the_table_of_what_was_measured(tmp_path):

@@ -54,7 +54,7 @@ from tracker_filter.config import PRESETS
 from tracker_msgs_py import stop_signals
 from tracker_ptz_sim.bringup import pipeline
 from tracker_ptz_sim.bringup.graph import load_graph, node_parameters
-from tracker_ptz_sim.evaluation import scoring
+from tracker_ptz_sim.evaluation import error_classes, scoring
 from tracker_ptz_sim.evaluation.centre_scores import OSPA_CUTOFFS, ospa_key
 from tracker_ptz_sim.simulation import small_objects, street
 from tracker_ptz_sim.simulation.scenes import (
@@ -265,10 +265,42 @@ def _speed(runs: list[RunScores]) -> float:
 
 def table(results: list[RunScores]) -> str:
     """The results as Markdown tables: per scene preset, configuration and path, the mean over
-    the preset's seeds (object changes summed); the runs scored on box centres (small-object
-    scenes) again in a second table, `centre_table`."""
+    the preset's seeds (object changes summed); why boxes missed (`error_table`); the runs
+    scored on box centres (small-object scenes) again in a third table, `centre_table`."""
     centred = [r for r in results if "centres" in r.scores]
-    return main_table(results) + ("\n\n" + centre_table(centred) if centred else "")
+    return (
+        main_table(results)
+        + "\n\n"
+        + error_table(results)
+        + ("\n\n" + centre_table(centred) if centred else "")
+    )
+
+
+def error_table(results: list[RunScores]) -> str:
+    """In view, every miss and false positive put in one class (`evaluation.error_classes`),
+    summed over the preset's seeds."""
+    names = (*error_classes.MISSES, *error_classes.FALSE_POSITIVES)
+    header = (
+        "| scene | configuration | path | people | misses: "
+        + " | ".join(n.replace("_", " ") for n in error_classes.MISSES)
+        + " | false: "
+        + " | ".join(n.replace("_", " ") for n in error_classes.FALSE_POSITIVES)
+        + " |"
+    )
+    lines = [header, "|" + "---|" * (header.count("|") - 1)]
+    for (scene, configuration, path), runs in _groups(results).items():
+        total = {n: sum(r.scores["errors_in_view"][n] for r in runs) for n in ("people", *names)}
+        lines.append(
+            f"| {scene} | {configuration} | {path} | {total['people']} | "
+            + " | ".join(str(total[n]) for n in names)
+            + " |"
+        )
+    return (
+        "Why boxes missed, in view (`evaluation.error_classes`: frame by frame at IoU 0.5; a miss "
+        "is a tentative track's, a good detection not reported, a detection box too big / too "
+        "small / off at IoU 0.1-0.5, or no detection; a false box overlaps a person at IoU "
+        ">= 0.1 or nothing).\n\n" + "\n".join(lines)
+    )
 
 
 def main_table(results: list[RunScores]) -> str:

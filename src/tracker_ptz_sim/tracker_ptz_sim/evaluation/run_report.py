@@ -39,6 +39,7 @@ HOPS = [
     ("camera image -> command", CAMERA, COMMAND),
 ]
 CONFIRMED_STATUSES = (1, 2)  # Track.STATUS_CONFIRMED, STATUS_COASTING
+TENTATIVE = 0  # Track.STATUS_TENTATIVE: not yet confirmed
 OBSERVED = 1  # Track.STATUS_CONFIRMED: confirmed and updated by a detection this frame
 COASTING = 2  # Track.STATUS_COASTING: a prediction, not an observation
 

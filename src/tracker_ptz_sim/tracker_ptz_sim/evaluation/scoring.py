@@ -29,7 +29,7 @@ import numpy as np
 from tracker_filter.tracking import TrackStatus
 from tracker_msgs_py.codec import msg_to_rect
 from tracker_msgs_py.geometry import Rect
-from tracker_ptz_sim.evaluation import centre_scores, metrics, run_report
+from tracker_ptz_sim.evaluation import centre_scores, error_classes, metrics, run_report
 from tracker_ptz_sim.evaluation.metrics import Boxes
 
 LabelImages = Callable[[int], np.ndarray]  # 1-based frame -> label image (pixel = object id)
@@ -47,6 +47,8 @@ class RunTrace:
     hypotheses: Boxes = field(default_factory=dict)  # observed confirmed tracks
     targets: dict[int, tuple[float, float]] = field(default_factory=dict)  # locked target
     target_ids: dict[int, int] = field(default_factory=dict)  # locked track id
+    detections: dict[int, list[Rect]] = field(default_factory=dict)  # the detector's boxes
+    tentative: dict[int, list[Rect]] = field(default_factory=dict)  # updated tentative tracks
 
     def write_mot(self, path: Path) -> int:
         """The observed tracks in MOTChallenge format; how many rows."""
@@ -74,6 +76,13 @@ def trace_from_frames(frames: dict[int, run_report.FrameRecord]) -> RunTrace:
                 for t in record.tracks.tracks
                 if t.status == run_report.OBSERVED
             }
+            trace.tentative[number] = [
+                msg_to_rect(t.bbox)
+                for t in record.tracks.tracks
+                if t.status == run_report.TENTATIVE and t.consecutive_misses == 0
+            ]
+        if record.detections is not None:
+            trace.detections[number] = [msg_to_rect(b.bbox) for b in record.detections.blobs]
         if record.target is not None and record.target.locked:
             trace.targets[number] = (record.target.track.x, record.target.track.y)
             trace.target_ids[number] = record.target.track.id
@@ -92,6 +101,11 @@ def trace_from_steps(steps: Iterable[Any], fps: float) -> RunTrace:
         trace.hypotheses[number] = {
             int(tracks.ids[i]): Rect(*(float(v) for v in tracks.bboxes[i])) for i in observed
         }
+        updated = (tracks.status == TrackStatus.TENTATIVE) & (tracks.misses == 0)
+        trace.tentative[number] = [
+            Rect(*(float(v) for v in tracks.bboxes[i])) for i in np.flatnonzero(updated)
+        ]
+        trace.detections[number] = [blob.bbox for blob in step.detection.blobs]
         if step.target is not None and step.target_id is not None:
             trace.targets[number] = (step.target.x, step.target.y)
             trace.target_ids[number] = step.target_id
@@ -208,6 +222,9 @@ def score_trace(
         "in_view": _tracking_scores(view_truth, view_hypotheses, frames),
         "whole_scene": _tracking_scores(truth, hypotheses, frames),
         "pan_tilt": asdict(pan_tilt_scores(metrics.every_object(gt), trace)),
+        "errors_in_view": error_classes.error_classes(
+            view_truth, view_hypotheses, trace.detections, trace.tentative, frames
+        ),
     }
     if centres:
         result["centres"] = centre_scores.centre_scores(truth, ignored, trace.hypotheses, frames)
@@ -280,6 +297,23 @@ def format_scores(result: dict) -> str:
                 f"MOTA {s['mota']:.3f}  IDF1 {s['idf1']:.3f}  HOTA {s['hota']:.3f}  "
                 f"MOTP {s['motp']:.3f}  id switches {s['id_switches']}  "
                 f"recall {s['recall']:.3f}  precision {s['precision']:.3f}",
+            )
+        )
+    errors = result.get("errors_in_view")
+    if errors:
+        rows.append(
+            (
+                "errors in view",
+                "misses: "
+                + ", ".join(
+                    f"{n.replace('_', ' ')} {errors[n]}" for n in error_classes.MISSES if errors[n]
+                )
+                + "; false: "
+                + ", ".join(
+                    f"{n.replace('_', ' ')} {errors[n]}"
+                    for n in error_classes.FALSE_POSITIVES
+                    if errors[n]
+                ),
             )
         )
     if "centres" in result:
