@@ -50,7 +50,9 @@ def test_a_short_gmphd_run_reports_ospa_and_centre_mota(tmp_path):
     false = sum(errors[n] for n in error_classes.FALSE_POSITIVES)
     assert errors["people"] > 0 and 0 <= misses <= errors["people"]
     assert 0 <= false <= errors["reported"]
-    assert "Why boxes missed, in view" in table and "| misses: tentative track |" in table
+    assert (
+        "Why boxes missed, in view" in table and "| misses: shared box | tentative track |" in table
+    )
 
 
 def test_ctrl_c_ends_the_benchmark_with_the_table_of_what_was_measured(tmp_path):

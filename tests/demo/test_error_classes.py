@@ -19,6 +19,10 @@ def test_each_kind_of_miss_is_told_apart():
     assert frame_errors([PERSON], [], [shifted], []) == {"detection_off": 1}
     assert frame_errors([PERSON], [], [Rect(400.0, 100.0, 40.0, 100.0)], []) == {"no_detection": 1}
     assert frame_errors([PERSON], [sign_joined], [sign_joined], []) == {}
+    # two people walking close, one box over both: it matches one, the other is missed
+    beside = Rect(110.0, 100.0, 40.0, 100.0)
+    pair = Rect(100.0, 100.0, 50.0, 100.0)
+    assert frame_errors([PERSON, beside], [pair], [pair], []) == {"shared_box": 1}
 
 
 def test_false_boxes_on_a_person_and_on_nothing():

@@ -297,9 +297,9 @@ def error_table(results: list[RunScores]) -> str:
         )
     return (
         "Why boxes missed, in view (`evaluation.error_classes`: frame by frame at IoU 0.5; a miss "
-        "is a tentative track's, a good detection not reported, a detection box too big / too "
-        "small / off at IoU 0.1-0.5, or no detection; a false box overlaps a person at IoU "
-        ">= 0.1 or nothing).\n\n" + "\n".join(lines)
+        "is a reported box shared with another person, a tentative track's, a good detection "
+        "not reported, a detection box too big / too small / off at IoU 0.1-0.5, or no "
+        "detection; a false box overlaps a person at IoU >= 0.1 or nothing).\n\n" + "\n".join(lines)
     )
 
 

@@ -5,6 +5,8 @@ frame, the reported boxes are matched to the people in view at IoU >= 0.5 (Hunga
 MOT's matching, without its carrying over of last frame's pairs). A person left unmatched is a
 miss of one of these kinds, the first that applies:
 
+- `shared_box`: a reported box covers them at IoU >= 0.5 but was matched to another person (one
+  box over two people who overlap);
 - `tentative_track`: a detection covers them at IoU >= 0.5 and a tentative track was updated
   with such a box (the tracker had not confirmed it yet);
 - `not_reported`: a detection covers them at IoU >= 0.5, but no track reports it;
@@ -32,6 +34,7 @@ TOUCH_IOU = 0.1
 TOO_BIG, TOO_SMALL = 1.3, 0.7  # detection area / person area
 
 MISSES = (
+    "shared_box",
     "tentative_track",
     "not_reported",
     "detection_too_big",
@@ -88,7 +91,11 @@ def frame_errors(
     hit_people, hit_boxes = _matched(overlap)
     counts: Counter[str] = Counter()
     for i in range(len(truth)):
-        if i not in hit_people:
+        if i in hit_people:
+            continue
+        if overlap.shape[1] and overlap[i].max() >= MATCH_IOU:
+            counts["shared_box"] += 1
+        else:
             counts[_miss_kind(truth[i], found, shown)] += 1
     for j in range(len(boxes)):
         if j not in hit_boxes:
