@@ -328,11 +328,11 @@ class MofNConfirmation:
             least = np.maximum(least, self.scale.least_heights(boxes))
         return boxes[:, 3] >= least
 
-    def learn(self, boxes: np.ndarray) -> None:
-        """Boxes (N, 4) of confirmed tracks observed this frame (the height rule learns from
-        them)."""
+    def learn(self, boxes: np.ndarray, observed: np.ndarray) -> None:
+        """The height rule learns from the boxes (N, 4) of the tracks where `observed` (N,):
+        the confirmed ones a detection updated this frame. Nothing is done without the rule."""
         if self.scale is not None:
-            self.scale.observe(boxes)
+            self.scale.observe(boxes[observed])
 
     def clear(self) -> None:
         """Forget what was learned."""
@@ -454,7 +454,7 @@ class TrackManager:
                 book.hits, book.frames, travel, book.straightness(), book.bboxes
             )
         )
-        self.confirmation.learn(book.bboxes[book.confirmed & updated])
+        self.confirmation.learn(book.bboxes, book.confirmed & updated)
 
         lost = self.deleter.lost(book.misses, book.confirmed) | (
             ~book.confirmed & self.confirmation.failed(book.hits, book.frames, travel)

@@ -38,6 +38,11 @@ def robust_line(x: np.ndarray, y: np.ndarray) -> tuple[float, float]:
     return float(coefficients[0]), float(coefficients[1])
 
 
+def bottom_rows(boxes: np.ndarray) -> np.ndarray:
+    """The row (px) of each (x, y, width, height) box's bottom edge: where the object stands."""
+    return boxes[:, 1] + boxes[:, 3]
+
+
 class HeightByRow:
     """The height (px) of confirmed objects as a line in the row of their boxes' bottom edge.
 
@@ -72,7 +77,7 @@ class HeightByRow:
         """Boxes (N, 4) of objects known to be what is followed (confirmed, observed now)."""
         if len(boxes) == 0:
             return
-        self._rows = np.concatenate([self._rows, boxes[:, 1] + boxes[:, 3]])[-self.capacity :]
+        self._rows = np.concatenate([self._rows, bottom_rows(boxes)])[-self.capacity :]
         self._heights = np.concatenate([self._heights, boxes[:, 3]])[-self.capacity :]
         self._unfitted += len(boxes)
         if len(self) >= self.min_samples and (
@@ -86,7 +91,7 @@ class HeightByRow:
         if self.line is None:
             return np.zeros(len(boxes))
         intercept, slope = self.line
-        return np.maximum(intercept + slope * (boxes[:, 1] + boxes[:, 3]), 0.0)
+        return np.maximum(intercept + slope * bottom_rows(boxes), 0.0)
 
     def least_heights(self, boxes: np.ndarray) -> np.ndarray:
         """The height (px) each box (N, 4) needs to be taken for a followed object there."""

@@ -27,7 +27,7 @@ import numpy as np
 from scipy.optimize import linear_sum_assignment
 
 from tracker_msgs_py.geometry import Rect, iou_matrix
-from tracker_ptz_sim.evaluation.metrics import Boxes
+from tracker_ptz_sim.evaluation.metrics import Boxes, box_array
 
 MATCH_IOU = 0.5
 TOUCH_IOU = 0.1
@@ -45,16 +45,6 @@ MISSES = (
 FALSE_POSITIVES = ("overlaps_person", "on_nothing")
 
 
-def _array(boxes: list[Rect]) -> np.ndarray:
-    return np.array([[b.x, b.y, b.width, b.height] for b in boxes], dtype=float).reshape(-1, 4)
-
-
-def _iou(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    if len(a) == 0 or len(b) == 0:
-        return np.zeros((len(a), len(b)))
-    return iou_matrix(a, b)
-
-
 def _matched(overlap: np.ndarray) -> tuple[set[int], set[int]]:
     """Rows and columns paired at IoU >= MATCH_IOU, most overlap first (Hungarian)."""
     if overlap.size == 0:
@@ -65,9 +55,9 @@ def _matched(overlap: np.ndarray) -> tuple[set[int], set[int]]:
 
 
 def _miss_kind(person: np.ndarray, detections: np.ndarray, tentative: np.ndarray) -> str:
-    by_detection = _iou(person[None], detections)[0]
+    by_detection = iou_matrix(person[None], detections)[0]
     if by_detection.size and by_detection.max() >= MATCH_IOU:
-        if tentative.size and _iou(person[None], tentative)[0].max() >= MATCH_IOU:
+        if tentative.size and iou_matrix(person[None], tentative)[0].max() >= MATCH_IOU:
             return "tentative_track"
         return "not_reported"
     if by_detection.size == 0 or by_detection.max() < TOUCH_IOU:
@@ -85,9 +75,9 @@ def frame_errors(
     people: list[Rect], reported: list[Rect], detections: list[Rect], tentative: list[Rect]
 ) -> Counter[str]:
     """The classes of one frame's misses and false positives (see the module doc)."""
-    truth, boxes = _array(people), _array(reported)
-    found, shown = _array(detections), _array(tentative)
-    overlap = _iou(truth, boxes)
+    truth, boxes = box_array(people), box_array(reported)
+    found, shown = box_array(detections), box_array(tentative)
+    overlap = iou_matrix(truth, boxes)
     hit_people, hit_boxes = _matched(overlap)
     counts: Counter[str] = Counter()
     for i in range(len(truth)):

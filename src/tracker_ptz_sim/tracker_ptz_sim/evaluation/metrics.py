@@ -10,7 +10,7 @@ from __future__ import annotations
 import contextlib
 import io
 from collections import Counter
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -243,10 +243,14 @@ def iou_distances(truth: np.ndarray, hypotheses: np.ndarray, max_distance: float
     return distance
 
 
+def box_array(boxes: Iterable[Rect]) -> np.ndarray:
+    """(N, 4) x, y, width, height of the boxes, in their order."""
+    return np.array([[b.x, b.y, b.width, b.height] for b in boxes], dtype=float).reshape(-1, 4)
+
+
 def _columns(boxes: dict[int, Rect]) -> tuple[list[int], np.ndarray]:
     ids = sorted(boxes)
-    array = np.array([[b.x, b.y, b.width, b.height] for b in (boxes[i] for i in ids)], dtype=float)
-    return ids, array.reshape(-1, 4)
+    return ids, box_array(boxes[i] for i in ids)
 
 
 @dataclass(frozen=True)

@@ -301,19 +301,15 @@ def format_scores(result: dict) -> str:
         )
     errors = result.get("errors_in_view")
     if errors:
+
+        def counted(names: tuple[str, ...]) -> str:
+            return ", ".join(f"{n.replace('_', ' ')} {errors[n]}" for n in names if errors[n])
+
         rows.append(
             (
                 "errors in view",
-                "misses: "
-                + ", ".join(
-                    f"{n.replace('_', ' ')} {errors[n]}" for n in error_classes.MISSES if errors[n]
-                )
-                + "; false: "
-                + ", ".join(
-                    f"{n.replace('_', ' ')} {errors[n]}"
-                    for n in error_classes.FALSE_POSITIVES
-                    if errors[n]
-                ),
+                f"misses: {counted(error_classes.MISSES)}; "
+                f"false: {counted(error_classes.FALSE_POSITIVES)}",
             )
         )
     if "centres" in result:
