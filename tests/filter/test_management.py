@@ -9,6 +9,7 @@ from tracker_filter.association import Association
 from tracker_filter.config import TrackerConfig
 from tracker_filter.filters import PerTrackFactory
 from tracker_filter.management import BoxGate, MergedSplitter, OverlapRecovery, TrackManager
+from tracker_filter.object_scale import HeightByRow
 from tracker_filter.observation import Detections, Observation
 from tracker_filter.synthetic import bouncing_scene, piecewise_constant_velocity
 from tracker_filter.tracking import OutOfOrderError, TrackStatus
@@ -258,6 +259,31 @@ def test_box_edges_that_jump_are_kept_until_the_change_persists():
         if k >= 20 + BoxGate().patience:
             assert (y, h) == pytest.approx((125.0, 25.0), abs=1.0)
     assert tracks.ids.tolist() == [1]
+
+
+def test_the_learned_height_says_which_box_edge_to_believe():
+    """People here are half as tall as the row of their feet (learned from ten boxes). A track
+    whose box held a sign above the person (100 px tall at row 150, where people are 75) takes
+    the person's 75 px box at once; a track on the person keeps its top edge when the sign joins
+    the detection. Without the learned height both jumps are held."""
+    scale = HeightByRow(0.5, min_samples=10)
+    rows = np.linspace(100.0, 300.0, 10)
+    scale.observe(np.column_stack([np.zeros(10), rows / 2, np.full(10, 20.0), rows / 2]))
+    person, merged = np.array([100.0, 75.0, 24.0, 75.0]), np.array([100.0, 50.0, 24.0, 100.0])
+
+    def gated(gate: BoxGate, predicted: np.ndarray, found: np.ndarray) -> np.ndarray:
+        one = np.array([0])
+        strikes = np.zeros((1, 4), np.int64)
+        result: np.ndarray = gate.gate(_boxes([found]), one, one, predicted[None], strikes).bboxes[
+            0
+        ]
+        return result
+
+    informed, blind = BoxGate(0.2, scale=scale), BoxGate(0.2)
+    assert gated(informed, merged, person) == pytest.approx(person)
+    assert gated(informed, person, merged) == pytest.approx(person)
+    assert gated(blind, merged, person) == pytest.approx(merged)
+    assert gated(blind, person, merged) == pytest.approx(person)
 
 
 def test_many_targets_with_clutter_keep_their_ids():

@@ -16,14 +16,15 @@ silhouettes:
    image, neither are cast shadows: the background darkened (to shadow_ratio..SHADOW_MAX_RATIO
    of its brightness) with its chromaticity kept, which the mosaic learns beside the grey;
 4. the mask is closed (joins a silhouette's fragments), hole-filled and shrunk by the SSIM
-   window's spread across object edges (1 px), *not dilated*; blobs are its connected
-   components, boxes their tight boxes; blobs flatter than `min_aspect` (height / width) are
-   dropped when it is set (a person stands, a strip of barrier tape or a foot's shadow lies;
-   a blob cut by the view's top or bottom edge needs half that: only a slice of it is in view),
-   then a person's fragments are joined (stacked head and legs: `merge_gap`; a hand or foot
-   beside the body: `satellite_share`); with `restore_legs`, a box grows down through the legs
-   that step 3 took for shadow or flicker: rows right below it that differ from the background
-   in its columns and are no other blob's;
+   window's spread across object edges (1 px), *not dilated*; with `split_depth`, cut between
+   people side by side (`side_by_side`: at a dip of a wide blob's top outline between two
+   heads); blobs are its connected components, boxes their tight boxes; blobs flatter than
+   `min_aspect` (height / width) are dropped when it is set (a person stands, a strip of
+   barrier tape or a foot's shadow lies; a blob cut by the view's top or bottom edge needs half
+   that: only a slice of it is in view), then a person's fragments are joined (stacked head
+   and legs: `merge_gap`; a hand or foot beside the body: `satellite_share`); with
+   `restore_legs`, a box grows down through the legs that step 3 took for shadow or flicker:
+   rows right below it that differ from the background in its columns and are no other blob's;
 5. the mosaic learns the view: quickly (learning_rate) where nothing is foreground, at heal_rate
    where the view differs but does not change (ghosts fade, a stopped object joins the
    background), not at all under movers.
@@ -50,6 +51,7 @@ from tracker_detect.motion import (
     presence_test,
 )
 from tracker_detect.registration import View
+from tracker_detect.side_by_side import cut_side_by_side
 from tracker_detect.ssim import SsimParams, auto_downsample_factor, ssim_map
 from tracker_msgs_py.geometry import Rect
 from tracker_msgs_py.params import check_config
@@ -85,6 +87,9 @@ class BackgroundConfig:
     merge_gap: float = 0.0  # join stacked blobs this close (x the taller's height; 0: never)
     satellite_share: float = 0.0  # join a blob this much smaller to a big one it touches (0: never)
     min_aspect: float = 0.0  # height / width below which a blob is dropped (0: keep all)
+    split_depth: float = (
+        0.0  # cut blobs at dips of their top outline this deep (x height; 0: never)
+    )
     shadow_ratio: float = 0.0  # darkest shadow, as a share of the background's brightness (0: off)
     restore_legs: bool = False  # grow boxes down through their legs lost to shadow or flicker
     presence_fraction: float = 0.0008  # presence test, as the seed
@@ -120,6 +125,8 @@ class BackgroundConfig:
             found.append(f"satellite_share must be in [0, 1], got {self.satellite_share}")
         if not (math.isfinite(self.min_aspect) and 0.0 <= self.min_aspect <= 10.0):
             found.append(f"min_aspect must be in [0, 10], got {self.min_aspect}")
+        if not (math.isfinite(self.split_depth) and 0.0 <= self.split_depth <= 1.0):
+            found.append(f"split_depth must be in [0, 1], got {self.split_depth}")
         if not (math.isfinite(self.shadow_ratio) and 0.0 <= self.shadow_ratio < SHADOW_MAX_RATIO):
             found.append(
                 f"shadow_ratio must be in [0, {SHADOW_MAX_RATIO}), got {self.shadow_ratio}"
@@ -203,6 +210,8 @@ class BackgroundDetector:
         moving = self._clean((different & changing).astype(np.uint8), shrink=False)
         self.mosaic.update(view, gray, rate, moving, None if chroma is None else chroma[..., :2])
         mask = self._clean(foreground.astype(np.uint8))
+        if c.split_depth > 0:
+            mask = cut_side_by_side(mask, c.split_depth, c.connectivity)
         found = [
             b
             for b in find_blobs(mask, similarity, view, c.connectivity)

@@ -273,6 +273,15 @@ BACKGROUND_PARAMETERS: tuple[ParamSpec, ...] = (
         10.0,
     ),
     ParamSpec(
+        "split_depth",
+        _B.split_depth,
+        "cut a blob 0.6-3 x as wide as tall (and at least 20 px tall) where its top outline "
+        "dips this deep between two higher points [x its height] (people side by side, a "
+        "person and a strip of tape; 0: never)",
+        0.0,
+        1.0,
+    ),
+    ParamSpec(
         "shadow_ratio",
         _B.shadow_ratio,
         "ignore cast shadows: pixels darkened to between this and 0.95 of the background's "

@@ -361,26 +361,31 @@ class TrackerConfig:
 
     def build_tracker(self, first_id: int = 1) -> TrackManager:
         """A new tracker; `first_id` lets a rebuilt tracker continue its predecessor's ids."""
+        confirmation = MofNConfirmation(
+            self.confirm_hits,
+            self.confirm_window,
+            self.confirm_travel,
+            self.confirm_travel_window,
+            self.confirm_straightness,
+            self.straightness_step,
+            self.confirm_min_height,
+            self.confirm_height_ratio,
+        )
         return TrackManager(
             self.filter,
             GatedHungarianAssociator(self.gate_probability),
             CappedInitiator(self.max_tracks),
-            MofNConfirmation(
-                self.confirm_hits,
-                self.confirm_window,
-                self.confirm_travel,
-                self.confirm_travel_window,
-                self.confirm_straightness,
-                self.straightness_step,
-                self.confirm_min_height,
-                self.confirm_height_ratio,
-            ),
+            confirmation,
             MissCountDeleter(self.max_misses),
             LargestDetection() if self.measurements == "largest" else AllDetections(),
             first_id=first_id,
             splitter=MergedSplitter(self.split_merged) if self.split_merged else NoSplit(),
             recovery=OverlapRecovery(self.recover_overlap) if self.recover_overlap else None,
-            box_gate=BoxGate(self.box_tolerance) if self.box_tolerance else None,
+            box_gate=(
+                BoxGate(self.box_tolerance, scale=confirmation.scale)
+                if self.box_tolerance
+                else None
+            ),
         )
 
     def build_selector(self) -> TargetSelector:

@@ -204,12 +204,21 @@ class BoxGate:
     box: one that moved more than `tolerance` x the predicted height is replaced by the predicted
     edge, unless it has disagreed `patience` frames in a row (then the detection is believed: the
     object has changed). The detection's centroid moves with its box's centre, so the filter is
-    corrected by the same cleaned measurement."""
+    corrected by the same cleaned measurement.
 
-    def __init__(self, tolerance: float = 0.2, patience: int = 5) -> None:
+    With `scale` (the height rule's `HeightByRow`, once it has a line) the gate asks which box
+    looks more like a person where it stands: the detection is believed at once when its height
+    is at least as close to the learned height at its bottom row as the gated box's (ratio on a
+    log scale). A track that was started on a merged or partial blob then takes the person's box
+    when the detector finds it, instead of holding the wrong edges for `patience` frames."""
+
+    def __init__(
+        self, tolerance: float = 0.2, patience: int = 5, scale: HeightByRow | None = None
+    ) -> None:
         if not tolerance > 0 or patience < 1:
             raise ValueError(f"need tolerance > 0 and patience >= 1, got {tolerance}, {patience}")
         self.tolerance, self.patience = tolerance, patience
+        self.scale = scale
 
     def gate(
         self,
@@ -228,24 +237,45 @@ class BoxGate:
         expected = _edges(predicted[rows])
         height = np.maximum(predicted[rows, 3], 1.0)[:, None]
         off = np.abs(found - expected) > self.tolerance * height
-        strikes[rows] = np.where(off, strikes[rows] + 1, 0)
-        keep = off & (strikes[rows] < self.patience)
-        strikes[rows] = np.where(keep, strikes[rows], 0)
+        counted = np.where(off, strikes[rows] + 1, 0)
+        keep = off & (counted < self.patience)
+        keep &= ~self._detection_fits(found, np.where(keep, expected, found))[:, None]
+        strikes[rows] = np.where(keep, counted, 0)
         edges = np.where(keep, expected, found)
         edges[:, 2] = np.maximum(edges[:, 2], edges[:, 0] + 1.0)
         edges[:, 3] = np.maximum(edges[:, 3], edges[:, 1] + 1.0)
         boxes = detections.bboxes.copy()
         positions = detections.positions.copy()
-        gated = np.column_stack([edges[:, :2], edges[:, 2:] - edges[:, :2]])
+        gated = _boxes(edges)
         shift = (gated[:, :2] + gated[:, 2:] / 2) - (boxes[cols, :2] + boxes[cols, 2:] / 2)
         boxes[cols] = gated
         positions[cols] += shift
         return Detections(positions, detections.areas, boxes, detections.scores)
 
+    def _detection_fits(self, found: np.ndarray, gated: np.ndarray) -> np.ndarray:
+        """Per pair of edges (N, 4), whether the detection's box is at least as close to the
+        learned height where it stands as the gated box (all False without a learned line)."""
+        if self.scale is None or self.scale.line is None:
+            return np.zeros(len(found), dtype=bool)
+        detected, kept = _boxes(found), _boxes(gated)
+        return _height_error(detected, self.scale) <= _height_error(kept, self.scale)
+
+
+def _height_error(boxes: np.ndarray, scale: HeightByRow) -> np.ndarray:
+    """|log(height / learned height at the bottom row)| per box (N, 4)."""
+    learned = np.maximum(scale.expected_heights(boxes), 1.0)
+    result: np.ndarray = np.abs(np.log(np.maximum(boxes[:, 3], 1.0) / learned))
+    return result
+
 
 def _edges(boxes: np.ndarray) -> np.ndarray:
     """x, y, width, height (N, 4) -> left, top, right, bottom."""
     return np.column_stack([boxes[:, :2], boxes[:, :2] + boxes[:, 2:]])
+
+
+def _boxes(edges: np.ndarray) -> np.ndarray:
+    """left, top, right, bottom (N, 4) -> x, y, width, height."""
+    return np.column_stack([edges[:, :2], edges[:, 2:] - edges[:, :2]])
 
 
 class Initiator(Protocol):
