@@ -206,11 +206,14 @@ class BoxGate:
     object has changed). The detection's centroid moves with its box's centre, so the filter is
     corrected by the same cleaned measurement.
 
-    With `scale` (the height rule's `HeightByRow`, once it has a line) the gate asks which box
-    looks more like a person where it stands: the detection is believed at once when its height
-    is at least as close to the learned height at its bottom row as the gated box's (ratio on a
-    log scale). A track that was started on a merged or partial blob then takes the person's box
-    when the detector finds it, instead of holding the wrong edges for `patience` frames."""
+    With `scale` (the height rule's `HeightByRow`) the gate asks which box looks more like a
+    person where it stands: the detection is believed at once when its height is at least as
+    close to the learned height at its bottom row as the gated box's (ratio on a log scale). A
+    track that was started on a merged or partial blob then takes the person's box when the
+    detector finds it, instead of holding the wrong edges for `patience` frames. Until `scale`
+    has learned its line nothing is held: a box that grows as its object comes into view cannot
+    be told from one that joined a sign. The manager gates confirmed tracks only: a tentative
+    track's box is still being found."""
 
     def __init__(
         self, tolerance: float = 0.2, patience: int = 5, scale: HeightByRow | None = None
@@ -231,7 +234,7 @@ class BoxGate:
         """`detections` with the boxes and centroids of the associated ones (`cols`, paired with
         track rows `rows` whose predicted boxes are `predicted` (N, 4)) gated; `strikes` (N, 4),
         the consecutive disagreements per edge, is updated in place."""
-        if len(rows) == 0:
+        if len(rows) == 0 or (self.scale is not None and self.scale.line is None):
             return detections
         found = _edges(detections.bboxes[cols])
         expected = _edges(predicted[rows])
@@ -254,8 +257,8 @@ class BoxGate:
 
     def _detection_fits(self, found: np.ndarray, gated: np.ndarray) -> np.ndarray:
         """Per pair of edges (N, 4), whether the detection's box is at least as close to the
-        learned height where it stands as the gated box (all False without a learned line)."""
-        if self.scale is None or self.scale.line is None:
+        learned height where it stands as the gated box (all False without `scale`)."""
+        if self.scale is None:
             return np.zeros(len(found), dtype=bool)
         detected, kept = _boxes(found), _boxes(gated)
         return _height_error(detected, self.scale) <= _height_error(kept, self.scale)
@@ -473,8 +476,9 @@ class TrackManager:
             )
         rows, cols = association.tracks, association.measurements
         if self.box_gate is not None:
+            held = book.confirmed[rows]  # a tentative track's box is still being found
             detections = self.box_gate.gate(
-                detections, rows, cols, predicted_boxes, book.edge_strikes
+                detections, rows[held], cols[held], predicted_boxes, book.edge_strikes
             )
         self.bank.update(rows, detections.positions[cols])
         updated = book.record_frame(rows, cols, detections, self.layout.positions(self.bank.means))
