@@ -265,7 +265,8 @@ def test_the_learned_height_says_which_box_edge_to_believe():
     """People here are half as tall as the row of their feet (learned from ten boxes). A track
     whose box held a sign above the person (100 px tall at row 150, where people are 75) takes
     the person's 75 px box at once; a track on the person keeps its top edge when the sign joins
-    the detection. Without the learned height both jumps are held."""
+    the detection. Without the learned height both jumps are held; before the line is learned,
+    nothing is."""
     scale = HeightByRow(0.5, min_samples=10)
     rows = np.linspace(100.0, 300.0, 10)
     scale.observe(np.column_stack([np.zeros(10), rows / 2, np.full(10, 20.0), rows / 2]))
@@ -284,6 +285,8 @@ def test_the_learned_height_says_which_box_edge_to_believe():
     assert gated(informed, person, merged) == pytest.approx(person)
     assert gated(blind, merged, person) == pytest.approx(merged)
     assert gated(blind, person, merged) == pytest.approx(person)
+    unlearned = BoxGate(0.2, scale=HeightByRow(0.5, min_samples=10))  # nothing held yet
+    assert gated(unlearned, person, merged) == pytest.approx(merged)
 
 
 def test_many_targets_with_clutter_keep_their_ids():

@@ -87,9 +87,7 @@ class BackgroundConfig:
     merge_gap: float = 0.0  # join stacked blobs this close (x the taller's height; 0: never)
     satellite_share: float = 0.0  # join a blob this much smaller to a big one it touches (0: never)
     min_aspect: float = 0.0  # height / width below which a blob is dropped (0: keep all)
-    split_depth: float = (
-        0.0  # cut blobs at dips of their top outline this deep (x height; 0: never)
-    )
+    split_depth: float = 0.0  # cut blobs where their top outline dips this deep (x height)
     shadow_ratio: float = 0.0  # darkest shadow, as a share of the background's brightness (0: off)
     restore_legs: bool = False  # grow boxes down through their legs lost to shadow or flicker
     presence_fraction: float = 0.0008  # presence test, as the seed

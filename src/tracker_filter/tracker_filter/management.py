@@ -242,7 +242,8 @@ class BoxGate:
         off = np.abs(found - expected) > self.tolerance * height
         counted = np.where(off, strikes[rows] + 1, 0)
         keep = off & (counted < self.patience)
-        keep &= ~self._detection_fits(found, np.where(keep, expected, found))[:, None]
+        held = _boxes(np.where(keep, expected, found))
+        keep &= ~self._detection_fits(detections.bboxes[cols], held)[:, None]
         strikes[rows] = np.where(keep, counted, 0)
         edges = np.where(keep, expected, found)
         edges[:, 2] = np.maximum(edges[:, 2], edges[:, 0] + 1.0)
@@ -255,13 +256,12 @@ class BoxGate:
         positions[cols] += shift
         return Detections(positions, detections.areas, boxes, detections.scores)
 
-    def _detection_fits(self, found: np.ndarray, gated: np.ndarray) -> np.ndarray:
-        """Per pair of edges (N, 4), whether the detection's box is at least as close to the
-        learned height where it stands as the gated box (all False without `scale`)."""
+    def _detection_fits(self, detected: np.ndarray, held: np.ndarray) -> np.ndarray:
+        """Per pair of boxes (N, 4), whether the detection's is at least as close to the learned
+        height where it stands as the held one (all False without `scale`)."""
         if self.scale is None:
-            return np.zeros(len(found), dtype=bool)
-        detected, kept = _boxes(found), _boxes(gated)
-        return _height_error(detected, self.scale) <= _height_error(kept, self.scale)
+            return np.zeros(len(detected), dtype=bool)
+        return _height_error(detected, self.scale) <= _height_error(held, self.scale)
 
 
 def _height_error(boxes: np.ndarray, scale: HeightByRow) -> np.ndarray:
