@@ -32,7 +32,7 @@ def test_the_controller_reports_its_state_and_its_inputs():
     from ptz_messages import state_msg, target_msg
 
     from tracker_msgs.msg import PtzState, Target
-    from tracker_msgs_py.node_main import matched_readers
+    from tracker_msgs_py.node_main import matched_readers, matched_writers
     from tracker_ptz_sim.control.ptz_controller_node import PtzControllerNode
 
     h = NodeHarness(
@@ -65,5 +65,9 @@ def test_the_controller_reports_its_state_and_its_inputs():
         # Its publishers' own matched readers: this test reads /diagnostics, nothing ptz/command.
         readers = matched_readers(next(a for a in h.received["/diagnostics"] if a.status))
         assert readers["/diagnostics"] == 1 and readers["/ptz/command"] == 0
+        # ... and its readers' matched writers: the test publishes both of its inputs.
+        writers = matched_writers(next(a for a in h.received["/diagnostics"] if a.status))
+        assert writers["/ptz_controller"]["/target"] == 1
+        assert writers["/ptz_controller"]["/ptz/state"] == 1
     finally:
         h.close()

@@ -165,7 +165,8 @@ def test_zoom_shrinks_the_window_and_keeps_the_output_size():
     assert snapshot.zoom == 2.0 and (snapshot.window.width, snapshot.window.height) == (55.0, 55.0)
     assert camera.render(scene).shape == (110, 110, 3)
     fx, fy, cx, cy = camera.intrinsics()
-    assert fx == pytest.approx(camera.geometry.focal_length * 2.0) and (cx, cy) == (55.0, 55.0)
+    half_angle = 27.5 / camera.geometry.focal_length  # the window's half width, as an angle
+    assert fx == pytest.approx(55.0 / math.tan(half_angle)) and (cx, cy) == (55.0, 55.0)
     camera.command(PtzCommand(0.1, "hold", zoom=99.0))
     assert camera.advance(0.1).zoom == camera.config.max_zoom
 
@@ -218,3 +219,23 @@ def test_bad_config_and_commands_are_rejected():
         model().command(PtzCommand(0.0, "position", pan=float("nan")))
     with pytest.raises(ValueError, match="mode"):
         model().command(PtzCommand(0.0, "spin"))
+
+
+@pytest.mark.parametrize("zoom", [0.5, 1.0, 2.5])
+def test_a_real_units_state_made_from_the_camera_info_is_the_window_rendered(zoom):
+    """ptz_state_bridge turns a driver's pan, tilt and CameraInfo into the scene window through
+    the pinhole rays of the image's edges: with the camera's intrinsics that is the window the
+    camera rendered, to the pixel (no misregistered background when the stand-in pans)."""
+    from tracker_detect.registration import CameraIntrinsics, view_from_pan_tilt
+
+    camera = PtzCameraModel(PtzConfig(min_zoom=0.5, servo="instant"), 640, 480)
+    camera.command(PtzCommand(0.0, "position", pan=0.3, tilt=-0.2, zoom=zoom))
+    snapshot = camera.advance(0.0)
+    fx, fy, cx, cy = camera.intrinsics()
+    out_w, out_h = camera.output_size()
+    intrinsics = CameraIntrinsics(out_w, out_h, fx, fy, cx, cy)
+    window = view_from_pan_tilt(snapshot.pan, snapshot.tilt, intrinsics, camera.geometry).rect
+    expected = snapshot.window
+    assert (window.x, window.y, window.width, window.height) == pytest.approx(
+        (expected.x, expected.y, expected.width, expected.height), abs=1e-6
+    )

@@ -56,6 +56,8 @@ from tracker_msgs_py.problems import ProblemLog
 
 OUTPUT_SUFFIX = ": output"  # the diagnostic status of a node's published topics
 READERS_SUFFIX = " readers"  # its values: "<topic> readers" = readers matched by the publisher
+INPUT_SUFFIX = ": input"  # the diagnostic status of a node's subscribed topics
+WRITERS_SUFFIX = " writers"  # among its values: "<topic> writers" = writers its reader matched
 SIGNAL_POLL_S = 0.1  # longest a stop signal waits for the executor to return to Python
 WORKER_JOIN_S = 1.5  # workers get this long to leave (the node must exit within 2 s)
 TEARDOWN_S = 1.8  # the whole teardown, workers included, before the process exits regardless
@@ -79,14 +81,17 @@ class SuiteNode(Node):
     status "<node>: input": the dropped input by cause, and per subscribed topic the message rate,
     the time its callback took (mean/max) and the data's age on arrival (the node's clock minus
     the header stamp: on a live camera how old the image is; in a replay, on the replay's clock);
-    and a status "<node>: output": per published topic, the readers its publisher has matched
-    (`READERS_SUFFIX`; a runner waits on these before frame 0, see `matched_readers`).
+    and the writers its subscription has matched (`WRITERS_SUFFIX`); and a status
+    "<node>: output": per published topic, the readers its publisher has matched
+    (`READERS_SUFFIX`). A runner waits on both before frame 0 (`matched_readers`,
+    `matched_writers`): a message sent before both ends have matched each other is lost.
     """
 
     def __init__(self, node_name: str, **node_options: Any) -> None:
         # Before Node's own __init__: with use_sim_time it already subscribes to /clock.
         self._inputs: dict[str, InputStats] = {}
         self._outputs: dict[str, Publisher] = {}
+        self._readers: dict[str, list[Subscription]] = {}  # per resolved topic
         super().__init__(node_name, **node_options)
         self.stopping = threading.Event()
         self.finished = threading.Event()
@@ -180,7 +185,15 @@ class SuiteNode(Node):
             finally:
                 stats.record(time.perf_counter() - started, self._age_s(msg))
 
-        return super().create_subscription(msg_type, topic, measured, qos_profile, **kwargs)
+        subscription = super().create_subscription(msg_type, topic, measured, qos_profile, **kwargs)
+        self._readers.setdefault(subscription.topic_name, []).append(subscription)
+        return subscription
+
+    def destroy_subscription(self, subscription: Subscription) -> bool:
+        readers = self._readers.get(subscription.topic_name, [])
+        if subscription in readers:
+            readers.remove(subscription)
+        return super().destroy_subscription(subscription)
 
     def _age_s(self, msg: Any) -> float | None:
         header = getattr(msg, "header", None)
@@ -237,6 +250,11 @@ class SuiteNode(Node):
         figures = [(c, str(n)) for c, n in sorted(self.problems.counts.items())]
         for topic, stats in self._inputs.items():
             figures += stats.report(self.resolve_topic_name(topic), period)
+        figures += [
+            (f"{topic}{WRITERS_SUFFIX}", str(min(r.get_publisher_count() for r in readers)))
+            for topic, readers in sorted(self._readers.items())
+            if readers
+        ]
         name = self.get_fully_qualified_name()
         state, details = self.diagnostic_state()
         array = DiagnosticArray(
@@ -249,7 +267,7 @@ class SuiteNode(Node):
                 ),
                 DiagnosticStatus(
                     level=DiagnosticStatus.WARN if recent else DiagnosticStatus.OK,
-                    name=f"{name}: input",
+                    name=f"{name}{INPUT_SUFFIX}",
                     message=self.problems.summary() or "no input dropped",
                     values=[KeyValue(key=k, value=v) for k, v in figures],
                 ),
@@ -365,6 +383,20 @@ def run_node(make_node: Callable[[], SuiteNode], args: Sequence[str] | None = No
     """Create the node, spin it until a stop signal or until it finishes, tear it down in order,
     and return the process exit code (see the module docstring)."""
     return run_nodes(lambda group: group.add(make_node()), args)
+
+
+def matched_writers(array: DiagnosticArray) -> dict[str, dict[str, int]]:
+    """Per node and subscribed topic, the writers its subscription had matched (the fewest of
+    its subscriptions to that topic), from nodes' diagnostics (the "<node>: input" status)."""
+    nodes: dict[str, dict[str, int]] = {}
+    for status in array.status:
+        if status.name.endswith(INPUT_SUFFIX):
+            nodes[status.name[: -len(INPUT_SUFFIX)]] = {
+                value.key[: -len(WRITERS_SUFFIX)]: int(value.value)
+                for value in status.values
+                if value.key.endswith(WRITERS_SUFFIX) and value.value.isdigit()
+            }
+    return nodes
 
 
 def matched_readers(array: DiagnosticArray) -> dict[str, int]:

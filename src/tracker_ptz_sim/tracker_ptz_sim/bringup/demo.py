@@ -48,12 +48,18 @@ from rclpy.executors import Executor
 from rclpy.node import Node
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.signals import SignalHandlerOptions
+from rclpy.subscription import Subscription
 from std_msgs.msg import Header
 
 from tracker_msgs.msg import ReplayStatus
 from tracker_msgs_py import stop_signals
 from tracker_msgs_py.codec import header_stamp_ns, ns_to_stamp, result_qos, stamp_to_ns
-from tracker_msgs_py.node_main import DEFAULT_EXECUTOR, EXECUTORS, matched_readers
+from tracker_msgs_py.node_main import (
+    DEFAULT_EXECUTOR,
+    EXECUTORS,
+    matched_readers,
+    matched_writers,
+)
 from tracker_msgs_py.params import config_from_params
 from tracker_ptz_sim.bringup.graph import (
     GRAPHS,
@@ -134,30 +140,29 @@ class Recorder(Node):
         self._pending: queue.SimpleQueue[tuple[str, int, bytes, bool] | None] = queue.SimpleQueue()
         self._writer = threading.Thread(target=self._write, name="recorder.writer", daemon=True)
         self._writer.start()
-        self._keep = []
+        self._keep: dict[str, Subscription] = {}  # per graph topic, the recorder's subscription
         for topic in graph.topics:
             msg_type = _import_type(topic.type)
             durable = topic.type in RESULT_TYPES
             qos = CLOCK_QOS if topic.name == "/clock" else result_qos(late_joiners=durable)
-            self._keep.append(
-                self.create_subscription(
-                    msg_type,
-                    topic.name,
-                    partial(self._record_jpeg, topic.name + COMPRESSED)
-                    if topic.type == RAW_IMAGE and not raw_images
-                    else partial(self._record, topic.name),
-                    qos,
-                    raw=True,
-                    event_callbacks=SubscriptionEventCallbacks(
-                        incompatible_qos=partial(self._incompatible, topic.name)
-                    ),
-                )
+            self._keep[topic.name] = self.create_subscription(
+                msg_type,
+                topic.name,
+                partial(self._record_jpeg, topic.name + COMPRESSED)
+                if topic.type == RAW_IMAGE and not raw_images
+                else partial(self._record, topic.name),
+                qos,
+                raw=True,
+                event_callbacks=SubscriptionEventCallbacks(
+                    incompatible_qos=partial(self._incompatible, topic.name)
+                ),
             )
         self.create_subscription(ReplayStatus, "/replay/status", self._on_status, STATUS_QOS)
         # the newest scene images' stamps (a restarted source resumes after them)
         self.scene_stamps: deque[int] = deque(maxlen=MAX_COMMAND_DELAY_FRAMES + 2)
         self._recorded_pub = self.create_publisher(Header, RECORDED_TOPIC, 10)
         self.readers: dict[str, int] = {}  # per topic, the readers its publisher has matched
+        self.writers: dict[str, dict[str, int]] = {}  # per node and topic, its reader's writers
         self.create_subscription(DiagnosticArray, "/diagnostics", self._on_diagnostics, 50)
 
     def _incompatible(self, topic: str, _event: object) -> None:
@@ -208,6 +213,13 @@ class Recorder(Node):
 
     def _on_diagnostics(self, array: DiagnosticArray) -> None:
         self.readers.update(matched_readers(array))
+        self.writers.update(matched_writers(array))
+
+    def readers_matched(self, topic: str) -> int:
+        """The graph's readers of `topic` (this recorder's included) that have matched a writer."""
+        nodes = sum(1 for topics in self.writers.values() if topics.get(topic, 0) > 0)
+        own = self._keep.get(topic)
+        return nodes + int(own is not None and own.get_publisher_count() > 0)
 
     def _on_status(self, status: ReplayStatus) -> None:
         self.status = status
@@ -629,21 +641,23 @@ def _wait_for_graph(
 
 def _wait_for_matches(graph: Graph, recorder: Recorder, timeout: float = MATCH_TIMEOUT_S) -> bool:
     """Until each topic of `graph.ready` has as many readers as it needs matched by its own
-    publisher (the nodes' diagnostics say), or `timeout`: the counts `_wait_for_graph` reads are
-    this process's view of the graph, and under load a node's publisher has been seen to match a
-    reader seconds after the recorder saw it, so frame 0 went unanswered. False: a stop arrived."""
+    publisher, and as many readers that have matched the publisher in turn (the nodes'
+    diagnostics say), or `timeout`: the counts `_wait_for_graph` reads are this process's view of
+    the graph, and under load one end of a pair has been seen to match the other seconds after
+    the recorder saw both, so frame 0 (or its pose) was lost. False: a stop arrived."""
     deadline = time.monotonic() + timeout
     while not stop_signals.requested():
         short = {
-            topic: recorder.readers.get(topic, 0)
+            topic: (recorder.readers.get(topic, 0), recorder.readers_matched(topic))
             for topic, wanted in graph.ready.items()
-            if recorder.readers.get(topic, 0) < wanted
+            if min(recorder.readers.get(topic, 0), recorder.readers_matched(topic)) < wanted
         }
         if not short:
             return True
         if time.monotonic() > deadline:
             recorder.get_logger().warning(
-                f"publishers still lack readers after {timeout:.0f} s ({short} matched); "
+                f"publishers and readers still unmatched after {timeout:.0f} s ({short}: "
+                "(readers the publisher matched, readers that matched a publisher)); "
                 "replaying anyway: the first frames may go unanswered"
             )
             return True
