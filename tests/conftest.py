@@ -15,8 +15,11 @@ for path in [
     if str(path) not in sys.path:
         sys.path.insert(0, str(path))
 
-# Every test run gets its own DDS domain on localhost only, so concurrent runs never cross-talk.
+# Every test run gets its own DDS domain on localhost only, so concurrent runs never cross-talk,
+# in the range whose ports stay clear of Linux's ephemeral ones (tracker_msgs_py.ros_domain).
 # Child processes started by tests inherit these.
-os.environ.setdefault("ROS_DOMAIN_ID", str(100 + os.getpid() % 100))
+from tracker_msgs_py.ros_domain import private_domain_id  # noqa: E402
+
+os.environ.setdefault("ROS_DOMAIN_ID", str(private_domain_id(os.getpid(), taken=0)))
 os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
 os.environ.setdefault("RMW_IMPLEMENTATION", "rmw_fastrtps_cpp")

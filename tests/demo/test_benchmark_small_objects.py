@@ -79,12 +79,3 @@ def test_ctrl_c_ends_the_benchmark_with_the_table_of_what_was_measured(tmp_path)
     table = (out / "table.md").read_text()
     assert "Interrupted by SIGINT after 1 runs: the table is partial." in table
     assert "| small_objects | gmphd | in-process | 1 |" in table
-
-
-def test_graph_runs_get_a_private_ros_domain_in_the_safe_range():
-    """Never the environment's domain (a demo there would feed the lockstep replay), always one
-    whose ports stay below Linux's ephemeral range."""
-    for pid in range(1, 2000):
-        for taken in (0, 1, 42, 101):
-            domain = benchmark.private_domain_id(pid, taken)
-            assert 1 <= domain <= 101 and domain != taken

@@ -52,6 +52,7 @@ import numpy as np
 
 from tracker_filter.config import PRESETS
 from tracker_msgs_py import stop_signals
+from tracker_msgs_py.ros_domain import private_domain_id
 from tracker_ptz_sim.bringup import pipeline
 from tracker_ptz_sim.bringup.graph import load_graph, node_parameters
 from tracker_ptz_sim.evaluation import error_classes, scoring
@@ -438,12 +439,6 @@ def main(argv: list[str] | None = None) -> int:
     if interrupted:
         return stop_signals.INTERRUPTED_EXIT_CODE
     return 1 if failures else 0
-
-
-def private_domain_id(pid: int, taken: int | None) -> int:
-    """A ROS domain in 1-101 (the range safe from Linux's ephemeral ports) other than `taken`."""
-    domain = 1 + pid % 101
-    return domain if domain != taken else 1 + (domain % 101)
 
 
 def _isolate_ros(domain_id: int | None) -> None:
