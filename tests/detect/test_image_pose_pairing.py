@@ -18,14 +18,14 @@ def released(items):
 def test_an_image_waits_for_its_window_and_gets_its_view():
     pairing = ImagePosePairing("ptz_state", capacity=4)
     assert pairing.add_image("a", 100, IMAGE) == []
-    [paired] = pairing.add_pose(100, (10.0, 20.0, 160.0, 120.0))
+    [paired] = pairing.add_pose(100, (10.0, 20.0, 160.0, 120.0, 300.0))
     assert paired.token == "a" and paired.found
     assert paired.view.to_scene(0, 0) == (10.0, 20.0) and paired.view.scale_x == 2.0
 
 
 def test_images_without_a_pose_are_released_in_order_and_never_dropped():
     pairing = ImagePosePairing("ptz_state", capacity=2)
-    pairing.add_pose(200, (0.0, 0.0, 80.0, 60.0))
+    pairing.add_pose(200, (0.0, 0.0, 80.0, 60.0, 300.0))
     assert released(pairing.add_image("old", 100, IMAGE)) == [("old", PoseStatus.MISSING)]
     assert pairing.add_image("b", 300, IMAGE) == [] and pairing.add_image("c", 400, IMAGE) == []
     assert released(pairing.add_image("d", 500, IMAGE)) == [("b", PoseStatus.WAIT)]  # overflow

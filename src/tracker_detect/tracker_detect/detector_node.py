@@ -34,6 +34,7 @@ from tracker_detect.detector import (
 from tracker_detect.detectors import DETECTORS, PLUGIN_GROUP
 from tracker_detect.image_pose_pairing import (
     POSE_SOURCES,
+    PROJECTIONS,
     ImagePosePairing,
     PairedImage,
     SceneSettings,
@@ -80,6 +81,14 @@ NODE_PARAMETERS = [
         "estimated shifts)",
         choices=POSE_SOURCES,
         read_only=True,
+    ),
+    ParamSpec(
+        "image_projection",
+        "linear",
+        "the images: linear (a window of the scene resampled linearly: the simulator's suite "
+        "interface) or pinhole (a real camera's: resampled onto the scene's equiangular grid "
+        "before detection, so a panning camera's background registers)",
+        choices=PROJECTIONS,
     ),
     ParamSpec("pose_buffer_size", 64, "poses (and images waiting for one) kept", 2, 10000),
     ParamSpec(
@@ -169,6 +178,7 @@ class DetectorNode(SuiteNode):
             self.params["pose_buffer_size"],
             self._max_gap_ns(),
             self._scene_settings(),
+            self.params["image_projection"],
         )
         self.image_order = StampOrder()
         self.last_frame: CameraFrame | None = None
@@ -254,6 +264,7 @@ class DetectorNode(SuiteNode):
         self.pairing.configure(
             self.params["pose_buffer_size"], self._max_gap_ns(), self._scene_settings()
         )
+        self.pairing.projection = self.params["image_projection"]
         if self.session is not None and isinstance(self.detector, SeededDetector):
             self.session.detector = self.detector  # rebuilt when it cannot reconfigure
             self.session.config = self._seeding_config()
@@ -319,7 +330,7 @@ class DetectorNode(SuiteNode):
         except ValueError as error:
             self.problems.report("invalid PtzState window", f"ignored a PtzState window: {error}")
             return
-        pose = (window.x, window.y, window.width, window.height)
+        pose = (window.x, window.y, window.width, window.height, msg.focal_length)
         self._handle(self.pairing.add_pose(stamp_to_ns(msg.header.stamp), pose))
 
     def _on_joint_state(self, msg: JointState) -> None:

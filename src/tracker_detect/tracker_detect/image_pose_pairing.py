@@ -1,11 +1,16 @@
 """Pairs each camera image with where the camera looked when it was taken (no rclpy).
 
 The detector node's inputs: images, and, by `pose_source`,
-- ``ptz_state``: the simulator's window rectangle per stamp (x, y, width, height, scene px);
+- ``ptz_state``: the window rectangle per stamp (x, y, width, height, scene px) and the scene's
+  focal length (scene px per rad);
 - ``joint_states``: a real unit's pan and tilt per stamp, turned into a view with the camera's
   intrinsics (CameraInfo) and the scene mapping (`SceneGeometry`);
 - ``none``: a static camera (the image is the scene);
 - ``estimate``: unknown; the detector dead-reckons the view from its own shift estimates.
+
+With `projection` "pinhole" the images are a real camera's and are resampled onto the linear
+grid of their view first (`pinhole.to_equiangular`); "linear": they are a linear window of the
+scene already (the simulator's suite interface).
 
 `ImagePosePairing` keeps images waiting until their pose is known (`pose_buffer.PoseBuffer`,
 interpolated between poses at most `max_gap_ns` apart) and releases them in arrival order as
@@ -22,11 +27,13 @@ from typing import Any
 
 import numpy as np
 
+from tracker_detect.pinhole import to_equiangular
 from tracker_detect.pose_buffer import PoseBuffer, PoseStatus
 from tracker_detect.registration import CameraIntrinsics, View, view_from_pan_tilt
 from tracker_msgs_py.geometry import Rect, SceneGeometry
 
 POSE_SOURCES = ("ptz_state", "joint_states", "none", "estimate")
+PROJECTIONS = ("linear", "pinhole")
 
 
 @dataclass
@@ -64,10 +71,14 @@ class ImagePosePairing:
         capacity: int = 64,
         max_gap_ns: int = 0,
         scene: SceneSettings | None = None,
+        projection: str = "linear",
     ) -> None:
         if pose_source not in POSE_SOURCES:
             raise ValueError(f"pose_source must be one of {', '.join(POSE_SOURCES)}")
+        if projection not in PROJECTIONS:
+            raise ValueError(f"projection must be one of {', '.join(PROJECTIONS)}")
         self.pose_source = pose_source
+        self.projection = projection
         self.poses = PoseBuffer(capacity, max_gap_ns)
         self.scene = scene or SceneSettings()
         self.camera: CameraIntrinsics | None = None
@@ -88,7 +99,8 @@ class ImagePosePairing:
         return self._drain()
 
     def add_pose(self, stamp_ns: int, values: tuple[float, ...]) -> list[PairedImage]:
-        """A window (x, y, w, h) or pan, tilt (rad) at `stamp_ns`; a stamp older than the newest
+        """A window and focal length (x, y, w, h, f) or pan, tilt (rad) at `stamp_ns`; a stamp
+        older than the newest
         pose starts a new epoch of the pose stream (the newer poses are forgotten)."""
         newest = self.poses.newest_stamp
         if newest is not None and stamp_ns < newest:
@@ -134,20 +146,25 @@ class ImagePosePairing:
         if found.status is not PoseStatus.FOUND or found.values is None:
             return PairedImage(token, stamp_ns, pixels, found.status)
         try:
-            view = self._view(found.values, width, height)
+            view, focal = self._view(found.values, width, height)
+            if self.projection == "pinhole":
+                if not focal > 0.0:
+                    raise ValueError(f"a pinhole image needs the scene's focal length, got {focal}")
+                pixels = to_equiangular(pixels, (view.rect.width, view.rect.height), focal)
         except ValueError as error:
             return PairedImage(token, stamp_ns, pixels, PoseStatus.MISSING, problem=str(error))
         return PairedImage(token, stamp_ns, pixels, PoseStatus.FOUND, view)
 
-    def _view(self, values: tuple[float, ...], width: int, height: int) -> View:
+    def _view(self, values: tuple[float, ...], width: int, height: int) -> tuple[View, float]:
+        """The image's view and the scene's focal length [scene px per rad]."""
         if self.pose_source == "ptz_state":
-            x, y, w, h = values
-            return View(Rect(x, y, w, h), width, height)
+            x, y, w, h, focal = values
+            return View(Rect(x, y, w, h), width, height), focal
         pan, tilt = values
         camera = self.camera_for(width, height)
         focal = self.scene.focal_length or camera.fx
         scene = SceneGeometry(self.scene.width or width, self.scene.height or height, focal)
-        return view_from_pan_tilt(pan, tilt, camera, scene)
+        return view_from_pan_tilt(pan, tilt, camera, scene), focal
 
     def camera_for(self, width: int, height: int) -> CameraIntrinsics:
         """The CameraInfo's intrinsics for an image of this size (K scaled when the CameraInfo

@@ -27,12 +27,12 @@ from dataclasses import dataclass, replace
 import cv2
 import numpy as np
 
+from tracker_detect.pinhole import pinhole_view
 from tracker_msgs_py.geometry import Rect, SceneGeometry
 
 INTEGRATION_STEP_S = 0.005  # servo dynamics are integrated in steps of at most this
 MIN_VIEW_SIDE = 8  # px: the smallest camera image the model makes (a scene must allow it)
 MAX_COMMAND_DELAY_FRAMES = 32
-MAX_HALF_ANGLE = 1.5  # rad: a pinhole camera's field of view stays below 180 degrees
 
 
 @dataclass(frozen=True)
@@ -283,21 +283,28 @@ class PtzCameraModel:
         """(width, height) of the camera image: the window's size at zoom 1, whatever the zoom."""
         return self.base_size
 
-    def intrinsics(self) -> tuple[float, float, float, float]:
-        """fx, fy, cx, cy of the camera image: the pinhole camera whose edge rays span the window
-        (pan/tilt of an edge = its scene offset / the focal length), so a real unit's ptz/state
-        made from this CameraInfo (ptz_state_bridge) is the window rendered, not a window 3 %
-        narrower at a 34 degree field of view (fx = px per rad at the centre gave that: the ghosts
-        of a misregistered background followed the camera)."""
-        out_w, out_h = self.output_size()
-        w, h = self.window_size()
+    def pinhole_span(self, window: Rect) -> tuple[float, float]:
+        """Width and height [scene px] a pinhole camera with `intrinsics()` sees of `window`:
+        its edge rays, 2 f atan(w / 2f), about 3 % less than w at a 34 degree field of view."""
         focal = self.geometry.focal_length
-        fx = out_w / 2.0 / math.tan(min(w / 2.0 / focal, MAX_HALF_ANGLE))
-        fy = out_h / 2.0 / math.tan(min(h / 2.0 / focal, MAX_HALF_ANGLE))
-        return fx, fy, out_w / 2.0, out_h / 2.0
+        return (
+            2.0 * focal * math.atan(window.width / (2.0 * focal)),
+            2.0 * focal * math.atan(window.height / (2.0 * focal)),
+        )
 
-    def render(self, scene: np.ndarray, window: Rect | None = None) -> np.ndarray:
-        """The camera image of `scene` for `window` (default: the current one)."""
+    def intrinsics(self) -> tuple[float, float, float, float]:
+        """fx, fy, cx, cy of the camera image (px per rad at the image centre, principal point)."""
+        out_w, out_h = self.output_size()
+        w, _ = self.window_size()
+        focal = self.geometry.focal_length * out_w / w
+        return focal, focal, out_w / 2.0, out_h / 2.0
+
+    def render(
+        self, scene: np.ndarray, window: Rect | None = None, pinhole: bool = False
+    ) -> np.ndarray:
+        """The camera image of `scene` for `window` (default: the current one): the window
+        resampled linearly, or with `pinhole` the image a real (pinhole) camera with the
+        `intrinsics()` takes there, which sees the narrower `pinhole_span()` of it."""
         if scene.shape[0] != self.height or scene.shape[1] != self.width:
             raise ValueError(
                 f"scene frame is {scene.shape[1]}x{scene.shape[0]}, the camera was set up for "
@@ -307,6 +314,9 @@ class PtzCameraModel:
         x0, y0 = int(window.x), int(window.y)
         view = scene[y0 : y0 + int(window.height), x0 : x0 + int(window.width)]
         out_w, out_h = self.output_size()
+        if pinhole:
+            span = self.pinhole_span(window)
+            return pinhole_view(view, (out_w, out_h), span, self.geometry.focal_length)
         if view.shape[1] == out_w and view.shape[0] == out_h:
             return np.ascontiguousarray(view)
         return cv2.resize(view, (out_w, out_h), interpolation=cv2.INTER_LINEAR)

@@ -9,7 +9,8 @@ hold); for every scene image publishes the camera view `camera/image_raw` + `cam
 With `interface: standard` it stands in for a real unit's drivers instead: it speaks only
 sensor_msgs (no PtzState; commands as JointState on `ptz/joint_command`, positions or velocities,
 NaN = not commanded, plus the `zoom_joint` when named), the contract in the README's "On a real
-pan-tilt unit".
+pan-tilt unit", and its images are a pinhole camera's (`tracker_detect.pinhole`), not a linear
+window of the scene.
 A command answering image n acts from image n + `command_delay_frames` on (1: the next image).
 In lockstep mode the camera processes scene image n only once a command stamped >= image
 n - `command_delay_frames` has arrived (or after `lockstep_timeout`), because commands and images
@@ -379,7 +380,8 @@ class PtzCameraNode(SuiteNode):
         model = self.model
         assert model is not None, "_start_model made it"
         snapshot = model.advance(stamp / NS_PER_S)
-        view = model.render(scene, snapshot.window)
+        # A stand-in for a real unit's drivers takes the images a real (pinhole) camera would.
+        view = model.render(scene, snapshot.window, pinhole=self.standard)
         self._publish(msg, view, snapshot)
 
     def _start_model(self, width: int, height: int) -> bool:
