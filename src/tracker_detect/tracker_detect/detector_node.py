@@ -262,9 +262,11 @@ class DetectorNode(SuiteNode):
             else:
                 self.detector = self.method.build(values)
         self.pairing.configure(
-            self.params["pose_buffer_size"], self._max_gap_ns(), self._scene_settings()
+            self.params["pose_buffer_size"],
+            self._max_gap_ns(),
+            self._scene_settings(),
+            self.params["image_projection"],
         )
-        self.pairing.projection = self.params["image_projection"]
         if self.session is not None and isinstance(self.detector, SeededDetector):
             self.session.detector = self.detector  # rebuilt when it cannot reconfigure
             self.session.config = self._seeding_config()

@@ -75,12 +75,9 @@ class ImagePosePairing:
     ) -> None:
         if pose_source not in POSE_SOURCES:
             raise ValueError(f"pose_source must be one of {', '.join(POSE_SOURCES)}")
-        if projection not in PROJECTIONS:
-            raise ValueError(f"projection must be one of {', '.join(PROJECTIONS)}")
         self.pose_source = pose_source
-        self.projection = projection
         self.poses = PoseBuffer(capacity, max_gap_ns)
-        self.scene = scene or SceneSettings()
+        self.configure(capacity, max_gap_ns, scene or SceneSettings(), projection)
         self.camera: CameraIntrinsics | None = None
         self._pending: deque[tuple[Any, int, np.ndarray]] = deque()
 
@@ -91,8 +88,13 @@ class ImagePosePairing:
     def waiting_for_camera_info(self) -> bool:
         return self.pose_source == "joint_states" and self.camera is None and bool(self._pending)
 
-    def configure(self, capacity: int, max_gap_ns: int, scene: SceneSettings) -> None:
+    def configure(
+        self, capacity: int, max_gap_ns: int, scene: SceneSettings, projection: str = "linear"
+    ) -> None:
+        if projection not in PROJECTIONS:
+            raise ValueError(f"projection must be one of {', '.join(PROJECTIONS)}")
         self.poses.capacity, self.poses.max_gap_ns, self.scene = capacity, max_gap_ns, scene
+        self.projection = projection
 
     def add_image(self, token: Any, stamp_ns: int, pixels: np.ndarray) -> list[PairedImage]:
         self._pending.append((token, stamp_ns, pixels))
@@ -100,8 +102,8 @@ class ImagePosePairing:
 
     def add_pose(self, stamp_ns: int, values: tuple[float, ...]) -> list[PairedImage]:
         """A window and focal length (x, y, w, h, f) or pan, tilt (rad) at `stamp_ns`; a stamp
-        older than the newest
-        pose starts a new epoch of the pose stream (the newer poses are forgotten)."""
+        older than the newest pose starts a new epoch of the pose stream (the newer poses are
+        forgotten)."""
         newest = self.poses.newest_stamp
         if newest is not None and stamp_ns < newest:
             self.poses.drop_after(stamp_ns)

@@ -47,11 +47,19 @@ def _equiangular_of_pinhole(pixels: int, span: float, focal: float) -> np.ndarra
 
 @lru_cache(maxsize=8)
 def _maps(
-    width: int, height: int, span_x: float, span_y: float, focal: float, inverse: bool
+    width: int,
+    height: int,
+    span_x: float,
+    span_y: float,
+    focal: float,
+    inverse: bool,
+    offset: tuple[float, float] = (0.0, 0.0),
 ) -> tuple[np.ndarray, np.ndarray]:
+    """cv2.remap's maps (cached: they change only with the zoom), shifted by `offset` (x, y)."""
     axis = _equiangular_of_pinhole if inverse else _pinhole_of_equiangular
-    map_x = np.broadcast_to(axis(width, span_x, focal), (height, width))
-    map_y = np.broadcast_to(axis(height, span_y, focal)[:, None], (height, width))
+    map_x = np.broadcast_to(axis(width, span_x, focal) + np.float32(offset[0]), (height, width))
+    column = axis(height, span_y, focal) + np.float32(offset[1])
+    map_y = np.broadcast_to(column[:, None], (height, width))
     return np.ascontiguousarray(map_x), np.ascontiguousarray(map_y)
 
 
@@ -69,13 +77,6 @@ def pinhole_view(
     """The `size` (width, height) pinhole image whose edge rays span `span` scene px, centred
     on `region` (scene pixels, as large as the span or larger, centred the same)."""
     width, height = size
-    map_x, map_y = _maps(width, height, float(span[0]), float(span[1]), float(focal), True)
-    margin_x = (region.shape[1] - span[0]) / 2.0
-    margin_y = (region.shape[0] - span[1]) / 2.0
-    return cv2.remap(
-        region,
-        map_x + np.float32(margin_x),
-        map_y + np.float32(margin_y),
-        cv2.INTER_LINEAR,
-        borderMode=cv2.BORDER_REPLICATE,
-    )
+    margins = ((region.shape[1] - span[0]) / 2.0, (region.shape[0] - span[1]) / 2.0)
+    map_x, map_y = _maps(width, height, float(span[0]), float(span[1]), float(focal), True, margins)
+    return cv2.remap(region, map_x, map_y, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)

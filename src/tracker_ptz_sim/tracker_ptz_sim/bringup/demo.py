@@ -647,11 +647,11 @@ def _wait_for_matches(graph: Graph, recorder: Recorder, timeout: float = MATCH_T
     the recorder saw both, so frame 0 (or its pose) was lost. False: a stop arrived."""
     deadline = time.monotonic() + timeout
     while not stop_signals.requested():
-        short = {
+        matched = {
             topic: (recorder.readers.get(topic, 0), recorder.readers_matched(topic))
-            for topic, wanted in graph.ready.items()
-            if min(recorder.readers.get(topic, 0), recorder.readers_matched(topic)) < wanted
+            for topic in graph.ready
         }
+        short = {topic: pair for topic, pair in matched.items() if min(pair) < graph.ready[topic]}
         if not short:
             return True
         if time.monotonic() > deadline:
