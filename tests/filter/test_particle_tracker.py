@@ -4,9 +4,11 @@ stops moving stays tracked, and a replay gives the same tracks."""
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 
-from tracker_filter.observation import Detections, Observation
+from tracker_filter.observation import Detections, Need, Observation
 from tracker_filter.particle_tracker import ColourParticleTracker, build
 from tracker_filter.trackers import TRACKERS
 from tracker_filter.tracking import TrackStatus
@@ -101,3 +103,30 @@ def test_a_replay_gives_the_same_tracks_and_another_seed_does_not():
 
     np.testing.assert_array_equal(run(1), run(1))
     assert not np.array_equal(run(1), run(2))
+
+
+def with_masks(frames):
+    """The frames' observations with the detector's motion mask: each person's box, image px."""
+    out = []
+    for observation, boxes in frames:
+        mask = np.zeros(observation.image.shape[:2], np.uint8)
+        shift = observation.window.x
+        for x, y, w, h in boxes:
+            mask[int(y) : int(y + h), max(int(x - shift), 0) : max(int(x + w - shift), 0)] = 255
+        out.append((replace(observation, mask=mask), boxes))
+    return out
+
+
+def test_the_foreground_cue_needs_the_mask_and_keeps_the_people():
+    assert Need.MASK not in tracker(foreground_power=0.0).needs
+    t = tracker()  # the defaults: foreground cue on
+    assert t.needs == {Need.IMAGE, Need.WINDOW, Need.MASK}
+    frames = with_masks(scene_frames(40))
+    history = [t.step(obs) for obs, _ in frames]
+    last, truth = history[-1], frames[-1][1]
+    assert sorted(last.ids.tolist()) == [1, 2]
+    for i, box in zip(last.ids, last.bboxes, strict=True):
+        assert iou(box, truth[i - 1]) > 0.5
+    # a frame whose mask was lost in transport: the filters go on by colour alone
+    lost = replace(frames[-1][0], time=4.0, mask=None)
+    assert sorted(t.step(lost).ids.tolist()) == [1, 2]

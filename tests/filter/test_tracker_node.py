@@ -269,6 +269,17 @@ def test_parameter_changes_are_validated(harness):
     assert track.id == 2 and track.state_layout == "x y vx vy ax ay"  # rebuilt, ids continue
 
 
+def test_a_change_that_needs_other_inputs_is_refused():
+    """The foreground cue (on by default) needs the motion mask; the topics are chosen at start."""
+    harness = Harness([Parameter("method", value="colour_particles")])
+    try:
+        rejected = harness.set_parameters(foreground_power=0.0)
+        assert not rejected[0].successful and "restart the node" in rejected[0].reason
+        assert all(r.successful for r in harness.set_parameters(size_noise=0.02))
+    finally:
+        harness.close()
+
+
 def test_seed_preset_tracks_the_largest_blob_from_the_first_frame():
     h = Harness([Parameter("preset", value="seed000")])
     try:

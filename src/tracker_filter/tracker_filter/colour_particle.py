@@ -24,6 +24,14 @@ their velocities, with the full noise on every component (not Ext 2's share, whi
 the velocities), so the cloud spreads along the way the target was going, wider the longer it
 is hidden, until a particle finds the target again.
 
+Scale (not the thesis's; off by default): `foreground` (`foreground_cue`) multiplies each weight by
+how well the particle's box bounds the motion detector's foreground mask, on the frames whose step
+is given one, and on those frames `size_noise` s > 0 also scales each particle's width and height
+by exp(N(0, s^2)) about its centre. A colour histogram alone cannot tell a box shrunk inside the
+person from the right one, so the thesis keeps the size nearly fixed (0.125 px per frame, which
+Ext 2 turns off while the match is good); with the mask to hold it, the size can follow a
+walker's perspective and stride.
+
 The reference is taken from the start rectangle and never updated, as in the thesis. Every random
 draw comes from the filter's own `numpy.random.Generator`, so a run is reproducible.
 """
@@ -47,6 +55,7 @@ from tracker_filter.colour_histograms import (
     histogram,
     ring_coefficients,
 )
+from tracker_filter.foreground_cue import ForegroundCue
 from tracker_filter.region_covariance import (
     forstner_distances,
     integral_features,
@@ -94,6 +103,8 @@ class ParticleFilterConfig:
     noise_alpha: float = 20.0
     noise_beta: float = 0.7
     occlusion_ratio: float = 0.0  # not the thesis's: 0 = off (see the module docstring)
+    size_noise: float = 0.0  # not the thesis's: relative std of w and h per frame (0 = off)
+    foreground: ForegroundCue = ForegroundCue()  # not the thesis's: off (power 0)
 
     def problems(self) -> list[str]:
         """What is wrong with these values (empty when usable)."""
@@ -105,6 +116,7 @@ class ParticleFilterConfig:
             "exponential_lambda must be > 0": self.exponential_lambda > 0,
             "noise_alpha must be > 0": self.noise_alpha > 0,
             "occlusion_ratio must be in [0, 1)": 0.0 <= self.occlusion_ratio < 1.0,
+            "size_noise must be in [0, 1]": 0.0 <= self.size_noise <= 1.0,
         }
         return [message for message, ok in checks.items() if not ok]
 
@@ -143,11 +155,18 @@ def static_noise_share(similarity: float, alpha: float = 20.0, beta: float = 0.7
     return (math.erf(alpha * ((1.0 - similarity) - beta)) + 1.0) / 2.0
 
 
-def propagate(particles: np.ndarray, sigma: np.ndarray, rng: np.random.Generator) -> np.ndarray:
-    """Eq. 36 with one frame's step: position and size move by their rates, plus noise."""
+def propagate(
+    particles: np.ndarray, sigma: np.ndarray, rng: np.random.Generator, size_noise: float = 0.0
+) -> np.ndarray:
+    """Eq. 36 with one frame's step: position and size move by their rates, plus noise; with
+    `size_noise` s > 0, each box is then also scaled by exp(N(0, s^2)) per side about its centre."""
     moved = particles.copy()
     moved[:, :4] += particles[:, 4:]
     moved += rng.standard_normal(particles.shape) * sigma
+    if size_noise > 0:
+        centres = moved[:, :2] + moved[:, 2:4] / 2
+        moved[:, 2:4] *= np.exp(rng.standard_normal((len(moved), 2)) * size_noise)
+        moved[:, :2] = centres - moved[:, 2:4] / 2
     moved[:, 2:4] = np.maximum(moved[:, 2:4], MIN_SIDE)
     return moved
 
@@ -380,12 +399,33 @@ class ColourParticleFilter:
         )
         return self.base_sigma * np.repeat([zeta, 1.0 - zeta], 4)
 
-    def step(self, image: np.ndarray, view: ImageView = ImageView()) -> ParticleEstimate:
-        particles = propagate(self.particles, self.noise(), self.rng)
-        raw = self.appearance.similarities(image, view.to_image(particles[:, :4]))
+    def step(
+        self,
+        image: np.ndarray,
+        view: ImageView = ImageView(),
+        foreground: np.ndarray | None = None,
+    ) -> ParticleEstimate:
+        """One frame: `image` bgr8, and the motion detector's `foreground` mask of the same image
+        ((H, W), nonzero = moving) for the foreground cue (ignored when the cue is off)."""
+        if foreground is not None and foreground.shape[:2] != image.shape[:2]:
+            raise ValueError(
+                f"the foreground mask is {foreground.shape[1]}x{foreground.shape[0]} px, "
+                f"the image {image.shape[1]}x{image.shape[0]}"
+            )
+        cue = foreground is not None and self.config.foreground.enabled
+        # the size moves only where the mask can hold it (colour alone lets it shrink or grow)
+        size_noise = self.config.size_noise if cue else 0.0
+        particles = propagate(self.particles, self.noise(), self.rng, size_noise)
+        in_image = view.to_image(particles[:, :4])
+        raw = self.appearance.similarities(image, in_image)
         hidden = self._hidden(float(raw.max()))
         # hidden: the scores say nothing about the target, every particle counts the same
         weights = np.ones(len(raw)) if hidden else corrected_weights(raw, self.config)
+        if cue and not hidden:
+            assert foreground is not None
+            factor = self.config.foreground.weights(foreground, in_image)
+            if factor is not None:
+                weights = weights * factor
         total = float(weights.sum())
         weights = weights / total if total > 0 else np.full(len(raw), 1.0 / len(raw))
         if self.config.estimate is EstimateRule.MEAN:

@@ -218,9 +218,16 @@ class TrackerNode(SuiteNode):
         if reason:
             return reason
         try:
-            self._method.build(method_values, 1)
+            tracker = self._method.build(method_values, 1)
         except ValueError as error:
             return str(error)
+        current = getattr(self, "_tracker", None)  # None while the parameters are declared
+        if current is not None and tracker.needs != current.needs:
+            wanted = ", ".join(sorted(n.value for n in tracker.needs))
+            return (
+                f"these values need the inputs {{{wanted}}}: the topics a tracker subscribes to "
+                "are chosen at start (restart the node with them)"
+            )
         return None
 
     def _on_parameters(self, changed: dict[str, Any]) -> None:

@@ -19,7 +19,9 @@ particle filter (750 particles, K = 16; its random generator seeded by the perso
 rows of its thesis's algorithm table: baseline, Ext 1 sigmoid, Ext 3 HSV, Ext 5 region covariance,
 final (Ext 1 + Ext 2); then the final algorithm with 8 x the thesis's noise, alone, with a
 background-weighted reference, coasting through occlusions as well (the colour_particles
-tracker's defaults), and with the contrast scale cue on top (`contrast` 1). With --runs R
+tracker's defaults), and with a scale cue on top: the contrast cue (`contrast` 1), or the
+foreground cue (`foreground_cue`: the motion mask of the surveillance graph's detector, run over
+the scene, with the box's size free to move, `size_noise`). With --runs R
 every particle filter runs R times per person with
 different seeds (person id + 1000 r) and the table gives the mean over runs and sigma_Q, the standard
 deviation of a run's Q over the runs (the thesis's 10 runs). --sweep runs instead the best particle
@@ -47,6 +49,8 @@ from typing import ClassVar
 import numpy as np
 
 from tracker_detect.camshift import CamShiftConfig
+from tracker_detect.detector import CameraFrame
+from tracker_detect.detectors import DETECTORS
 from tracker_filter.colour_histograms import ColourSpace
 from tracker_filter.colour_particle import (
     RECOMMENDED_SIGMA,
@@ -57,11 +61,14 @@ from tracker_filter.colour_particle import (
     WeightCorrection,
 )
 from tracker_filter.filters import FilterFactory
+from tracker_filter.foreground_cue import ForegroundCue
 from tracker_filter.models import seed001_nominal_model
-from tracker_filter.particle_tracker import OCCLUSION_RATIO
+from tracker_filter.particle_tracker import FOREGROUND_POWER, OCCLUSION_RATIO, SIZE_NOISE
 from tracker_filter.robust_kalman import LambdaRule, RobustKalmanConfig, seed001_uncertainty
 from tracker_msgs_py.geometry import Rect
 from tracker_ptz_sim.bringup.benchmark import background_image, prepare_scene
+from tracker_ptz_sim.bringup.graph import load_graph
+from tracker_ptz_sim.bringup.pipeline import PipelineSettings
 from tracker_ptz_sim.evaluation.prediction_study import PRIOR_STD
 from tracker_ptz_sim.evaluation.scoring import write_json
 from tracker_ptz_sim.evaluation.single_target import (
@@ -87,11 +94,13 @@ Boxes = dict[int, Rect | None]
 
 @dataclass(frozen=True)
 class Footage:
-    """What a tracker is given: the camera's frames (indexed by scene frame), stamps and rate."""
+    """What a tracker is given: the camera's frames (indexed by scene frame), stamps and rate, and
+    the motion detector's foreground mask of each frame (for the particle filter's foreground cue)."""
 
     frames: Sequence[np.ndarray] | np.ndarray
     stamps_ns: list[int]
     fps: float
+    masks: Sequence[np.ndarray] | None = None
 
 
 @dataclass(frozen=True)
@@ -101,6 +110,7 @@ class Variant:
     camshift: CamShiftConfig
     rule: LambdaRule | None  # the filter placing the search window; None: the last window
     random: ClassVar[bool] = False
+    needs_masks: ClassVar[bool] = False
 
     def run(self, footage: Footage, start: int, region: Rect, last: int, seed: int) -> Boxes:
         guide = predictor(self.rule, footage.fps)
@@ -115,15 +125,23 @@ class ParticleVariant:
     config: ParticleFilterConfig
     random: ClassVar[bool] = True
 
+    @property
+    def needs_masks(self) -> bool:
+        return self.config.foreground.enabled
+
     def run(self, footage: Footage, start: int, region: Rect, last: int, seed: int) -> Boxes:
+        masks = footage.masks if self.needs_masks else None
         return follow_particles(
-            footage.frames, start, region, last, self.appearance(), self.config, seed
+            footage.frames, start, region, last, self.appearance(), self.config, seed, masks
         )
 
 
 BASELINE = ParticleFilterConfig(correction=WeightCorrection.NONE, adaptive_noise=False)
 WIDE = ParticleFilterConfig(sigma=tuple(8 * s for s in RECOMMENDED_SIGMA))
 COASTING = replace(WIDE, occlusion_ratio=OCCLUSION_RATIO)
+FOREGROUND = replace(
+    COASTING, size_noise=SIZE_NOISE, foreground=ForegroundCue(power=FOREGROUND_POWER)
+)
 
 #: What is compared: one line per variant.
 VARIANTS: dict[str, Variant | ParticleVariant] = {
@@ -152,6 +170,10 @@ VARIANTS: dict[str, Variant | ParticleVariant] = {
     # ... with a scale cue: the ring around a box must not look like the person
     "particles, final, 8 x sigma, background-weighted, coasting, contrast": ParticleVariant(
         lambda: HistogramAppearance(background_weighting=True, contrast=1.0), COASTING
+    ),
+    # ... or with the motion detector's mask as the scale cue, the size free to follow it
+    "particles, final, 8 x sigma, background-weighted, coasting, foreground": ParticleVariant(
+        lambda: HistogramAppearance(background_weighting=True), FOREGROUND
     ),
 }
 
@@ -234,7 +256,8 @@ def run_scene(
     """Every variant on every person of `scene` (particle filters `runs` times), on the fixed
     whole-scene camera or, `moving`, on a camera operator's window aimed at each person."""
     out = []
-    whole = Footage(scene.frames, scene.stamps_ns(), scene.fps)
+    masks = foreground_masks(scene) if any(v.needs_masks for v in variants.values()) else None
+    whole = Footage(scene.frames, scene.stamps_ns(), scene.fps, masks)
     for person, truth in sorted(people(scene).items()):
         start = start_frame(scene, person)
         if start is None or not any(k > start for k in truth):
@@ -264,7 +287,22 @@ def windowed(
     path = operator_path(truth, frames, (width, height), WINDOW, scene.fps)
     in_view = {k: path.to_view(k, box) for k, box in truth.items() if k in frames}
     boxes = {k: box for k, box in in_view.items() if box is not None}
-    return replace(footage, frames=WindowedFrames(scene.frames, path)), boxes
+    masks = None if footage.masks is None else WindowedFrames(footage.masks, path)
+    return replace(footage, frames=WindowedFrames(scene.frames, path), masks=masks), boxes
+
+
+def foreground_masks(scene: Scene) -> list[np.ndarray]:
+    """The motion mask of every frame of `scene`, from the surveillance graph's detector (as
+    configured there) on the fixed whole-scene camera. A moving camera's window takes its part of
+    these: the suite's detector keeps its background in scene coordinates, so under a pan it
+    sees what a fixed camera would."""
+    stage = PipelineSettings.from_graph(load_graph("surveillance")).motion
+    detector = DETECTORS.get(stage.detector_method).build(stage.detector_values)
+    masks = []
+    for stamp, frame in zip(scene.stamps_ns(), scene.frames, strict=True):
+        mask = detector.process(CameraFrame(stamp, frame)).mask
+        masks.append(np.zeros(frame.shape[:2], np.uint8) if mask is None else mask)
+    return masks
 
 
 def run_person(

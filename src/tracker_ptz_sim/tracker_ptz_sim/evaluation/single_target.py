@@ -228,14 +228,19 @@ def follow_particles(
     appearance: Appearance,
     config: ParticleFilterConfig,
     seed: int,
+    masks: Sequence[np.ndarray] | None = None,
 ) -> dict[int, Rect | None]:
     """Seed 003's particle filter started on `region` of frame `start` (its reference), run over
-    frames start+1..last of a static camera; the estimate's box per frame."""
+    frames start+1..last of a static camera, given the motion detector's foreground `masks` (per
+    frame, for the foreground cue) when there are; the estimate's box per frame, clipped to the
+    image (the truth is the visible box)."""
     start_box = np.array([region.x, region.y, region.width, region.height])
     rng = np.random.default_rng(seed)
     tracker = ColourParticleFilter(frames[start], start_box, appearance, config, rng)
     boxes: dict[int, Rect | None] = {}
     for k in range(start + 1, last + 1):
-        x, y, w, h = (float(v) for v in tracker.step(frames[k]).box)
-        boxes[k] = Rect(x, y, w, h)
+        image = frames[k]
+        estimate = tracker.step(image, foreground=None if masks is None else masks[k])
+        frame = Rect(0.0, 0.0, float(image.shape[1]), float(image.shape[0]))
+        boxes[k] = Rect(*(float(v) for v in estimate.box)).intersection(frame)
     return boxes

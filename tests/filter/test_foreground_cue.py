@@ -1,0 +1,161 @@
+"""The particle filter's foreground scale cue: F_beta against a brute-force count, the tight box
+scoring highest on a person-shaped silhouette, and a filter whose box follows a person growing
+as they walk towards the camera only when the mask holds it."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from tracker_filter.colour_particle import (
+    RECOMMENDED_SIGMA,
+    ColourParticleFilter,
+    HistogramAppearance,
+    ParticleFilterConfig,
+)
+from tracker_filter.foreground_cue import ForegroundCue
+
+
+def silhouette(shape=(200, 200), x=80, y=40, height=100) -> np.ndarray:
+    """A person-like mask: head, torso, two legs apart; its bounding box is x, y, 0.4 h, h."""
+    mask = np.zeros(shape, np.uint8)
+    w = int(0.4 * height)
+    head = int(0.15 * height)
+    mask[y : y + head, x + w // 2 - head // 3 : x + w // 2 + head // 3] = 1
+    mask[y + head : y + int(0.55 * height), x : x + w] = 1
+    mask[y + int(0.55 * height) : y + height, x : x + w // 4] = 1  # legs apart, a stride
+    mask[y + int(0.55 * height) : y + height, x + w - w // 4 : x + w] = 1
+    return mask
+
+
+def brute_force_f(mask: np.ndarray, box, margin: float, beta: float) -> float:
+    def count(x, y, w, h):
+        x0, y0 = max(int(np.floor(x)), 0), max(int(np.floor(y)), 0)
+        x1, y1 = int(np.ceil(x + w)), int(np.ceil(y + h))
+        return int(mask[y0:y1, x0:x1].sum()), max((min(x1, mask.shape[1]) - x0), 0) * max(
+            (min(y1, mask.shape[0]) - y0), 0
+        )
+
+    x, y, w, h = box
+    inside, area = count(x, y, w, h)
+    nearby, _ = count(x - margin * w, y - margin * h, w * (1 + 2 * margin), h * (1 + 2 * margin))
+    if nearby == 0:
+        return 0.0
+    p, r = inside / area, inside / nearby
+    return (1 + beta**2) * p * r / (beta**2 * p + r)
+
+
+def test_scores_equal_a_brute_force_count():
+    rng = np.random.default_rng(0)
+    mask = (rng.random((60, 80)) < 0.3).astype(np.uint8)
+    boxes = np.column_stack(
+        [rng.uniform(-10, 70, 20), rng.uniform(-10, 50, 20), rng.uniform(3, 30, (20, 2))]
+    )
+    cue = ForegroundCue(power=1.0, beta=3.0, margin=0.3)
+    expected = [brute_force_f(mask, b, 0.3, 3.0) for b in boxes]
+    np.testing.assert_allclose(cue.scores(mask * 255, boxes), expected)
+
+
+def test_the_tight_box_scores_above_shrunk_grown_and_shifted_ones():
+    mask = silhouette()
+    tight = np.array([80.0, 40, 40, 100])
+    cue = ForegroundCue(power=1.0)
+    others = np.array(
+        [
+            [84, 45, 32, 90],  # shrunk inside the person: limbs fall outside
+            [76, 30, 48, 120],  # grown: street inside
+            [80, 40, 40, 85],  # the feet cut off
+            [88, 40, 40, 100],  # shifted by a stride
+        ],
+        float,
+    )
+    best, *rest = cue.scores(mask, np.vstack([tight, others]))
+    assert best > max(rest)
+
+
+def test_no_weights_when_off_or_when_nothing_moves_near_the_boxes():
+    mask = silhouette()
+    boxes = np.array([[80.0, 40, 40, 100]])
+    assert ForegroundCue().weights(mask, boxes) is None  # power 0: off
+    assert ForegroundCue(power=10.0).weights(np.zeros_like(mask), boxes) is None
+    far = np.array([[0.0, 150, 20, 40]])
+    assert ForegroundCue(power=10.0).weights(mask, far) is None
+    weights = ForegroundCue(power=10.0).weights(mask, np.vstack([boxes, far]))
+    assert weights is not None and weights[0] > 1e3 * weights[1]
+
+
+def test_bad_values_are_refused():
+    for values in ({"power": -1.0}, {"beta": 0.0}, {"margin": 0.0}, {"floor": 0.0}):
+        with pytest.raises(ValueError, match="foreground"):
+            ForegroundCue(**values)
+    with pytest.raises(ValueError, match="size_noise"):
+        ParticleFilterConfig(size_noise=-0.1)
+
+
+def approaching_person(frames: int = 40, seed: int = 0):
+    """A red-and-blue person 50 px tall growing to 110 px as they walk towards the camera (their
+    feet moving down 2 px per frame) over a textured background; images, masks and true boxes."""
+    rng = np.random.default_rng(seed)
+    background = rng.integers(60, 160, size=(240, 240, 3), dtype=np.uint8)
+    images, masks, boxes = [], [], []
+    for k in range(frames):
+        height = 50 + 60 * k / (frames - 1)
+        bottom, centre = 100 + 2 * k, 120
+        width = 0.4 * height
+        x0, y0 = round(centre - width / 2), round(bottom - height)
+        x1, y1 = round(centre + width / 2), round(bottom)
+        image = background.copy()
+        split = y0 + (y1 - y0) // 2
+        image[y0:split, x0:x1] = (40, 40, 200)
+        image[split:y1, x0:x1] = (150, 60, 30)
+        noise = rng.integers(-10, 11, size=image.shape)
+        images.append(np.clip(image.astype(int) + noise, 0, 255).astype(np.uint8))
+        mask = np.zeros(image.shape[:2], np.uint8)
+        mask[y0:y1, x0:x1] = 255
+        masks.append(mask)
+        boxes.append(np.array([x0, y0, x1 - x0, y1 - y0], float))
+    return images, masks, boxes
+
+
+def iou(a: np.ndarray, b: np.ndarray) -> float:
+    w = max(0.0, min(a[0] + a[2], b[0] + b[2]) - max(a[0], b[0]))
+    h = max(0.0, min(a[1] + a[3], b[1] + b[3]) - max(a[1], b[1]))
+    return w * h / (a[2] * a[3] + b[2] * b[3] - w * h)
+
+
+WIDE = ParticleFilterConfig(particles=300, sigma=tuple(8 * s for s in RECOMMENDED_SIGMA))
+WITH_CUE = ParticleFilterConfig(
+    particles=300,
+    sigma=WIDE.sigma,
+    size_noise=0.05,
+    foreground=ForegroundCue(power=30.0),
+)
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_the_box_grows_with_an_approaching_person_only_with_the_mask(seed: int):
+    images, masks, truth = approaching_person()
+
+    def run(config: ParticleFilterConfig) -> list[float]:
+        f = ColourParticleFilter(
+            images[0], truth[0], HistogramAppearance(background_weighting=True), config,
+            np.random.default_rng(seed),
+        )  # fmt: skip
+        return [
+            iou(f.step(image, foreground=mask).box, box)
+            for image, mask, box in zip(images[1:], masks[1:], truth[1:], strict=True)
+        ]
+
+    with_mask, colour_only = run(WITH_CUE), run(WIDE)
+    assert np.mean(with_mask[-10:]) > 0.8
+    # the colour filter's box keeps its start size: less than half the person at the end
+    assert np.mean(colour_only[-10:]) < 0.6
+
+
+def test_a_mask_of_another_size_is_refused():
+    images, masks, truth = approaching_person(3)
+    f = ColourParticleFilter(
+        images[0], truth[0], HistogramAppearance(), WITH_CUE, np.random.default_rng(0)
+    )
+    with pytest.raises(ValueError, match="foreground mask"):
+        f.step(images[1], foreground=masks[1][:-1])
