@@ -130,3 +130,16 @@ def test_the_foreground_cue_needs_the_mask_and_keeps_the_people():
     # a frame whose mask was lost in transport: the filters go on by colour alone
     lost = replace(frames[-1][0], time=4.0, mask=None)
     assert sorted(t.step(lost).ids.tolist()) == [1, 2]
+
+
+def test_the_height_rule_keeps_targets_smaller_than_people_unconfirmed():
+    """The multi tracker's height rule: a 60 px person is confirmed when 50 px are asked for,
+    not when 70 are."""
+
+    def confirmed(**rule) -> bool:
+        t = tracker(**rule)
+        history = [t.step(obs) for obs, _ in scene_frames(20)]
+        return bool((history[-1].status == TrackStatus.CONFIRMED).any())
+
+    assert confirmed(confirm_min_height=50.0)
+    assert not confirmed(confirm_min_height=70.0)

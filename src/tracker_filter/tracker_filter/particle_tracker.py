@@ -10,7 +10,10 @@ A `tracking.Tracker` that needs the camera image and window. Each frame:
 - a target overlapped by a detection reports the detection's box (the filter's box keeps its
   start size unless the foreground cue, `foreground_power` > 0 with `size_noise`, lets the size
   follow the detector's motion mask, which the tracker then also needs);
-- a target is confirmed after `confirm_hits` hits (detections that moved `confirm_travel` px),
+- a target is confirmed after `confirm_hits` hits (detections that moved `confirm_travel` px)
+  when its box is at least `confirm_min_height` px tall and `confirm_height_ratio` x the height
+  confirmed targets have had where it stands (the multi tracker's height rule: clutter that a
+  filter follows is mostly far smaller than a person at its place),
   reported LOST after more than `max_misses` consecutive misses or `max_unsupported` s without an
   overlapping detection; a frame without its image or window is a miss for every target.
 
@@ -41,6 +44,7 @@ from tracker_filter.colour_particle import (
 )
 from tracker_filter.foreground_cue import ForegroundCue
 from tracker_filter.layout import StateLayout
+from tracker_filter.management import MofNConfirmation
 from tracker_filter.observation import Detections, Need, Observation
 from tracker_filter.tracking import TrackBook, TrackSet
 from tracker_msgs_py.geometry import Rect, iou_matrix
@@ -86,6 +90,8 @@ class ColourParticleTracker:
         confirm_travel: float = 12.0,
         max_misses: int = 5,
         max_unsupported: float = 8.0,
+        confirm_min_height: float = 0.0,
+        confirm_height_ratio: float = 0.0,
         seed: int = 0,
         first_id: int = 1,
     ) -> None:
@@ -94,12 +100,15 @@ class ColourParticleTracker:
         self.needs = frozenset({Need.IMAGE, Need.WINDOW} | mask)
         self.background_weighting, self.min_similarity = background_weighting, min_similarity
         self.contrast = contrast
-        self.new_track_iou, self.confirm_hits, self.max_misses = (
-            new_track_iou,
+        self.new_track_iou, self.max_misses = new_track_iou, max_misses
+        self.max_unsupported = max_unsupported
+        self.confirmation = MofNConfirmation(
             confirm_hits,
-            max_misses,
+            confirm_hits,
+            min_travel=confirm_travel,
+            min_height=confirm_min_height,
+            height_ratio=confirm_height_ratio,
         )
-        self.confirm_travel, self.max_unsupported = confirm_travel, max_unsupported
         self.random_seed = seed
         self.book = TrackBook(first_id)
         self.filters: list[ColourParticleFilter] = []
@@ -112,6 +121,7 @@ class ColourParticleTracker:
 
     def reset(self, reset_ids: bool = False) -> int:
         self.filters, self.states, self.supported = [], np.zeros((0, LAYOUT.dim)), np.zeros(0)
+        self.confirmation.clear()
         return self.book.reset(reset_ids)
 
     def seed(self, rect: Rect, observation: Observation) -> int | None:
@@ -195,7 +205,7 @@ class ColourParticleTracker:
         interval = t - book.time if book.time is not None else 1.0
         view = _view(observation)
         estimates = measured = Detections.empty()
-        hits = np.zeros(len(book), dtype=bool)
+        hits = detected = np.zeros(len(book), dtype=bool)
         image = observation.image
         detections, _ = observation.detections.validated()
         if view is not None and image is not None and len(self.filters):
@@ -214,8 +224,12 @@ class ColourParticleTracker:
         rows = np.flatnonzero(hits)
         positions = LAYOUT.positions(self.states)
         updated = book.record_frame(rows, rows, measured, positions)
+        # the height rule learns from confirmed targets a detection overlapped this frame
+        self.confirmation.learn(book.bboxes, book.confirmed & updated & detected)
         book.confirm(
-            (book.hits >= self.confirm_hits) & (book.measured_travel() >= self.confirm_travel)
+            self.confirmation.confirmed(
+                book.hits, book.frames, book.measured_travel(), np.ones(len(book)), book.bboxes
+            )
         )
         lost = (book.misses > self.max_misses) | (t - self.supported > self.max_unsupported)
         if view is not None and image is not None:
@@ -320,6 +334,16 @@ PARAMETERS: tuple[ParamSpec, ...] = (
         0.0,
         1e6,
     ),
+    ParamSpec(
+        "confirm_min_height", 0.0, "px a target's box needs to be confirmed (0: any)", 0.0, 1e4
+    ),
+    ParamSpec(
+        "confirm_height_ratio",
+        0.0,
+        "x the height confirmed targets have had where it stands, needed to confirm (0: off)",
+        0.0,
+        1.0,
+    ),
     ParamSpec("seed", 0, "random seed (a replay gives the same tracks)", 0, 2**31 - 1),
 )
 
@@ -347,6 +371,8 @@ def build(values: Mapping[str, Any], first_id: int = 1) -> ColourParticleTracker
         confirm_travel=values["confirm_travel"],
         max_misses=values["max_misses"],
         max_unsupported=values["max_unsupported"],
+        confirm_min_height=values["confirm_min_height"],
+        confirm_height_ratio=values["confirm_height_ratio"],
         seed=values["seed"],
         first_id=first_id,
     )
