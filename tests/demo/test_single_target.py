@@ -143,3 +143,49 @@ def test_q1_is_split_into_what_the_centre_and_the_size_cost():
     assert off.iou_true_size == pytest.approx(off.mean_iou) and off.iou_true_centre == 1.0
     small = score_single_target(truth, shrunk)
     assert small.iou_true_size == 1.0 and small.iou_true_centre == pytest.approx(0.25)
+
+
+def test_particle_boxes_are_clipped_to_the_image_and_the_mask_is_passed_on():
+    """A box leaving the image is scored as its visible part (the truth is the visible box), and
+    the foreground cue gets each frame's mask: with it the box follows a box that grows."""
+    from tracker_filter.colour_particle import RECOMMENDED_SIGMA
+    from tracker_filter.foreground_cue import ForegroundCue
+
+    rng = np.random.default_rng(1)
+    background = rng.integers(60, 160, size=(120, 200, 3), dtype=np.uint8)
+    frames, masks, truth = [], [], {}
+    for k in range(30):
+        image, mask = background.copy(), np.zeros((120, 200), np.uint8)
+        height = 40 + 2 * k
+        x, y = 130 + 2 * k, 100 - height  # the last 5 frames partly beyond the edge
+        image[y:100, x : x + 20] = (30, 30, 200)
+        mask[y:100, x : x + 20] = 1
+        frames.append(image)
+        masks.append(mask)
+        truth[k] = Rect(float(x), float(y), float(min(20, 200 - x)), float(height))
+    config = ParticleFilterConfig(
+        particles=300,
+        sigma=tuple(8 * s for s in RECOMMENDED_SIGMA),
+        size_noise=0.05,
+        foreground=ForegroundCue(power=15.0),
+    )
+    appearance = HistogramAppearance(background_weighting=True)
+    boxes = follow_particles(frames, 0, truth[0], 29, appearance, config, seed=0, masks=masks)
+    assert all(b is None or b.x + b.width <= 200 for b in boxes.values())
+    assert score_single_target({k: truth[k] for k in range(20, 30)}, boxes).mean_iou > 0.7
+
+
+def test_a_scene_plot_with_one_variant(tmp_path):
+    from tracker_ptz_sim.bringup.single_target_benchmark import PersonRun, plot_scene
+
+    scores = SingleTargetScores(2, 0.5, 0.5, 0.5, 0)
+    runs = [PersonRun("walkers-1", 1, "pf", 0, scores, {1: 0.4, 2: 0.6})]
+    plot_scene("walkers-1", runs, ["pf"], tmp_path / "iou.png")
+    assert (tmp_path / "iou.png").stat().st_size > 0
+
+
+def test_unknown_variants_are_refused():
+    from tracker_ptz_sim.bringup.single_target_benchmark import main
+
+    with pytest.raises(SystemExit):
+        main(["--variants", "no such row"])

@@ -271,7 +271,7 @@ PARAMETERS: tuple[ParamSpec, ...] = (
     ),
     ParamSpec(
         "contrast",
-        0.0,
+        1.0,
         "scale cue: a box's score x (1 - contrast x its surrounding ring's match)^2 (0: off; "
         "not the thesis's)",
         0.0,

@@ -5,6 +5,7 @@ street scenes, one person at a time.
     single_target_benchmark --scenes walkers --seeds 1
     single_target_benchmark --runs 10             particle filters 10 times (sigma_Q)
     single_target_benchmark --sweep --runs 3      particle count and histogram bins
+    single_target_benchmark --variants camshift   only the rows named
 
 Protocol: for every person of a scene, each tracker is started on the person's true box in the first
 frame where they are at least 90 % visible and 40 px tall (as a user would draw it) and runs to
@@ -174,6 +175,12 @@ VARIANTS: dict[str, Variant | ParticleVariant] = {
     # ... or with the motion detector's mask as the scale cue, the size free to follow it
     "particles, final, 8 x sigma, background-weighted, coasting, foreground": ParticleVariant(
         lambda: HistogramAppearance(background_weighting=True), FOREGROUND
+    ),
+    # ... and both cues
+    "particles, final, 8 x sigma, background-weighted, coasting, contrast, foreground": (
+        ParticleVariant(
+            lambda: HistogramAppearance(background_weighting=True, contrast=1.0), FOREGROUND
+        )
     ),
 }
 
@@ -389,7 +396,10 @@ def plot_scene(label: str, runs: list[PersonRun], variants: Sequence[str], path:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, axes = plt.subplots(len(variants), 1, figsize=(10, 2.4 * len(variants)), sharex=True)
+    fig, grid = plt.subplots(
+        len(variants), 1, figsize=(10, 2.4 * len(variants)), sharex=True, squeeze=False
+    )
+    axes = grid[:, 0]
     for ax, variant in zip(axes, variants, strict=True):
         for r in runs:
             if r.variant == variant and r.run == 0 and r.iou:
@@ -425,10 +435,18 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument(
         "--sweep", action="store_true", help="particle counts and bins of the best filter"
     )
+    parser.add_argument(
+        "--variants", nargs="+", metavar="NAME", help="only these rows (names as in the table)"
+    )
     args = parser.parse_args(argv)
     if args.runs < 1:
         parser.error("--runs must be >= 1")
     variants: Mapping[str, Variant | ParticleVariant] = SWEEP if args.sweep else VARIANTS
+    if args.variants:
+        unknown = sorted(set(args.variants) - set(variants))
+        if unknown:
+            parser.error(f"unknown variants {unknown}; known: {sorted(variants)}")
+        variants = {name: variants[name] for name in args.variants}
     args.out.mkdir(parents=True, exist_ok=True)
     background, described = background_image(args.background)
     runs: list[PersonRun] = []
