@@ -13,7 +13,7 @@ from tracker_filter.colour_particle import (
     HistogramAppearance,
     ParticleFilterConfig,
 )
-from tracker_filter.foreground_cue import ForegroundCue
+from tracker_filter.foreground_cue import ForegroundCue, ForegroundMask
 
 
 def silhouette(shape=(200, 200), x=80, y=40, height=100) -> np.ndarray:
@@ -53,7 +53,7 @@ def test_scores_equal_a_brute_force_count():
     )
     cue = ForegroundCue(power=1.0, beta=3.0, margin=0.3)
     expected = [brute_force_f(mask, b, 0.3, 3.0) for b in boxes]
-    np.testing.assert_allclose(cue.scores(mask * 255, boxes), expected)
+    np.testing.assert_allclose(cue.scores(ForegroundMask.of(mask * 255), boxes), expected)
 
 
 def test_the_tight_box_scores_above_shrunk_grown_and_shifted_ones():
@@ -69,15 +69,16 @@ def test_the_tight_box_scores_above_shrunk_grown_and_shifted_ones():
         ],
         float,
     )
-    best, *rest = cue.scores(mask, np.vstack([tight, others]))
+    best, *rest = cue.scores(ForegroundMask.of(mask), np.vstack([tight, others]))
     assert best > max(rest)
 
 
 def test_no_weights_when_off_or_when_nothing_moves_near_the_boxes():
-    mask = silhouette()
+    mask = ForegroundMask.of(silhouette())
     boxes = np.array([[80.0, 40, 40, 100]])
     assert ForegroundCue().weights(mask, boxes) is None  # power 0: off
-    assert ForegroundCue(power=10.0).weights(np.zeros_like(mask), boxes) is None
+    empty = ForegroundMask.of(np.zeros((200, 200), np.uint8))
+    assert ForegroundCue(power=10.0).weights(empty, boxes) is None
     far = np.array([[0.0, 150, 20, 40]])
     assert ForegroundCue(power=10.0).weights(mask, far) is None
     weights = ForegroundCue(power=10.0).weights(mask, np.vstack([boxes, far]))
@@ -142,7 +143,7 @@ def test_the_box_grows_with_an_approaching_person_only_with_the_mask(seed: int):
             np.random.default_rng(seed),
         )  # fmt: skip
         return [
-            iou(f.step(image, foreground=mask).box, box)
+            iou(f.step(image, foreground=ForegroundMask.of(mask)).box, box)
             for image, mask, box in zip(images[1:], masks[1:], truth[1:], strict=True)
         ]
 
@@ -158,4 +159,4 @@ def test_a_mask_of_another_size_is_refused():
         images[0], truth[0], HistogramAppearance(), WITH_CUE, np.random.default_rng(0)
     )
     with pytest.raises(ValueError, match="foreground mask"):
-        f.step(images[1], foreground=masks[1][:-1])
+        f.step(images[1], foreground=ForegroundMask.of(masks[1][:-1]))

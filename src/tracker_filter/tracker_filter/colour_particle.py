@@ -55,13 +55,14 @@ from tracker_filter.colour_histograms import (
     histogram,
     ring_coefficients,
 )
-from tracker_filter.foreground_cue import ForegroundCue
+from tracker_filter.foreground_cue import ForegroundCue, ForegroundMask
 from tracker_filter.region_covariance import (
     forstner_distances,
     integral_features,
     region_covariances,
 )
 from tracker_msgs_py.histograms import background_weights
+from tracker_msgs_py.params import check_config
 
 STATE = ("x", "y", "w", "h", "vx", "vy", "vw", "vh")
 #: the thesis's recommended noise std per state component (px, px per frame)
@@ -125,9 +126,7 @@ class ParticleFilterConfig:
         object.__setattr__(self, "estimate", EstimateRule(self.estimate))
         object.__setattr__(self, "correction", WeightCorrection(self.correction))
         object.__setattr__(self, "sigma", tuple(float(s) for s in self.sigma))
-        problems = self.problems()
-        if problems:
-            raise ValueError("; ".join(problems))
+        check_config(self)
 
 
 def corrected_weights(weights: np.ndarray, config: ParticleFilterConfig) -> np.ndarray:
@@ -403,27 +402,27 @@ class ColourParticleFilter:
         self,
         image: np.ndarray,
         view: ImageView = ImageView(),
-        foreground: np.ndarray | None = None,
+        foreground: ForegroundMask | None = None,
     ) -> ParticleEstimate:
         """One frame: `image` bgr8, and the motion detector's `foreground` mask of the same image
-        ((H, W), nonzero = moving) for the foreground cue (ignored when the cue is off)."""
-        if foreground is not None and foreground.shape[:2] != image.shape[:2]:
+        for the foreground cue (ignored when the cue is off)."""
+        if foreground is not None and foreground.shape != image.shape[:2]:
             raise ValueError(
                 f"the foreground mask is {foreground.shape[1]}x{foreground.shape[0]} px, "
                 f"the image {image.shape[1]}x{image.shape[0]}"
             )
-        cue = foreground is not None and self.config.foreground.enabled
+        cue = self.config.foreground
+        mask = foreground if cue.enabled else None
         # the size moves only where the mask can hold it (colour alone lets it shrink or grow)
-        size_noise = self.config.size_noise if cue else 0.0
+        size_noise = self.config.size_noise if mask is not None else 0.0
         particles = propagate(self.particles, self.noise(), self.rng, size_noise)
         in_image = view.to_image(particles[:, :4])
         raw = self.appearance.similarities(image, in_image)
         hidden = self._hidden(float(raw.max()))
         # hidden: the scores say nothing about the target, every particle counts the same
         weights = np.ones(len(raw)) if hidden else corrected_weights(raw, self.config)
-        if cue and not hidden:
-            assert foreground is not None
-            factor = self.config.foreground.weights(foreground, in_image)
+        if mask is not None and not hidden:
+            factor = cue.weights(mask, in_image)
             if factor is not None:
                 weights = weights * factor
         total = float(weights.sum())

@@ -18,7 +18,8 @@ makes the peak sharp enough for the cloud to follow a walker's stride.
 A frame whose best box scores below `min_best` says nothing about this target (a person who
 stopped and was learned into the background, a frame where the detector found nothing here): the
 cue is then left out rather than pulling the cloud onto whatever moves nearby. Box sums come from
-one integral image per frame, four lookups per box.
+one integral image per frame (`ForegroundMask`, shared by every target's filter), four lookups
+per box.
 """
 
 from __future__ import annotations
@@ -28,6 +29,26 @@ from dataclasses import dataclass
 
 import cv2
 import numpy as np
+
+from tracker_msgs_py.params import check_config
+
+
+@dataclass(frozen=True, eq=False)
+class ForegroundMask:
+    """One frame's foreground mask as its (H + 1, W + 1) integral image: built once per frame,
+    read by every filter that weighs boxes against it."""
+
+    integral: np.ndarray
+
+    @classmethod
+    def of(cls, mask: np.ndarray) -> ForegroundMask:
+        """From a (H, W) mask, nonzero = foreground (0/1 or 0/255)."""
+        return cls(cv2.integral((np.asarray(mask) > 0).astype(np.uint8)))
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        """(H, W) of the mask."""
+        return self.integral.shape[0] - 1, self.integral.shape[1] - 1
 
 
 @dataclass(frozen=True)
@@ -52,18 +73,16 @@ class ForegroundCue:
         return [message for message, ok in checks.items() if not ok]
 
     def __post_init__(self) -> None:
-        problems = self.problems()
-        if problems:
-            raise ValueError("; ".join(problems))
+        check_config(self)
 
     @property
     def enabled(self) -> bool:
         return self.power > 0
 
-    def scores(self, mask: np.ndarray, boxes: np.ndarray) -> np.ndarray:
-        """F_beta of each box (N, 4: x, y, w, h in the mask's px) against `mask` ((H, W), nonzero
-        = foreground); 0 for a box with no foreground around it."""
-        integral = cv2.integral((np.asarray(mask) > 0).astype(np.uint8))
+    def scores(self, foreground: ForegroundMask, boxes: np.ndarray) -> np.ndarray:
+        """F_beta of each box (N, 4: x, y, w, h in the mask's px) against the `foreground` mask;
+        0 for a box with no foreground around it."""
+        integral = foreground.integral
         boxes = np.asarray(boxes, dtype=float).reshape(-1, 4)
         inside, area = box_sums(integral, boxes)
         grown = boxes + np.column_stack(
@@ -76,12 +95,12 @@ class ForegroundCue:
         f = (1 + b2) * precision * recall / np.maximum(b2 * precision + recall, 1e-12)
         return np.where(nearby > 0, f, 0.0)
 
-    def weights(self, mask: np.ndarray, boxes: np.ndarray) -> np.ndarray | None:
+    def weights(self, foreground: ForegroundMask, boxes: np.ndarray) -> np.ndarray | None:
         """Each box's weight factor, or None when the cue is off or the mask says nothing about
         these boxes (the best scores below `min_best`)."""
         if not self.enabled:
             return None
-        f = self.scores(mask, boxes)
+        f = self.scores(foreground, boxes)
         if not len(f) or float(f.max()) < self.min_best:
             return None
         factor: np.ndarray = np.maximum(f, self.floor) ** self.power

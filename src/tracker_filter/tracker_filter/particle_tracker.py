@@ -42,7 +42,7 @@ from tracker_filter.colour_particle import (
     Resampling,
     WeightCorrection,
 )
-from tracker_filter.foreground_cue import ForegroundCue
+from tracker_filter.foreground_cue import ForegroundCue, ForegroundMask
 from tracker_filter.layout import StateLayout
 from tracker_filter.management import MofNConfirmation
 from tracker_filter.observation import Detections, Need, Observation
@@ -209,7 +209,9 @@ class ColourParticleTracker:
         image = observation.image
         detections, _ = observation.detections.validated()
         if view is not None and image is not None and len(self.filters):
-            found = [f.step(image, view, observation.mask) for f in self.filters]
+            mask = observation.mask if Need.MASK in self.needs else None
+            foreground = None if mask is None else ForegroundMask.of(mask)  # once for all
+            found = [f.step(image, view, foreground) for f in self.filters]
             boxes = np.array([e.box for e in found])
             centres = boxes[:, :2] + boxes[:, 2:] / 2
             similarity = np.array([e.similarity for e in found])

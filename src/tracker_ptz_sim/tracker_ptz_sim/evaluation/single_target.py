@@ -27,6 +27,7 @@ from tracker_detect.camshift import CamShiftConfig, CamShiftTracker
 from tracker_detect.detector import CameraFrame
 from tracker_filter.colour_particle import Appearance, ColourParticleFilter, ParticleFilterConfig
 from tracker_filter.filters import FilterFactory
+from tracker_filter.foreground_cue import ForegroundMask
 from tracker_msgs_py.codec import NS_PER_S
 from tracker_msgs_py.geometry import Rect
 
@@ -240,7 +241,8 @@ def follow_particles(
     boxes: dict[int, Rect | None] = {}
     for k in range(start + 1, last + 1):
         image = frames[k]
-        estimate = tracker.step(image, foreground=None if masks is None else masks[k])
+        foreground = None if masks is None else ForegroundMask.of(masks[k])
+        estimate = tracker.step(image, foreground=foreground)
         frame = Rect(0.0, 0.0, float(image.shape[1]), float(image.shape[0]))
         boxes[k] = Rect(*(float(v) for v in estimate.box)).intersection(frame)
     return boxes
