@@ -44,6 +44,9 @@ def node_params(name: str, tmp_path) -> dict[str, object]:
     """Parameters a node needs to start at all (most need none)."""
     if name == "video_source":
         return {"path": str(_video(tmp_path)), "loop": True}
+    if name == "live_view":
+        # any free port: the default 8765 may be held by a running live view or another test run
+        return {"port": 0}
     return {}
 
 
