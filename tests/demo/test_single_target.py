@@ -189,3 +189,23 @@ def test_unknown_variants_are_refused():
 
     with pytest.raises(SystemExit):
         main(["--variants", "no such row"])
+
+
+def test_ground_lines_give_a_window_the_heights_of_the_scene():
+    """The height prior's expected height of a person seen in an operator's window (top row per
+    frame) equals the whole-scene one at the same scene place, and there is none before the
+    suite's tracker has learned its line."""
+    from tracker_ptz_sim.evaluation.single_target import GroundLines
+
+    lines = [None, (-20.0, 0.5), (-20.0, 0.5)]
+    start = np.array([10.0, 150.0, 20.0, 50.0])  # scene px, frame 0
+    later = np.array([[30.0, 160.0, 20.0, 55.0]])  # scene px, frame 2
+    whole = GroundLines(lines)
+    window = GroundLines(lines, {0: 40.0, 1: 50.0, 2: 70.0})
+    assert whole.expected(0, start, 0) is None
+    in_scene, in_window = whole.expected(2, start, 0), window.expected(2, start - [0, 40, 0, 0], 0)
+    assert in_scene is not None and in_window is not None
+    np.testing.assert_allclose(
+        in_window.heights(later - [0.0, 70.0, 0.0, 0.0]), in_scene.heights(later)
+    )
+    assert in_scene.heights(start[None])[0] == pytest.approx(50.0)

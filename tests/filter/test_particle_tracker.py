@@ -143,3 +143,21 @@ def test_the_height_rule_keeps_targets_smaller_than_people_unconfirmed():
 
     assert confirmed(confirm_min_height=50.0)
     assert not confirmed(confirm_min_height=70.0)
+
+
+def test_the_height_prior_learns_the_ground_line_from_confirmed_targets():
+    """Without the height rule the tracker keeps its own line for the prior; with the rule the
+    prior shares the rule's. The two 60 px people give a flat line at 60 px."""
+    t = tracker()  # the defaults: the prior on, the height rule off
+    assert t.ground is not None and t.ground is not t.confirmation.scale
+    frames = with_masks(scene_frames(40))
+    history = [t.step(obs) for obs, _ in frames]
+    assert t.ground.line is not None
+    feet = np.array([[0.0, 100.0, 20.0, 60.0], [0.0, 90.0, 20.0, 60.0]])  # rows 160 and 150
+    np.testing.assert_allclose(t.ground.expected_heights(feet), 60.0, atol=1.0)
+    last, truth = history[-1], frames[-1][1]
+    for i, box in zip(last.ids, last.bboxes, strict=True):
+        assert iou(box, truth[i - 1]) > 0.5
+    shared = tracker(confirm_height_ratio=0.5)
+    assert shared.ground is shared.confirmation.scale
+    assert tracker(height_spread=0.0, confirm_height_ratio=0.0).ground is None

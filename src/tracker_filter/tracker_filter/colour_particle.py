@@ -30,7 +30,11 @@ is given one, and on those frames `size_noise` s > 0 also scales each particle's
 by exp(N(0, s^2)) about its centre. A colour histogram alone cannot tell a box shrunk inside the
 person from the right one, so the thesis keeps the size nearly fixed (0.125 px per frame, which
 Ext 2 turns off while the match is good); with the mask to hold it, the size can follow a
-walker's perspective and stride.
+walker's perspective and stride. The mask loses legs on grey ground and holds two people
+walking together: `height_spread` > 0 then also multiplies each weight by a prior on the box's
+height, exp(-(ln(h / h_expected) / spread)^2 / 2), where h_expected is the height the target
+has where the box stands (`object_scale.ExpectedHeight`: the ground line learned from the
+tracks, through the target's own start box), given to each step.
 
 The reference is taken from the start rectangle and never updated, as in the thesis. Every random
 draw comes from the filter's own `numpy.random.Generator`, so a run is reproducible.
@@ -56,6 +60,7 @@ from tracker_filter.colour_histograms import (
     ring_coefficients,
 )
 from tracker_filter.foreground_cue import ForegroundCue, ForegroundMask
+from tracker_filter.object_scale import ExpectedHeight
 from tracker_filter.region_covariance import (
     forstner_distances,
     integral_features,
@@ -106,6 +111,8 @@ class ParticleFilterConfig:
     occlusion_ratio: float = 0.0  # not the thesis's: 0 = off (see the module docstring)
     size_noise: float = 0.0  # not the thesis's: relative std of w and h per frame (0 = off)
     foreground: ForegroundCue = ForegroundCue()  # not the thesis's: off (power 0)
+    # not the thesis's: std of ln(box height / the height expected where it stands) (0 = off)
+    height_spread: float = 0.0
 
     def problems(self) -> list[str]:
         """What is wrong with these values (empty when usable)."""
@@ -118,6 +125,8 @@ class ParticleFilterConfig:
             "noise_alpha must be > 0": self.noise_alpha > 0,
             "occlusion_ratio must be in [0, 1)": 0.0 <= self.occlusion_ratio < 1.0,
             "size_noise must be in [0, 1]": 0.0 <= self.size_noise <= 1.0,
+            "height_spread must be >= 0": math.isfinite(self.height_spread)
+            and self.height_spread >= 0.0,
         }
         return [message for message, ok in checks.items() if not ok]
 
@@ -403,9 +412,12 @@ class ColourParticleFilter:
         image: np.ndarray,
         view: ImageView = ImageView(),
         foreground: ForegroundMask | None = None,
+        height: ExpectedHeight | None = None,
     ) -> ParticleEstimate:
-        """One frame: `image` bgr8, and the motion detector's `foreground` mask of the same image
-        for the foreground cue (ignored when the cue is off)."""
+        """One frame: `image` bgr8, the motion detector's `foreground` mask of the same image
+        for the foreground cue (ignored when the cue is off), and the target's `height` where
+        it stands, in the particles' coordinates, for the height prior (ignored when
+        `height_spread` is 0)."""
         if foreground is not None and foreground.shape != image.shape[:2]:
             raise ValueError(
                 f"the foreground mask is {foreground.shape[1]}x{foreground.shape[0]} px, "
@@ -425,6 +437,8 @@ class ColourParticleFilter:
             factor = cue.weights(mask, in_image)
             if factor is not None:
                 weights = weights * factor
+        if height is not None and self.config.height_spread > 0 and not hidden:
+            weights = weights * height.likelihood(particles[:, :4], self.config.height_spread)
         total = float(weights.sum())
         weights = weights / total if total > 0 else np.full(len(raw), 1.0 / len(raw))
         if self.config.estimate is EstimateRule.MEAN:

@@ -13,6 +13,8 @@ required, so a camera's first movers are confirmed as before.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 HUBER_K = 1.345  # residuals beyond this many robust standard deviations are down-weighted
@@ -96,3 +98,46 @@ class HeightByRow:
     def least_heights(self, boxes: np.ndarray) -> np.ndarray:
         """The height (px) each box (N, 4) needs to be taken for a followed object there."""
         return self.ratio * self.expected_heights(boxes)
+
+
+@dataclass(frozen=True)
+class ExpectedHeight:
+    """How tall one object should be where a box of it stands: a ground line through that
+    object's own box (h = intercept + slope x bottom row, px).
+
+    `through` scales the learned line (`HeightByRow.line`, the typical object) to pass through a
+    reference box of this one, so a child or a crouching person keeps their own height, and a
+    line biased by a few per cent (boxes with a shadow, pairs in one blob) cancels out; only the
+    line's slope and horizon matter."""
+
+    intercept: float
+    slope: float
+
+    @classmethod
+    def through(
+        cls, line: tuple[float, float], reference: np.ndarray, row_offset: float = 0.0
+    ) -> ExpectedHeight | None:
+        """`line` scaled through the box `reference` (x, y, width, height), in the line's
+        coordinates; the reference's row 0 is the line's row `row_offset` (it was seen in a
+        window whose top is there). None when the reference stands at or above the horizon."""
+        intercept, slope = line
+        at_reference = intercept + slope * (float(reference[1] + reference[3]) + row_offset)
+        if not at_reference >= 1.0:
+            return None
+        ratio = float(reference[3]) / at_reference
+        return cls(ratio * intercept, ratio * slope)
+
+    def shifted(self, rows: float) -> ExpectedHeight:
+        """The same heights in coordinates whose row 0 is this line's row `rows` (a window)."""
+        return ExpectedHeight(self.intercept + self.slope * rows, self.slope)
+
+    def heights(self, boxes: np.ndarray) -> np.ndarray:
+        """The expected height (px, at least 1) at each box's (N, 4) bottom row."""
+        return np.maximum(self.intercept + self.slope * bottom_rows(boxes), 1.0)
+
+    def likelihood(self, boxes: np.ndarray, spread: float) -> np.ndarray:
+        """exp(-(ln(h / expected h) / spread)^2 / 2) per box (N, 4): 1 at the expected height,
+        0.61 one `spread` (a relative deviation, 0.1 = about 10 %) away."""
+        ratio = np.maximum(boxes[:, 3], 1.0) / self.heights(boxes)
+        result: np.ndarray = np.exp(-0.5 * (np.log(ratio) / spread) ** 2)
+        return result

@@ -22,7 +22,9 @@ final (Ext 1 + Ext 2); then the final algorithm with 8 x the thesis's noise, alo
 background-weighted reference, coasting through occlusions as well (the colour_particles
 tracker's defaults), and with a scale cue on top: the contrast cue (`contrast` 1), or the
 foreground cue (`foreground_cue`: the motion mask of the surveillance graph's detector, run over
-the scene, with the box's size free to move, `size_noise`). With --runs R
+the scene, with the box's size free to move, `size_noise`), and both cues with a prior on the
+box's height where it stands (`height_spread`: the ground line the surveillance graph's tracker
+learns over the scene, by each frame, scaled through the person's start box). With --runs R
 every particle filter runs R times per person with
 different seeds (person id + 1000 r) and the table gives the mean over runs and sigma_Q, the standard
 deviation of a run's Q over the runs (the thesis's 10 runs). --sweep runs instead the best particle
@@ -64,15 +66,26 @@ from tracker_filter.colour_particle import (
 from tracker_filter.filters import FilterFactory
 from tracker_filter.foreground_cue import ForegroundCue
 from tracker_filter.models import seed001_nominal_model
-from tracker_filter.particle_tracker import FOREGROUND_POWER, OCCLUSION_RATIO, SIZE_NOISE
+from tracker_filter.object_scale import HeightByRow
+from tracker_filter.observation import Observation
+from tracker_filter.particle_tracker import (
+    FOREGROUND_POWER,
+    HEIGHT_SPREAD,
+    OCCLUSION_RATIO,
+    SIZE_NOISE,
+)
 from tracker_filter.robust_kalman import LambdaRule, RobustKalmanConfig, seed001_uncertainty
+from tracker_filter.trackers import TRACKERS
+from tracker_filter.tracking import TrackStatus
+from tracker_msgs_py.codec import NS_PER_S
 from tracker_msgs_py.geometry import Rect
 from tracker_ptz_sim.bringup.benchmark import background_image, prepare_scene
 from tracker_ptz_sim.bringup.graph import load_graph
-from tracker_ptz_sim.bringup.pipeline import PipelineSettings
+from tracker_ptz_sim.bringup.pipeline import PipelineSettings, detections_of
 from tracker_ptz_sim.evaluation.prediction_study import PRIOR_STD
 from tracker_ptz_sim.evaluation.scoring import write_json
 from tracker_ptz_sim.evaluation.single_target import (
+    GroundLines,
     SingleTargetScores,
     WindowedFrames,
     follow,
@@ -95,13 +108,15 @@ Boxes = dict[int, Rect | None]
 
 @dataclass(frozen=True)
 class Footage:
-    """What a tracker is given: the camera's frames (indexed by scene frame), stamps and rate, and
-    the motion detector's foreground mask of each frame (for the particle filter's foreground cue)."""
+    """What a tracker is given: the camera's frames (indexed by scene frame), stamps and rate, the
+    motion detector's foreground mask of each frame (for the particle filter's foreground cue)
+    and the ground line the suite's tracker has learned by each frame (for its height prior)."""
 
     frames: Sequence[np.ndarray] | np.ndarray
     stamps_ns: list[int]
     fps: float
     masks: Sequence[np.ndarray] | None = None
+    ground: GroundLines | None = None
 
 
 @dataclass(frozen=True)
@@ -111,7 +126,7 @@ class Variant:
     camshift: CamShiftConfig
     rule: LambdaRule | None  # the filter placing the search window; None: the last window
     random: ClassVar[bool] = False
-    needs_masks: ClassVar[bool] = False
+    needs_motion: ClassVar[bool] = False
 
     def run(self, footage: Footage, start: int, region: Rect, last: int, seed: int) -> Boxes:
         guide = predictor(self.rule, footage.fps)
@@ -127,13 +142,16 @@ class ParticleVariant:
     random: ClassVar[bool] = True
 
     @property
-    def needs_masks(self) -> bool:
-        return self.config.foreground.enabled
+    def needs_motion(self) -> bool:
+        """Whether it needs the motion detector's masks or the ground line."""
+        return self.config.foreground.enabled or self.config.height_spread > 0
 
     def run(self, footage: Footage, start: int, region: Rect, last: int, seed: int) -> Boxes:
-        masks = footage.masks if self.needs_masks else None
+        masks = footage.masks if self.config.foreground.enabled else None
+        ground = footage.ground if self.config.height_spread > 0 else None
+        appearance = self.appearance()
         return follow_particles(
-            footage.frames, start, region, last, self.appearance(), self.config, seed, masks
+            footage.frames, start, region, last, appearance, self.config, seed, masks, ground
         )
 
 
@@ -143,6 +161,7 @@ COASTING = replace(WIDE, occlusion_ratio=OCCLUSION_RATIO)
 FOREGROUND = replace(
     COASTING, size_noise=SIZE_NOISE, foreground=ForegroundCue(power=FOREGROUND_POWER)
 )
+HEIGHT = replace(FOREGROUND, height_spread=HEIGHT_SPREAD)
 
 #: What is compared: one line per variant.
 VARIANTS: dict[str, Variant | ParticleVariant] = {
@@ -180,6 +199,12 @@ VARIANTS: dict[str, Variant | ParticleVariant] = {
     "particles, final, 8 x sigma, background-weighted, coasting, contrast, foreground": (
         ParticleVariant(
             lambda: HistogramAppearance(background_weighting=True, contrast=1.0), FOREGROUND
+        )
+    ),
+    # ... and a prior on the box's height where it stands (the colour_particles defaults)
+    "particles, final, 8 x sigma, background-weighted, coasting, contrast, foreground, height": (
+        ParticleVariant(
+            lambda: HistogramAppearance(background_weighting=True, contrast=1.0), HEIGHT
         )
     ),
 }
@@ -264,8 +289,11 @@ def run_scene(
     """Every variant on every person of `scene` (particle filters `runs` times), on the fixed
     whole-scene camera or, `moving`, on a camera operator's window aimed at each person."""
     out = []
-    masks = foreground_masks(scene) if any(v.needs_masks for v in variants.values()) else None
-    whole = Footage(scene.frames, scene.stamps_ns(), scene.fps, masks)
+    masks, ground = None, None
+    if any(v.needs_motion for v in variants.values()):
+        masks, lines = motion_cues(scene)
+        ground = GroundLines(lines)
+    whole = Footage(scene.frames, scene.stamps_ns(), scene.fps, masks, ground)
     for person, truth in sorted(people(scene).items()):
         start = start_frame(scene, person)
         if start is None or not any(k > start for k in truth):
@@ -296,21 +324,37 @@ def windowed(
     in_view = {k: path.to_view(k, box) for k, box in truth.items() if k in frames}
     boxes = {k: box for k, box in in_view.items() if box is not None}
     masks = None if footage.masks is None else WindowedFrames(footage.masks, path)
-    return replace(footage, frames=WindowedFrames(scene.frames, path), masks=masks), boxes
+    ground = footage.ground
+    if ground is not None:
+        ground = GroundLines(ground.lines, {k: float(y) for k, (_, y) in path.origins.items()})
+    seen = WindowedFrames(scene.frames, path)
+    return replace(footage, frames=seen, masks=masks, ground=ground), boxes
 
 
-def foreground_masks(scene: Scene) -> list[np.ndarray]:
-    """The motion mask of every frame of `scene`, from the surveillance graph's detector (as
-    configured there) on the fixed whole-scene camera. A moving camera's window takes its part of
-    these: the suite's detector keeps its background in scene coordinates, so under a pan it
-    sees what a fixed camera would."""
+def motion_cues(scene: Scene) -> tuple[list[np.ndarray], list[tuple[float, float] | None]]:
+    """The surveillance graph's motion stage (its detector and tracker, as configured there) run
+    over `scene` on the fixed whole-scene camera: each frame's foreground mask, and the ground
+    line (`object_scale.HeightByRow`: height against the row of the feet, from the boxes of the
+    confirmed tracks observed so far) as learned by that frame, None before its first fit. A
+    moving camera's window takes its part of these: the suite's detector keeps its background in
+    scene coordinates, so under a pan it sees what a fixed camera would."""
     stage = PipelineSettings.from_graph(load_graph("surveillance")).motion
     detector = DETECTORS.get(stage.detector_method).build(stage.detector_values)
-    masks = []
-    for stamp, frame in zip(scene.stamps_ns(), scene.frames, strict=True):
-        mask = detector.process(CameraFrame(stamp, frame)).mask
+    tracker = TRACKERS.get(stage.tracker_method).build(stage.tracker_values, 1)
+    ground = HeightByRow(0.0)
+    masks: list[np.ndarray] = []
+    lines: list[tuple[float, float] | None] = []
+    stamps = scene.stamps_ns()
+    for stamp, frame in zip(stamps, scene.frames, strict=True):
+        detection = detector.process(CameraFrame(stamp, frame))
+        mask = detection.mask
         masks.append(np.zeros(frame.shape[:2], np.uint8) if mask is None else mask)
-    return masks
+        found = detections_of(detection)
+        t = (stamp - stamps[0]) / NS_PER_S
+        tracks = tracker.step(Observation(t, found, detection.target_present))
+        ground.observe(tracks.bboxes[tracks.status == TrackStatus.CONFIRMED])
+        lines.append(ground.line)
+    return masks, lines
 
 
 def run_person(

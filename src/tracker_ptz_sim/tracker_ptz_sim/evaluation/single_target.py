@@ -28,6 +28,7 @@ from tracker_detect.detector import CameraFrame
 from tracker_filter.colour_particle import Appearance, ColourParticleFilter, ParticleFilterConfig
 from tracker_filter.filters import FilterFactory
 from tracker_filter.foreground_cue import ForegroundMask
+from tracker_filter.object_scale import ExpectedHeight
 from tracker_msgs_py.codec import NS_PER_S
 from tracker_msgs_py.geometry import Rect
 
@@ -221,6 +222,28 @@ def follow(
     return boxes
 
 
+@dataclass(frozen=True)
+class GroundLines:
+    """The ground line (`object_scale.HeightByRow.line`: a person's height against the row of
+    their feet, scene px) as the suite's tracker had learned it by each frame (None before its
+    first fit), and the row of the scene each frame's image starts at (0: the whole scene)."""
+
+    lines: Sequence[tuple[float, float] | None]
+    top_rows: Mapping[int, float] | None = None
+
+    def expected(self, frame: int, reference: np.ndarray, seen: int) -> ExpectedHeight | None:
+        """The height of the object of the box `reference` (image px of frame `seen`) where a box
+        stands in frame `frame`'s image, from the line learned by `frame`."""
+        line = self.lines[frame]
+        if line is None:
+            return None
+        rows = self.top_rows
+        through = ExpectedHeight.through(line, reference, 0.0 if rows is None else rows[seen])
+        if through is None or rows is None:
+            return through
+        return through.shifted(rows[frame])
+
+
 def follow_particles(
     frames: np.ndarray | Sequence[np.ndarray],
     start: int,
@@ -230,11 +253,13 @@ def follow_particles(
     config: ParticleFilterConfig,
     seed: int,
     masks: Sequence[np.ndarray] | None = None,
+    ground: GroundLines | None = None,
 ) -> dict[int, Rect | None]:
     """Seed 003's particle filter started on `region` of frame `start` (its reference), run over
     frames start+1..last of a static camera, given the motion detector's foreground `masks` (per
-    frame, for the foreground cue) when there are; the estimate's box per frame, clipped to the
-    image (the truth is the visible box)."""
+    frame, for the foreground cue) and the `ground` lines learned so far (for the height prior)
+    when there are; the estimate's box per frame, clipped to the image (the truth is the
+    visible box)."""
     start_box = np.array([region.x, region.y, region.width, region.height])
     rng = np.random.default_rng(seed)
     tracker = ColourParticleFilter(frames[start], start_box, appearance, config, rng)
@@ -242,7 +267,8 @@ def follow_particles(
     for k in range(start + 1, last + 1):
         image = frames[k]
         foreground = None if masks is None else ForegroundMask.of(masks[k])
-        estimate = tracker.step(image, foreground=foreground)
+        height = None if ground is None else ground.expected(k, start_box, start)
+        estimate = tracker.step(image, foreground=foreground, height=height)
         frame = Rect(0.0, 0.0, float(image.shape[1]), float(image.shape[0]))
         boxes[k] = Rect(*(float(v) for v in estimate.box)).intersection(frame)
     return boxes
