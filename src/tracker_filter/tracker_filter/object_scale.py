@@ -13,6 +13,7 @@ required, so a camera's first movers are confirmed as before.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -100,14 +101,24 @@ class HeightByRow:
         return self.ratio * self.expected_heights(boxes)
 
 
+def height_ratios(line: tuple[float, float], boxes: np.ndarray) -> np.ndarray:
+    """Each box's (N, 4) height over the line's height at its bottom row; NaN at or above the
+    horizon (where the line is under 1 px)."""
+    intercept, slope = line
+    at_boxes = intercept + slope * bottom_rows(boxes)
+    result: np.ndarray = np.where(at_boxes >= 1.0, boxes[:, 3] / np.maximum(at_boxes, 1.0), np.nan)
+    return result
+
+
 @dataclass(frozen=True)
 class ExpectedHeight:
     """How tall one object should be where a box of it stands: a ground line through that
     object's own box (h = intercept + slope x bottom row, px).
 
     `through` scales the learned line (`HeightByRow.line`, the typical object) to pass through a
-    reference box of this one, so a child or a crouching person keeps their own height, and a
-    line biased by a few per cent (boxes with a shadow, pairs in one blob) cancels out; only the
+    reference box of this one, `scaled` by a ratio such as the median of `height_ratios` over
+    the boxes that measured it: a child or a crouching person keeps their own height, and a line
+    biased by a few per cent (boxes with a shadow, pairs in one blob) cancels out; only the
     line's slope and horizon matter."""
 
     intercept: float
@@ -120,11 +131,16 @@ class ExpectedHeight:
         """`line` scaled through the box `reference` (x, y, width, height), in the line's
         coordinates; the reference's row 0 is the line's row `row_offset` (it was seen in a
         window whose top is there). None when the reference stands at or above the horizon."""
-        intercept, slope = line
-        at_reference = intercept + slope * (float(reference[1] + reference[3]) + row_offset)
-        if not at_reference >= 1.0:
+        moved = np.asarray(reference, dtype=float) + [0.0, row_offset, 0.0, 0.0]
+        return cls.scaled(line, float(np.median(height_ratios(line, moved[None]))))
+
+    @classmethod
+    def scaled(cls, line: tuple[float, float], ratio: float) -> ExpectedHeight | None:
+        """`line` x `ratio` (the object's height over the typical one's; from `height_ratios`),
+        None when the ratio is not a positive number (boxes at or above the horizon)."""
+        if not (math.isfinite(ratio) and ratio > 0):
             return None
-        ratio = float(reference[3]) / at_reference
+        intercept, slope = line
         return cls(ratio * intercept, ratio * slope)
 
     def shifted(self, rows: float) -> ExpectedHeight:

@@ -13,8 +13,9 @@ A `tracking.Tracker` that needs the camera image and window. Each frame:
 - with `height_spread` > 0 each filter's particles are also weighed by how close their box's
   height is to the target's height where the box stands: the ground line (height against the
   row of the feet) learned from the boxes of confirmed targets a detection overlapped, scaled
-  through the target's start box (`object_scale.ExpectedHeight`); nothing until the line is
-  learned;
+  through the median of the target's own boxes (its start box and the last detections that
+  overlapped it, `object_scale.ExpectedHeight`); nothing until the line is learned and three
+  boxes measured the target;
 - a target is confirmed after `confirm_hits` hits (detections that moved `confirm_travel` px)
   when its box is at least `confirm_min_height` px tall and `confirm_height_ratio` x the height
   confirmed targets have had where it stands (the multi tracker's height rule: clutter that a
@@ -29,6 +30,7 @@ filter draws from its own generator, seeded by (`seed`, track id): a replay give
 
 from __future__ import annotations
 
+from collections import deque
 from collections.abc import Mapping
 from typing import Any
 
@@ -50,7 +52,7 @@ from tracker_filter.colour_particle import (
 from tracker_filter.foreground_cue import ForegroundCue, ForegroundMask
 from tracker_filter.layout import StateLayout
 from tracker_filter.management import MofNConfirmation
-from tracker_filter.object_scale import ExpectedHeight, HeightByRow
+from tracker_filter.object_scale import ExpectedHeight, HeightByRow, height_ratios
 from tracker_filter.observation import Detections, Need, Observation
 from tracker_filter.tracking import TrackBook, TrackSet
 from tracker_msgs_py.geometry import Rect, iou_matrix
@@ -122,7 +124,8 @@ class ColourParticleTracker:
         self.random_seed = seed
         self.book = TrackBook(first_id)
         self.filters: list[ColourParticleFilter] = []
-        self.starts = np.zeros((0, 4))  # per target: the box its filter started on (scene px)
+        # per target: the start box and the last boxes of detections that overlapped it
+        self.measured_boxes: list[deque[np.ndarray]] = []
         self.states = np.zeros((0, LAYOUT.dim))
         self.supported = np.zeros(0)  # per target: when a detection last overlapped it (s)
 
@@ -132,7 +135,7 @@ class ColourParticleTracker:
 
     def reset(self, reset_ids: bool = False) -> int:
         self.filters, self.states, self.supported = [], np.zeros((0, LAYOUT.dim)), np.zeros(0)
-        self.starts = np.zeros((0, 4))
+        self.measured_boxes = []
         self.confirmation.clear()
         if self.ground is not None:
             self.ground.clear()
@@ -176,18 +179,25 @@ class ColourParticleTracker:
         chosen = np.array(started)
         self.book.add(t, found, chosen, np.full(len(chosen), confirmed))
         boxes = found.bboxes[chosen]
-        self.starts = np.concatenate([self.starts, boxes])
+        self.measured_boxes += [deque([box], maxlen=HEIGHT_SAMPLES) for box in boxes]
         rows = np.column_stack([found.positions[chosen], np.zeros((len(chosen), 2)), boxes[:, 2:]])
         self.states = np.concatenate([self.states, rows])
         self.supported = np.concatenate([self.supported, np.full(len(chosen), t)])
         return True
 
     def _expected_heights(self) -> list[ExpectedHeight | None]:
-        """Per target, its height where a box stands (for the height prior), once learned."""
+        """Per target, its height where a box stands (for the height prior), once the line is
+        learned and a few boxes measured the target."""
         line = None if self.ground is None else self.ground.line
         if line is None or self.config.height_spread <= 0:
             return [None] * len(self.filters)
-        return [ExpectedHeight.through(line, box) for box in self.starts]
+        out: list[ExpectedHeight | None] = []
+        for boxes in self.measured_boxes:
+            ratios = height_ratios(line, np.array(boxes))
+            ratios = ratios[np.isfinite(ratios)]
+            enough = len(ratios) >= MIN_HEIGHT_SAMPLES
+            out.append(ExpectedHeight.scaled(line, float(np.median(ratios))) if enough else None)
+        return out
 
     def _covariances(self, interval: float) -> np.ndarray:
         out = np.tile(np.eye(LAYOUT.dim), (len(self.filters), 1, 1))
@@ -249,6 +259,8 @@ class ColourParticleTracker:
             # matches its own colours would otherwise be followed for ever, while a person who
             # stops goes without detections only for the while they stand
             self.supported[detected] = t
+            for row in np.flatnonzero(detected):
+                self.measured_boxes[row].append(measured.bboxes[row])
         rows = np.flatnonzero(hits)
         positions = LAYOUT.positions(self.states)
         updated = book.record_frame(rows, rows, measured, positions)
@@ -282,7 +294,8 @@ class ColourParticleTracker:
         if lost.any():
             book.keep(~lost)
             self.states, self.supported = self.states[~lost], self.supported[~lost]
-            self.starts = self.starts[~lost]
+            kept = zip(self.measured_boxes, lost, strict=True)
+            self.measured_boxes = [boxes for boxes, gone in kept if not gone]
             self.filters = [f for f, gone in zip(self.filters, lost, strict=True) if not gone]
         book.finish(t)
         return tracks
@@ -294,6 +307,10 @@ OCCLUSION_RATIO = 0.7  # the suite's default (the thesis has no occlusion test: 
 FOREGROUND_POWER, SIZE_NOISE = 15.0, 0.05
 #: the height prior's spread measured best there (0.06-0.15 within 0.003 of Q1)
 HEIGHT_SPREAD = 0.1
+#: a target's height (over the ground line's) is the median over its start box and the boxes of
+#: the last detections that overlapped it: a track often starts on a person half in view or on
+#: a blob that lost its legs, so the prior waits for a few
+HEIGHT_SAMPLES, MIN_HEIGHT_SAMPLES = 15, 3
 PARAMETERS: tuple[ParamSpec, ...] = (
     ParamSpec("particles", _C.particles, "particles per target (thesis: 750)", 1, 100000),
     ParamSpec("bins", 16, "histogram bins per channel, K (thesis: 16)", 2, 64),
