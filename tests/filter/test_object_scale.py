@@ -1,11 +1,13 @@
 """The learned height of followed objects by image row (object_scale), and the confirmation rule
 that uses it: clutter far smaller than a person where it stands is not confirmed."""
 
+import math
+
 import numpy as np
 import pytest
 
 from tracker_filter.config import TrackerConfig
-from tracker_filter.object_scale import HeightByRow, robust_line
+from tracker_filter.object_scale import ExpectedHeight, HeightByRow, robust_line
 from tracker_filter.observation import Detections, Observation
 from tracker_filter.tracking import TrackStatus
 
@@ -100,3 +102,39 @@ def test_a_minimum_height_keeps_small_things_tentative():
         )
     ]
     assert _confirmed_heights(_run(tracker, frames)) == {120}
+
+
+LINE = (-20.0, 0.5)  # a typical person: 30 px tall with their feet on row 100, 80 on row 200
+
+
+def test_the_expected_height_passes_through_the_reference_and_keeps_the_horizon():
+    child = np.array([10.0, 176.0, 12.0, 24.0])  # feet on row 200: 0.3 x the typical person
+    expected = ExpectedHeight.through(LINE, child)
+    assert expected is not None
+    boxes = np.array([child, [0.0, 60.0, 5.0, 40.0]])  # and a box with its feet on row 100
+    np.testing.assert_allclose(expected.heights(boxes), [24.0, 0.3 * 30.0])
+    assert -expected.intercept / expected.slope == pytest.approx(40.0)  # the line's horizon
+    # a reference standing above the horizon says nothing
+    assert ExpectedHeight.through(LINE, np.array([0.0, 0.0, 5.0, 30.0])) is None
+
+
+def test_a_window_sees_the_same_heights_as_the_scene():
+    """A reference seen in a window whose top is scene row 50, and boxes in another window whose
+    top is row 80: the heights are the scene's."""
+    in_scene = np.array([10.0, 150.0, 20.0, 50.0])
+    scene = ExpectedHeight.through(LINE, in_scene)
+    seen = ExpectedHeight.through(LINE, in_scene - [0.0, 50.0, 0.0, 0.0], row_offset=50.0)
+    assert scene is not None and seen is not None
+    later = np.array([[0.0, 100.0, 10.0, 30.0], [5.0, 20.0, 10.0, 60.0]])  # rows of window 2
+    np.testing.assert_allclose(
+        seen.shifted(80.0).heights(later), scene.heights(later + [0.0, 80.0, 0.0, 0.0])
+    )
+
+
+def test_the_likelihood_is_one_at_the_expected_height_and_falls_on_a_log_scale():
+    expected = ExpectedHeight(60.0, 0.0)
+    heights = [60.0, 60.0 * math.exp(0.1), 60.0 * math.exp(-0.1), 30.0]
+    boxes = np.array([[0.0, 0.0, 20.0, h] for h in heights])
+    weights = expected.likelihood(boxes, spread=0.1)
+    np.testing.assert_allclose(weights[:3], [1.0, math.exp(-0.5), math.exp(-0.5)])
+    assert weights[3] < 1e-9  # half the height: a torso is not the person
