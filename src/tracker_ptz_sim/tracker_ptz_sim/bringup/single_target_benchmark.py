@@ -71,6 +71,7 @@ from tracker_filter.observation import Observation
 from tracker_filter.particle_tracker import (
     FOREGROUND_POWER,
     HEIGHT_SPREAD,
+    NOISE_SCALE,
     OCCLUSION_RATIO,
     SIZE_NOISE,
 )
@@ -162,6 +163,7 @@ FOREGROUND = replace(
     COASTING, size_noise=SIZE_NOISE, foreground=ForegroundCue(power=FOREGROUND_POWER)
 )
 HEIGHT = replace(FOREGROUND, height_spread=HEIGHT_SPREAD)
+SHIPPED = replace(HEIGHT, sigma=tuple(NOISE_SCALE * s for s in RECOMMENDED_SIGMA))
 
 #: What is compared: one line per variant.
 VARIANTS: dict[str, Variant | ParticleVariant] = {
@@ -201,10 +203,16 @@ VARIANTS: dict[str, Variant | ParticleVariant] = {
             lambda: HistogramAppearance(background_weighting=True, contrast=1.0), FOREGROUND
         )
     ),
-    # ... and a prior on the box's height where it stands (the colour_particles defaults)
+    # ... and a prior on the box's height where it stands
     "particles, final, 8 x sigma, background-weighted, coasting, contrast, foreground, height": (
         ParticleVariant(
             lambda: HistogramAppearance(background_weighting=True, contrast=1.0), HEIGHT
+        )
+    ),
+    # ... with twice the noise (the colour_particles defaults)
+    "particles, final, 16 x sigma, background-weighted, coasting, contrast, foreground, height": (
+        ParticleVariant(
+            lambda: HistogramAppearance(background_weighting=True, contrast=1.0), SHIPPED
         )
     ),
 }
