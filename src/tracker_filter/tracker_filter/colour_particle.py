@@ -34,7 +34,7 @@ walker's perspective and stride. The mask loses legs on grey ground and holds tw
 walking together: `height_spread` > 0 then also multiplies each weight by a prior on the box's
 height, exp(-(ln(h / h_expected) / spread)^2 / 2), where h_expected is the height the target
 has where the box stands (`object_scale.ExpectedHeight`: the ground line learned from the
-tracks, through the target's own start box), given to each step.
+tracks, scaled through the target's own boxes), given to each step.
 
 The reference is taken from the start rectangle and never updated, as in the thesis. Every random
 draw comes from the filter's own `numpy.random.Generator`, so a run is reproducible.

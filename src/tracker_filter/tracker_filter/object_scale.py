@@ -132,7 +132,7 @@ class ExpectedHeight:
         coordinates; the reference's row 0 is the line's row `row_offset` (it was seen in a
         window whose top is there). None when the reference stands at or above the horizon."""
         moved = np.asarray(reference, dtype=float) + [0.0, row_offset, 0.0, 0.0]
-        return cls.scaled(line, float(np.median(height_ratios(line, moved[None]))))
+        return cls.scaled(line, float(height_ratios(line, moved[None])[0]))
 
     @classmethod
     def scaled(cls, line: tuple[float, float], ratio: float) -> ExpectedHeight | None:
