@@ -3,6 +3,8 @@ plain NumPy, reproducibility, and tracking a coloured person on a textured backg
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -257,6 +259,8 @@ def test_bad_start_boxes_and_parameters_are_refused():
         ParticleFilterConfig(sigma=(1.0, 2.0))
     with pytest.raises(ValueError, match="occlusion_ratio"):
         ParticleFilterConfig(occlusion_ratio=1.0)
+    with pytest.raises(ValueError, match="coast_noise"):
+        ParticleFilterConfig(coast_noise=1.5)
 
 
 def test_background_weighting_tells_a_thin_person_from_the_street_around_them():
@@ -322,6 +326,38 @@ def test_coasting_keeps_the_target_through_a_one_second_occlusion():
         # frames 32-40: the estimate goes on at about the walking speed (4 px per frame)
         advance = (estimates[39].box[0] - estimates[31].box[0]) / 8
         assert 3.0 < advance < 5.0
+
+
+def test_a_quieter_coast_keeps_the_cloud_on_the_way_the_target_went():
+    """With the noise that follows walkers (16 x the thesis's), a second of coasting at the full
+    noise spreads the cloud over ~100 px, where a passer-by's scores outweigh the target's when
+    it comes out; a quarter of that randomness while hidden (the noise, the velocities' spread)
+    keeps it to a few tens."""
+    images, truth = occluded_scene()
+    wide = replace(COASTING, sigma=tuple(16 * s for s in RECOMMENDED_SIGMA))
+    spreads = {}
+    for coast_noise in (1.0, 0.25):
+        config = replace(wide, coast_noise=coast_noise)
+        f = ColourParticleFilter(
+            images[0], truth[0], HistogramAppearance(), config, np.random.default_rng(0)
+        )
+        for image in images[1:39]:
+            f.step(image)
+        assert f.estimate.hidden
+        spreads[coast_noise] = float(f.particles[:, 0].std())
+    assert spreads[1.0] > 100 and spreads[0.25] < 0.4 * spreads[1.0]
+
+
+def test_while_hidden_the_noise_is_coast_noise_times_sigma():
+    images, truth = occluded_scene()
+    config = replace(COASTING, coast_noise=0.25, adaptive_noise=False)
+    f = ColourParticleFilter(
+        images[0], truth[0], HistogramAppearance(), config, np.random.default_rng(0)
+    )
+    for image in images[1:34]:
+        f.step(image)
+    assert f.estimate.hidden
+    np.testing.assert_allclose(f.noise(), 0.25 * np.array(config.sigma))
 
 
 def test_after_the_warm_up_similarities_compile_nothing():

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from tracker_filter.observation import Detections, Need, Observation
-from tracker_filter.particle_tracker import ColourParticleTracker, build
+from tracker_filter.particle_tracker import COAST_NOISE, ColourParticleTracker, build
 from tracker_filter.trackers import TRACKERS
 from tracker_filter.tracking import TrackStatus
 from tracker_msgs_py.geometry import Rect
@@ -166,3 +166,8 @@ def test_the_height_prior_learns_the_ground_line_from_confirmed_targets():
     shared = tracker(confirm_height_ratio=0.5)
     assert shared.ground is shared.confirmation.scale
     assert tracker(height_spread=0.0, confirm_height_ratio=0.0).ground is None
+
+
+def test_the_coasting_randomness_is_a_parameter_and_a_quarter_by_default():
+    assert tracker().config.coast_noise == COAST_NOISE == 0.25
+    assert tracker(coast_noise=1.0).config.coast_noise == 1.0

@@ -20,9 +20,13 @@ particle scores below r x the tracked level (a running mean of the best score ov
 where the target was seen) is taken as the target hidden. Its scores say nothing about the
 target, and resampling by them would pull the cloud onto whatever is in front (the thesis's filter
 stops at the occluder's edge), so the particles are not weighed or resampled: they coast on
-their velocities, with the full noise on every component (not Ext 2's share, which would freeze
-the velocities), so the cloud spreads along the way the target was going, wider the longer it
-is hidden, until a particle finds the target again.
+their velocities, with noise on every component (not Ext 2's share, which would freeze the
+velocities), so the cloud spreads along the way the target was going, wider the longer it is
+hidden, until a particle finds the target again. `coast_noise` c scales that noise to c sigma,
+and the particles' velocities about the velocity seen to c times their spread when the target
+went out of sight: a sigma wide enough to follow a walker's stride and perspective spreads the
+cloud in a second of coasting over a region where a passer-by or the background outscores the
+target when it comes out.
 
 Scale (not the thesis's; off by default): `foreground` (`foreground_cue`) multiplies each weight by
 how well the particle's box bounds the motion detector's foreground mask, on the frames whose step
@@ -113,6 +117,9 @@ class ParticleFilterConfig:
     foreground: ForegroundCue = ForegroundCue()  # not the thesis's: off (power 0)
     # not the thesis's: std of ln(box height / the height expected where it stands) (0 = off)
     height_spread: float = 0.0
+    # not the thesis's: the cloud's randomness while the target is hidden, as a share of what it
+    # is while seen (the noise std, the velocities' spread)
+    coast_noise: float = 1.0
 
     def problems(self) -> list[str]:
         """What is wrong with these values (empty when usable)."""
@@ -127,6 +134,7 @@ class ParticleFilterConfig:
             "size_noise must be in [0, 1]": 0.0 <= self.size_noise <= 1.0,
             "height_spread must be >= 0": math.isfinite(self.height_spread)
             and self.height_spread >= 0.0,
+            "coast_noise must be in [0, 1]": 0.0 <= self.coast_noise <= 1.0,
         }
         return [message for message, ok in checks.items() if not ok]
 
@@ -400,7 +408,9 @@ class ColourParticleFilter:
 
     def noise(self) -> np.ndarray:
         """This frame's noise std per component (Ext 2 moves it by the last estimate's match)."""
-        if not self.config.adaptive_noise or self.estimate.hidden:
+        if self.estimate.hidden:
+            return self.config.coast_noise * self.base_sigma
+        if not self.config.adaptive_noise:
             return self.base_sigma
         zeta = static_noise_share(
             self.estimate.similarity, self.config.noise_alpha, self.config.noise_beta
@@ -447,8 +457,11 @@ class ColourParticleFilter:
             state = particles[int(np.argmax(weights))]
         similarity = float(self.appearance.similarities(image, view.to_image(state[None, :4]))[0])
         if hidden and not self.estimate.hidden:
-            # the last frames, half hidden, slowed the cloud: coast at the velocity seen before
-            particles[:, 4:] += self.seen_velocity - weights @ particles[:, 4:]
+            # the last frames, half hidden, slowed the cloud: coast at the velocity seen before,
+            # the particles' spread about it narrowed as the noise is
+            velocities = particles[:, 4:]
+            spread = self.config.coast_noise * (velocities - weights @ velocities)
+            particles[:, 4:] = self.seen_velocity + spread
             state[4:] = self.seen_velocity
         elif not hidden:
             self.seen_velocity += LEVEL_GAIN * (state[4:] - self.seen_velocity)

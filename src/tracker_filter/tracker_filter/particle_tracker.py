@@ -314,6 +314,9 @@ HEIGHT_SAMPLES, MIN_HEIGHT_SAMPLES = 15, 3
 #: x the thesis's noise: 8 let the particles catch people walking 4-8 px a frame at 10 fps; with
 #: the scale cues and the height prior holding the box, 16 follows them closer
 NOISE_SCALE = 16.0
+#: the cloud's randomness while a target is hidden, x what it is while seen: that noise spreads
+#: it over passers-by in a second of coasting; 0.1 is too little to find the target again
+COAST_NOISE = 0.25
 PARAMETERS: tuple[ParamSpec, ...] = (
     ParamSpec("particles", _C.particles, "particles per target (thesis: 750)", 1, 100000),
     ParamSpec("bins", 16, "histogram bins per channel, K (thesis: 16)", 2, 64),
@@ -362,6 +365,14 @@ PARAMETERS: tuple[ParamSpec, ...] = (
         "x the thesis's noise std per component (1: its 0.5 px, 0.25 px/frame...)",
         0.0,
         1000.0,
+    ),
+    ParamSpec(
+        "coast_noise",
+        COAST_NOISE,
+        "while a target is hidden, its particles' noise and velocity spread x this (not the "
+        "thesis's)",
+        0.0,
+        1.0,
     ),
     ParamSpec(
         "correction",
@@ -422,6 +433,7 @@ def build(values: Mapping[str, Any], first_id: int = 1) -> ColourParticleTracker
         size_noise=values["size_noise"],
         foreground=ForegroundCue(power=values["foreground_power"]),
         height_spread=values["height_spread"],
+        coast_noise=values["coast_noise"],
     )
     return ColourParticleTracker(
         config,
