@@ -405,6 +405,7 @@ class ColourParticleFilter:
         self.estimate = ParticleEstimate(box, np.zeros(4), 1.0)
         self.level: float | None = None  # the best particle's score while the target is seen
         self.seen_velocity = np.zeros(4)  # running mean of the estimate's velocity while seen
+        self.frames_seen = 0
 
     def noise(self) -> np.ndarray:
         """This frame's noise std per component (Ext 2 moves it by the last estimate's match)."""
@@ -464,7 +465,11 @@ class ColourParticleFilter:
             particles[:, 4:] = self.seen_velocity + spread
             state[4:] = self.seen_velocity
         elif not hidden:
-            self.seen_velocity += LEVEL_GAIN * (state[4:] - self.seen_velocity)
+            # a plain mean over the first frames: a running mean started at 0 would coast a
+            # target hidden early at a fraction of its speed
+            self.frames_seen += 1
+            gain = max(LEVEL_GAIN, 1.0 / self.frames_seen)
+            self.seen_velocity += gain * (state[4:] - self.seen_velocity)
         self.estimate = ParticleEstimate(state[:4].copy(), state[4:].copy(), similarity, hidden)
         self.particles = (
             particles if hidden else particles[resample(weights, self.config.resampling, self.rng)]
