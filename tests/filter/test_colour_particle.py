@@ -378,3 +378,14 @@ def test_after_the_warm_up_similarities_compile_nothing():
     contrasted.reference(image, np.array([10.0, 10.0, 20.0, 30.0]))
     contrasted.similarities(image, rng.uniform(0, 40, (50, 4)) + [0, 0, 5, 5])
     assert rings == len(colour_histograms._ring_coefficients.signatures) == 1
+
+
+def test_the_coasting_velocity_is_the_mean_velocity_seen_from_the_first_frame():
+    """A target hidden a few frames after its start coasts at the velocity it was seen moving
+    at, not at a running mean still weighed towards the zero it started from."""
+    images, truth = occluded_scene()
+    f = ColourParticleFilter(
+        images[0], truth[0], HistogramAppearance(), COASTING, np.random.default_rng(0)
+    )
+    velocities = [f.step(image).velocity for image in images[1:6]]
+    np.testing.assert_allclose(f.seen_velocity, np.mean(velocities, axis=0))
