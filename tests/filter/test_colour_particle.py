@@ -330,7 +330,7 @@ def test_coasting_keeps_the_target_through_a_one_second_occlusion():
 
 def test_a_quieter_coast_keeps_the_cloud_on_the_way_the_target_went():
     """With the noise that follows walkers (16 x the thesis's), a second of coasting at the full
-    noise spreads the cloud over ~100 px, where a passer-by's scores outweigh the target's when
+    noise spreads the cloud over ~120 px (std), where a passer-by's scores outweigh the target's when
     it comes out; a quarter of that randomness while hidden (the noise, the velocities' spread)
     keeps it to a few tens."""
     images, truth = occluded_scene()

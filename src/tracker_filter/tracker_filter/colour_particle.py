@@ -404,7 +404,8 @@ class ColourParticleFilter:
         self.particles = np.tile(start, (config.particles, 1))  # N copies, velocity 0
         self.estimate = ParticleEstimate(box, np.zeros(4), 1.0)
         self.level: float | None = None  # the best particle's score while the target is seen
-        self.seen_velocity = np.zeros(4)  # running mean of the estimate's velocity while seen
+        # the estimate's velocity while seen: a plain mean over the first frames, then running
+        self.seen_velocity = np.zeros(4)
         self.frames_seen = 0
 
     def noise(self) -> np.ndarray:
