@@ -6,6 +6,10 @@ the change measure, but the current view is compared with `mosaic.SceneMosaic`, 
 of the surveillance area kept in scene coordinates, so foreground pixels are the objects'
 silhouettes:
 
+0. with `register_reach`, the view is first aligned with the mosaic (phase correlation of the
+   view against the background seen through its pose, whole px): a camera that shakes by more
+   than its pose reports would otherwise see every edge of the scene as foreground; the aligned
+   view is used for every step below, so boxes are where the image really looks;
 1. foreground = SSIM(view, background seen through the same window) <= threshold, judged only
    where the background was observed `min_observations` times;
 2. the k - gap comparison of the seed (`motion.MotionDetector`, no morphology) says which of
@@ -50,7 +54,7 @@ from tracker_detect.motion import (
     paste_map,
     presence_test,
 )
-from tracker_detect.registration import View
+from tracker_detect.registration import View, phase_correlation_shift
 from tracker_detect.side_by_side import cut_side_by_side
 from tracker_detect.ssim import SsimParams, auto_downsample_factor, ssim_map
 from tracker_msgs_py.geometry import Rect
@@ -65,6 +69,13 @@ EDGE_MARGIN = 0.08
 SHADOW_MAX_RATIO = 0.95
 SHADOW_CHROMA = 0.04
 SHADOW_MIN_SUM = 60.0
+# Registration: the view is aligned with the mosaic only once this share of it was judged, and
+# only on a correlation peak at least this high (a view dominated by movers, or by a background
+# the mosaic has not seen yet, keeps its pose).
+REGISTER_JUDGED_SHARE = 0.5
+REGISTER_MIN_PEAK = 0.05
+REGISTER_MIN_GAIN = 0.9  # ... and the aligned view must differ from it by less than this x before
+MAX_REGISTER_REACH = 64
 
 
 @dataclass(frozen=True)
@@ -90,6 +101,7 @@ class BackgroundConfig:
     split_depth: float = 0.0  # cut blobs where their top outline dips this deep (x height)
     shadow_ratio: float = 0.0  # darkest shadow, as a share of the background's brightness (0: off)
     restore_legs: bool = False  # grow boxes down through their legs lost to shadow or flicker
+    register_reach: int = 0  # px: align the view with the mosaic up to this far (0: trust the pose)
     presence_fraction: float = 0.0008  # presence test, as the seed
     auto_downsample: bool = True
     ssim: SsimParams = field(default_factory=SsimParams)
@@ -128,6 +140,10 @@ class BackgroundConfig:
         if not (math.isfinite(self.shadow_ratio) and 0.0 <= self.shadow_ratio < SHADOW_MAX_RATIO):
             found.append(
                 f"shadow_ratio must be in [0, {SHADOW_MAX_RATIO}), got {self.shadow_ratio}"
+            )
+        if not 0 <= self.register_reach <= MAX_REGISTER_REACH:
+            found.append(
+                f"register_reach must be in [0, {MAX_REGISTER_REACH}] px, got {self.register_reach}"
             )
         if not (math.isfinite(self.min_blob_area) and self.min_blob_area >= 0):
             found.append(f"min_blob_area must be >= 0, got {self.min_blob_area}")
@@ -186,12 +202,20 @@ class BackgroundDetector:
         if history_reset and frame.view is None:
             self.mosaic.clear()  # a static camera's mosaic is the image: a new size, a new scene
         self._last_stamp, self._size = frame.stamp_ns, (width, height)
+        background = self.mosaic.sample(view)
+        judged = background.observations >= c.min_observations
+        if c.register_reach > 0:
+            shift = self._residual_shift(gray, background.mean, judged)
+            if shift != (0, 0):
+                moved = view.translated(*shift)
+                aligned = self.mosaic.sample(moved)
+                if self._fits_better(gray, aligned, background):
+                    view, background = moved, aligned
+                    judged = background.observations >= c.min_observations
         changing = self._changing(gray, frame.stamp_ns, view)
         chroma = (
             _chromaticity(frame.image) if c.shadow_ratio > 0 and frame.image.ndim == 3 else None
         )
-        background = self.mosaic.sample(view)
-        judged = background.observations >= c.min_observations
         similarity = self._similarity(gray, background.mean, judged)
         different = similarity <= c.threshold
         flickers = (background.flicker >= c.flicker_level) & (
@@ -243,6 +267,40 @@ class BackgroundDetector:
         margin = EDGE_MARGIN * window.height
         cut = box.y <= window.y + margin or box.y + box.height >= window.y + window.height - margin
         return cut and box.height >= 0.5 * aspect * box.width
+
+    def _residual_shift(
+        self, gray: np.ndarray, background: np.ndarray, judged: np.ndarray
+    ) -> tuple[int, int]:
+        """Where the view really shows the background, relative to where its pose says, in whole
+        image px: the camera shakes (wind, a mast, a vehicle) by more than the pose reports, and
+        a view compared with the background a few px off makes every edge foreground. (0, 0)
+        when the view cannot be aligned or the shift is beyond `register_reach`."""
+        if np.count_nonzero(judged) < REGISTER_JUDGED_SHARE * judged.size:
+            return (0, 0)
+        view = gray.astype(np.float32)
+        seen = np.where(judged, background, view)  # the unseen part pulls towards no shift
+        try:
+            shift = phase_correlation_shift(seen, view, candidates=1)
+        except ValueError:  # a view too small to correlate
+            return (0, 0)
+        dx, dy = round(shift.dx), round(shift.dy)
+        reach = self.config.register_reach
+        if shift.score < REGISTER_MIN_PEAK or max(abs(dx), abs(dy)) > reach:
+            return (0, 0)
+        return (dx, dy)
+
+    def _fits_better(self, gray: np.ndarray, aligned: MosaicSample, posed: MosaicSample) -> bool:
+        """Whether the view differs from the background at the aligned place clearly less than
+        at its pose (mean absolute difference where both were judged): a correlation peak moved
+        by a large mover is not taken for shake."""
+        least = self.config.min_observations
+        both = (aligned.observations >= least) & (posed.observations >= least)
+        if not both.any():
+            return False
+        view = gray.astype(np.float32)
+        there = float(cv2.absdiff(view, aligned.mean)[both].mean())
+        here = float(cv2.absdiff(view, posed.mean)[both].mean())
+        return there < REGISTER_MIN_GAIN * here
 
     def _shadow(self, gray: np.ndarray, chroma: np.ndarray, background: MosaicSample) -> np.ndarray:
         """Pixels darker than the background by a shadow's ratio, of the background's colour."""

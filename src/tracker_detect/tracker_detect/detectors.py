@@ -296,6 +296,14 @@ BACKGROUND_PARAMETERS: tuple[ParamSpec, ...] = (
         "in its columns, at most by its height (a person's legs lost to the shadow or flicker "
         "tests)",
     ),
+    ParamSpec(
+        "register_reach",
+        _B.register_reach,
+        "align each view with the background mosaic by phase correlation, up to this far [px], "
+        "when the camera shakes more than its pose reports (0: trust the pose)",
+        0,
+        64,
+    ),
     _like_ssim("presence_fraction", _B.presence_fraction),
     _like_ssim("auto_downsample", _B.auto_downsample),
 )

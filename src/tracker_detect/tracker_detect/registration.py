@@ -23,6 +23,7 @@ from typing import Any
 
 import cv2
 import numpy as np
+import scipy.fft
 
 from tracker_detect.ssim import BoxStatistics, SsimParams, box_statistics
 from tracker_msgs_py.geometry import Rect, SceneGeometry, camera_pixel_to_angles
@@ -411,17 +412,19 @@ def phase_correlation_shift(
 
 def _correlation_surface(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Normalised cross-power spectrum, back in space: peaks at shifts d with b(p) ~ a(p + d)."""
-    cross: np.ndarray = cv2.mulSpectrums(
-        _windowed_spectrum(a), _windowed_spectrum(b), 0, conjB=True
-    )
-    magnitude: np.ndarray = cv2.magnitude(cross[..., 0], cross[..., 1])
-    magnitude += 1e-12
-    cross /= magnitude[..., None]
-    return np.ascontiguousarray(cv2.idft(cross, flags=cv2.DFT_SCALE)[..., 0])
+    size = (scipy.fft.next_fast_len(a.shape[0], True), scipy.fft.next_fast_len(a.shape[1], True))
+    cross = _windowed_spectrum(a, size)
+    cross *= np.conj(_windowed_spectrum(b, size))
+    cross /= np.abs(cross) + np.float32(1e-12)
+    surface: np.ndarray = scipy.fft.irfft2(cross, s=size)
+    return surface
 
 
 def _highest_peaks(surface: np.ndarray, count: int) -> list[tuple[int, int]]:
     """(row, col) of the `count` highest local maxima (3x3, wrapping around), highest first."""
+    if count == 1:  # the highest value is always a local maximum
+        row, col = np.unravel_index(int(np.argmax(surface)), surface.shape)
+        return [(int(row), int(col))]
     wrapped = cv2.copyMakeBorder(surface, 1, 1, 1, 1, cv2.BORDER_WRAP)
     is_peak = surface >= cv2.dilate(wrapped, np.ones((3, 3), np.uint8))[1:-1, 1:-1]
     rows, cols = np.nonzero(is_peak)
@@ -434,12 +437,13 @@ def _wrapped(index: int, size: int) -> int:
     return index if index <= size // 2 else index - size
 
 
-def _windowed_spectrum(image: np.ndarray) -> np.ndarray:
-    """DFT of the mean-free, Hann-windowed image, zero-padded to a fast DFT size."""
+def _windowed_spectrum(image: np.ndarray, size: tuple[int, int]) -> np.ndarray:
+    """Real DFT of the mean-free, Hann-windowed image, zero-padded to `size` (a fast DFT size)."""
     h, w = image.shape
-    padded = np.zeros((cv2.getOptimalDFTSize(h), cv2.getOptimalDFTSize(w)), np.float32)
+    padded = np.zeros(size, np.float32)
     cv2.multiply(image - float(image.mean()), _hann(image.shape), dst=padded[:h, :w])
-    return cv2.dft(padded, flags=cv2.DFT_COMPLEX_OUTPUT)
+    spectrum: np.ndarray = scipy.fft.rfft2(padded)
+    return spectrum
 
 
 @lru_cache(maxsize=8)
