@@ -7,7 +7,8 @@ of the surveillance area kept in scene coordinates, so foreground pixels are the
 silhouettes:
 
 0. with `register_reach`, the view is first aligned with the mosaic (phase correlation of the
-   view against the background seen through its pose, whole px): a camera that shakes by more
+   view against the background seen through its pose, whole px, kept only when the view then
+   differs from the background clearly less than at its pose): a camera that shakes by more
    than its pose reports would otherwise see every edge of the scene as foreground; the aligned
    view is used for every step below, so boxes are where the image really looks;
 1. foreground = SSIM(view, background seen through the same window) <= threshold, judged only
