@@ -42,14 +42,18 @@ def visible_boxes(labels: np.ndarray, x: int, y: int) -> list[Rect]:
     return boxes
 
 
-def run(scene, windows, config=None) -> BoxScore:
+def run(scene, windows, config=None, shakes=None) -> BoxScore:
+    """Boxes scored after the learning frames; with `shakes`, frame k's image lands (dx, dy) px
+    off the window its pose reports, and the truth is where the image really looks."""
     detector = BackgroundDetector(config or BackgroundConfig())
     score = BoxScore()
     for k, (x, y, w, h) in enumerate(windows):
-        image = scene.frames[k, y : y + h, x : x + w]
+        dx, dy = (0, 0) if shakes is None else shakes[k]
+        ix, iy = x + dx, y + dy
+        image = scene.frames[k, iy : iy + h, ix : ix + w]
         detection = detector.process(CameraFrame(k * NS, image, View(Rect(x, y, w, h), w, h)))
         if k >= LEARNING_FRAMES:
-            truth = visible_boxes(scene.labels[k, y : y + h, x : x + w], x, y)
+            truth = visible_boxes(scene.labels[k, iy : iy + h, ix : ix + w], ix, iy)
             score.add(truth, [b.bbox for b in detection.blobs])
     return score
 
@@ -109,22 +113,16 @@ def test_moving_window_boxes_match_the_objects(scene):
 
 def run_shaken(scene, config: BackgroundConfig, shake: int = 3) -> BoxScore:
     """A moving window whose image lands up to `shake` px off where its pose says (a camera on a
-    mast in the wind), still for the learning frames; truth is where the image really looks."""
+    mast in the wind), still for the learning frames."""
     rng = np.random.default_rng(5)
-    detector = BackgroundDetector(config)
-    score = BoxScore()
     n = scene.num_frames
     xs = (140 + 130 * np.sin(np.arange(n) / 8.0)).astype(int)  # the shaken image stays inside
-    w, h, y = 200, 240, 40
-    for k, x in enumerate(xs):
-        jx, jy = (0, 0) if k < LEARNING_FRAMES else rng.integers(-shake, shake + 1, 2)
-        ix, iy = int(x + jx), int(y + jy)
-        image = scene.frames[k, iy : iy + h, ix : ix + w]
-        detection = detector.process(CameraFrame(k * NS, image, View(Rect(x, y, w, h), w, h)))
-        if k >= LEARNING_FRAMES:
-            truth = visible_boxes(scene.labels[k, iy : iy + h, ix : ix + w], ix, iy)
-            score.add(truth, [b.bbox for b in detection.blobs])
-    return score
+    windows = [(int(x), 40, 200, 240) for x in xs]
+    shakes = [
+        (0, 0) if k < LEARNING_FRAMES else tuple(int(v) for v in rng.integers(-shake, shake + 1, 2))
+        for k in range(n)
+    ]
+    return run(scene, windows, config, shakes)
 
 
 def test_a_view_shaken_off_its_pose_is_aligned_with_the_background(scene):

@@ -206,13 +206,14 @@ class BackgroundDetector:
         background = self.mosaic.sample(view)
         judged = background.observations >= c.min_observations
         if c.register_reach > 0:
-            shift = self._residual_shift(gray, background.mean, judged)
+            grey = gray.astype(np.float32)
+            shift = self._residual_shift(grey, background.mean, judged)
             if shift != (0, 0):
                 moved = view.translated(*shift)
                 aligned = self.mosaic.sample(moved)
-                if self._fits_better(gray, aligned, background):
-                    view, background = moved, aligned
-                    judged = background.observations >= c.min_observations
+                aligned_judged = aligned.observations >= c.min_observations
+                if _fits_better(grey, aligned.mean, background.mean, aligned_judged & judged):
+                    view, background, judged = moved, aligned, aligned_judged
         changing = self._changing(gray, frame.stamp_ns, view)
         chroma = (
             _chromaticity(frame.image) if c.shadow_ratio > 0 and frame.image.ndim == 3 else None
@@ -270,7 +271,7 @@ class BackgroundDetector:
         return cut and box.height >= 0.5 * aspect * box.width
 
     def _residual_shift(
-        self, gray: np.ndarray, background: np.ndarray, judged: np.ndarray
+        self, grey: np.ndarray, background: np.ndarray, judged: np.ndarray
     ) -> tuple[int, int]:
         """Where the view really shows the background, relative to where its pose says, in whole
         image px: the camera shakes (wind, a mast, a vehicle) by more than the pose reports, and
@@ -278,10 +279,9 @@ class BackgroundDetector:
         when the view cannot be aligned or the shift is beyond `register_reach`."""
         if np.count_nonzero(judged) < REGISTER_JUDGED_SHARE * judged.size:
             return (0, 0)
-        view = gray.astype(np.float32)
-        seen = np.where(judged, background, view)  # the unseen part pulls towards no shift
+        seen = np.where(judged, background, grey)  # the unseen part pulls towards no shift
         try:
-            shift = phase_correlation_shift(seen, view, candidates=1)
+            shift = phase_correlation_shift(seen, grey, candidates=1)
         except ValueError:  # a view too small to correlate
             return (0, 0)
         dx, dy = round(shift.dx), round(shift.dy)
@@ -289,19 +289,6 @@ class BackgroundDetector:
         if shift.score < REGISTER_MIN_PEAK or max(abs(dx), abs(dy)) > reach:
             return (0, 0)
         return (dx, dy)
-
-    def _fits_better(self, gray: np.ndarray, aligned: MosaicSample, posed: MosaicSample) -> bool:
-        """Whether the view differs from the background at the aligned place clearly less than
-        at its pose (mean absolute difference where both were judged): a correlation peak moved
-        by a large mover is not taken for shake."""
-        least = self.config.min_observations
-        both = (aligned.observations >= least) & (posed.observations >= least)
-        if not both.any():
-            return False
-        view = gray.astype(np.float32)
-        there = float(cv2.absdiff(view, aligned.mean)[both].mean())
-        here = float(cv2.absdiff(view, posed.mean)[both].mean())
-        return there < REGISTER_MIN_GAIN * here
 
     def _shadow(self, gray: np.ndarray, chroma: np.ndarray, background: MosaicSample) -> np.ndarray:
         """Pixels darker than the background by a shadow's ratio, of the background's colour."""
@@ -352,6 +339,19 @@ class BackgroundDetector:
         if shrink and c.shrink_size > 1:
             mask = cv2.erode(mask, _ellipse(c.shrink_size))
         return mask
+
+
+def _fits_better(
+    grey: np.ndarray, aligned: np.ndarray, posed: np.ndarray, both_judged: np.ndarray
+) -> bool:
+    """Whether the view differs from the background at the aligned place clearly less than at
+    its pose (mean absolute difference where both were judged): a correlation peak moved by a
+    large mover is not taken for shake."""
+    if not both_judged.any():
+        return False
+    there = float(cv2.absdiff(grey, aligned)[both_judged].mean())
+    here = float(cv2.absdiff(grey, posed)[both_judged].mean())
+    return there < REGISTER_MIN_GAIN * here
 
 
 def _with_legs(blob: Blob, excluded: np.ndarray, view: View) -> Blob:
