@@ -64,6 +64,22 @@ def test_switch_after_the_object_left_is_explained():
     assert scores.followed_changes == 1 and scores.unexplained_changes == 0
 
 
+def test_switch_after_the_object_went_out_of_the_counted_ones_is_explained():
+    """A person walking out at the scene's edge keeps a sliver of a box (conf 0, under the
+    visibility threshold) for a few frames: they have left, and moving on is explained. The same
+    switch while they are still counted is not."""
+    truth = _walkers(40)
+    targets = {f: truth[f][1].center for f in range(1, 21)}
+    targets |= {f: truth[f][2].center for f in range(21, 41)}
+    counted = {f: dict(boxes) for f, boxes in truth.items()}
+    for f in range(21, 41):
+        del counted[f][1]  # object 1's rows from frame 21 on are ignored (a sliver at the edge)
+    left = pan_tilt_scores(truth, _trace(40, targets), counted)
+    assert left.followed_changes == 1 and left.unexplained_changes == 0
+    stayed = pan_tilt_scores(truth, _trace(40, targets))
+    assert stayed.followed_changes == 1 and stayed.unexplained_changes == 1
+
+
 def test_write_evaluation_writes_scores_tracks_and_plots(tmp_path):
     truth = _walkers(20)
     gt = tmp_path / "gt.txt"

@@ -153,9 +153,13 @@ def followed_objects(truth: Boxes, targets: dict[int, tuple[float, float]]) -> d
     return followed
 
 
-def pan_tilt_scores(truth: Boxes, trace: RunTrace) -> PanTiltScores:
+def pan_tilt_scores(truth: Boxes, trace: RunTrace, counted: Boxes | None = None) -> PanTiltScores:
     """The pan-tilt figures of a run against every ground-truth object (ignored ones included:
-    a mostly hidden person is still a real object)."""
+    a mostly hidden person is still a real object). A change of the followed object is explained
+    when the one followed before is no longer among the `counted` objects (the gt rows with
+    conf > 0; default: every object in `truth`): a person whose last sliver is at the scene's
+    edge, under the scene's visibility threshold, has left it."""
+    counted = truth if counted is None else counted
     frames = sorted(trace.windows)
     followed = followed_objects(truth, trace.targets)
     changes, unexplained, previous, last_seen = 0, 0, None, {}
@@ -166,7 +170,7 @@ def pan_tilt_scores(truth: Boxes, trace: RunTrace) -> PanTiltScores:
             continue
         if previous is not None and current != previous:
             changes += 1
-            still_there = previous in truth.get(frame, {})
+            still_there = previous in counted.get(frame, {})
             lost_for = (frame - last_seen[previous]) / trace.fps
             unexplained += still_there and lost_for < REASON_GAP_S
         previous, last_seen[current] = current, frame
@@ -221,7 +225,7 @@ def score_trace(
         "frames": len(frames),
         "in_view": _tracking_scores(view_truth, view_hypotheses, frames),
         "whole_scene": _tracking_scores(truth, hypotheses, frames),
-        "pan_tilt": asdict(pan_tilt_scores(metrics.every_object(gt), trace)),
+        "pan_tilt": asdict(pan_tilt_scores(metrics.every_object(gt), trace, truth)),
         "errors_in_view": error_classes.error_classes(
             view_truth, view_hypotheses, trace.detections, trace.tentative, frames
         ),
