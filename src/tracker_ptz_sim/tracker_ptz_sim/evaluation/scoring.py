@@ -9,8 +9,9 @@ boxes and the locked target. `score_trace` then gives
   shown only in part is ignored (`metrics.visible_in_view`); without masks, the objects whose box
   centre is in the view, their boxes clipped to it;
 - the pan-tilt figures (`PanTiltScores`): share of locked frames whose target lies on a real object,
-  how often the followed object changes (and how often without a reason: it neither left nor was
-  lost for `REASON_GAP_S`), centring error, time to the first lock and to re-acquire after a loss;
+  how often the followed object changes (and how often without a reason: it neither left -- is no
+  longer among the counted objects -- nor was lost for `REASON_GAP_S`), centring error, time to
+  the first lock and to re-acquire after a loss;
 - on request (`centres`), seed 004's scores on box centres for small objects
   (`centre_scores`: OSPA with c = 5 and 10 px, CLEAR MOT with a 10 px match), over the whole scene.
 """
