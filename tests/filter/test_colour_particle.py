@@ -31,6 +31,7 @@ from tracker_filter.colour_particle import (
     resample,
     static_noise_share,
 )
+from tracker_filter.foreground_cue import ForegroundCue, ForegroundMask
 from tracker_filter.region_covariance import (
     RIDGE,
     forstner_distances,
@@ -389,3 +390,89 @@ def test_the_coasting_velocity_is_the_mean_velocity_seen_from_the_first_frame():
     )
     velocities = [f.step(image).velocity for image in images[1:6]]
     np.testing.assert_allclose(f.seen_velocity, np.mean(velocities, axis=0))
+
+
+def displaced_scene(drop: int = 160, seed: int = 0):
+    """The textured scene's person walking 4 px/frame right behind a board (hidden wholly from
+    frame 31 on) who comes out `drop` px lower than they went in, far off the way they went;
+    images, foreground masks (the person's visible pixels) and true boxes."""
+    rng = np.random.default_rng(seed)
+    background = rng.integers(60, 160, size=(320, 320, 3), dtype=np.uint8)
+    images, masks, boxes = [], [], []
+    for k in range(60):
+        x = 10 + 4 * k
+        y = 30 + (drop if x >= 170 else 0)
+        image = background.copy()
+        person = np.zeros(image.shape[:2], bool)
+        image[y : y + 40, x : x + 30] = (40, 40, 200)
+        image[y + 40 : y + 80, x : x + 30] = (150, 60, 30)
+        person[y : y + 80, x : x + 30] = True
+        image[20:140, 130:200] = (150, 150, 150)  # the board
+        person[20:140, 130:200] = False
+        noise = rng.integers(-12, 13, size=image.shape)
+        images.append(np.clip(image.astype(int) + noise, 0, 255).astype(np.uint8))
+        masks.append(ForegroundMask.of(person))
+        boxes.append(np.array([x, y, 30.0, 80.0]))
+    return images, masks, boxes
+
+
+def test_probes_find_a_target_that_comes_out_off_its_way():
+    """Coasting, the cloud follows the way the person went; one who comes out 2 heights
+    lower is beyond its spread, and the filter stays 'hidden' while they walk on in sight.
+    Probes on the foreground mask near the cloud find them as soon as they are back in it."""
+    images, masks, truth = displaced_scene()
+    wide = replace(
+        COASTING,
+        sigma=tuple(16 * s for s in RECOMMENDED_SIGMA),
+        coast_noise=0.25,
+        size_noise=0.05,
+        foreground=ForegroundCue(power=15),
+    )
+
+    def found(config: ParticleFilterConfig, seed: int) -> int | None:
+        f = ColourParticleFilter(
+            images[0], truth[0], HistogramAppearance(), config, np.random.default_rng(seed)
+        )
+        frames = zip(images[1:], masks[1:], truth[1:], strict=True)
+        for k, (image, mask, box) in enumerate(frames, 1):
+            estimate = f.step(image, foreground=mask)
+            if k > 40 and not estimate.hidden and iou(estimate.box, box) > 0.5:
+                return k
+        return None
+
+    for seed in range(5):
+        # the person is in sight again from frame 40
+        with_probes = found(replace(wide, probes=50, probe_reach=2.5), seed)
+        without = found(wide, seed)
+        assert with_probes is not None and with_probes <= 42
+        # without, the cloud's spread grows until a stray particle reaches them, 7-14 frames on
+        assert without is None or without >= with_probes + 5
+
+
+def test_a_hidden_target_reappears_only_where_the_mask_moves():
+    """With `reappear_in_mask`, what ends a hidden spell must be in the detector's mask: a
+    look-alike that does not move (here the person's own pixels with an empty mask, as a poster
+    of them would be) leaves the target hidden; the same pixels in the mask bring it back."""
+    images, masks, truth = displaced_scene(drop=0)
+    config = replace(
+        COASTING,
+        sigma=tuple(16 * s for s in RECOMMENDED_SIGMA),
+        coast_noise=0.25,
+        foreground=ForegroundCue(power=15),
+        reappear_in_mask=True,
+    )
+    empty = ForegroundMask.of(np.zeros(images[0].shape[:2], np.uint8))
+
+    def hidden_after_the_board(config: ParticleFilterConfig, moving: bool) -> list[bool]:
+        f = ColourParticleFilter(
+            images[0], truth[0], HistogramAppearance(), config, np.random.default_rng(0)
+        )
+        for image, mask in zip(images[1:40], masks[1:40], strict=True):
+            f.step(image, foreground=mask)
+        assert f.estimate.hidden
+        after = zip(images[40:50], masks[40:50], strict=True)
+        return [f.step(image, foreground=mask if moving else empty).hidden for image, mask in after]
+
+    assert all(hidden_after_the_board(config, moving=False))
+    assert not all(hidden_after_the_board(config, moving=True))
+    assert not all(hidden_after_the_board(replace(config, reappear_in_mask=False), moving=False))

@@ -26,7 +26,14 @@ hidden, until a particle finds the target again. `coast_noise` c scales that noi
 and the particles' velocities about the velocity seen to c times their spread when the target
 went out of sight: a sigma wide enough to follow a walker's stride and perspective spreads the
 cloud in a second of coasting over a region where a passer-by or the background outscores the
-target when it comes out.
+target when it comes out. Given the motion detector's foreground mask (below), two more switches:
+`reappear_in_mask` lets only a box the mask holds end a hidden spell (the occluder, or the
+street behind it, may match the reference, but does not move), and `probes` P > 0 adds, on each
+hidden frame, up to P particles at the target's size where the mask holds such a box within
+`probe_reach` x its height of the cloud's centre (the best of 8 P random places; the mixture
+proposal of Okuma et al.'s boosted particle filter, with the mask as the detector): someone who
+comes out off the way they went in is found when they are back in sight, not when the cloud's
+spread has grown to reach them. Probes that find nothing are dropped.
 
 Scale (not the thesis's; off by default): `foreground` (`foreground_cue`) multiplies each weight by
 how well the particle's box bounds the motion detector's foreground mask, on the frames whose step
@@ -78,6 +85,7 @@ STATE = ("x", "y", "w", "h", "vx", "vy", "vw", "vh")
 RECOMMENDED_SIGMA = (0.5, 0.5, 0.125, 0.125, 0.25, 0.25, 0.0002, 0.0002)
 MIN_SIDE = 2.0  # px: a particle's rectangle never shrinks below this
 LEVEL_GAIN = 0.1  # of the tracked level's running mean, per frame seen
+PROBE_CANDIDATES = 8  # boxes drawn per probe kept
 
 
 class Resampling(StrEnum):
@@ -120,6 +128,12 @@ class ParticleFilterConfig:
     # not the thesis's: the cloud's randomness while the target is hidden, as a share of what it
     # is while seen (the noise std, the velocities' spread)
     coast_noise: float = 1.0
+    # not the thesis's: boxes proposed on each hidden frame where the foreground mask moves near
+    # the coasting cloud (0 = off), within `probe_reach` x the target's height of its centre
+    probes: int = 0
+    probe_reach: float = 1.0
+    # not the thesis's: a hidden target is back only in a box the foreground mask holds
+    reappear_in_mask: bool = False
 
     def problems(self) -> list[str]:
         """What is wrong with these values (empty when usable)."""
@@ -135,6 +149,8 @@ class ParticleFilterConfig:
             "height_spread must be >= 0": math.isfinite(self.height_spread)
             and self.height_spread >= 0.0,
             "coast_noise must be in [0, 1]": 0.0 <= self.coast_noise <= 1.0,
+            "probes must be >= 0": self.probes >= 0,
+            "probe_reach must be > 0": math.isfinite(self.probe_reach) and self.probe_reach > 0,
         }
         return [message for message, ok in checks.items() if not ok]
 
@@ -187,16 +203,18 @@ def propagate(
     return moved
 
 
-def resample(weights: np.ndarray, rule: Resampling, rng: np.random.Generator) -> np.ndarray:
-    """Indices of the N particles kept, drawn with probability proportional to `weights`:
-    multinomial (one uniform draw per particle through the inverse CDF) or systematic (one draw,
-    N equally spaced points)."""
-    n = len(weights)
+def resample(
+    weights: np.ndarray, rule: Resampling, rng: np.random.Generator, count: int | None = None
+) -> np.ndarray:
+    """Indices of the `count` particles kept (default: as many as there are weights), drawn
+    with probability proportional to `weights`: multinomial (one uniform draw per particle
+    through the inverse CDF) or systematic (one draw, `count` equally spaced points)."""
+    n = len(weights) if count is None else count
     cdf = np.cumsum(weights)
     cdf /= cdf[-1]
     multinomial = rule is Resampling.MULTINOMIAL
     points = rng.random(n) if multinomial else (rng.random() + np.arange(n)) / n
-    return np.minimum(np.searchsorted(cdf, points, side="right"), n - 1)
+    return np.minimum(np.searchsorted(cdf, points, side="right"), len(weights) - 1)
 
 
 class Appearance(Protocol):
@@ -440,9 +458,14 @@ class ColourParticleFilter:
         # the size moves only where the mask can hold it (colour alone lets it shrink or grow)
         size_noise = self.config.size_noise if mask is not None else 0.0
         particles = propagate(self.particles, self.noise(), self.rng, size_noise)
+        if self.estimate.hidden and mask is not None and self.config.probes > 0:
+            particles = np.vstack([particles, self._probes(particles, mask, view)])
         in_image = view.to_image(particles[:, :4])
         raw = self.appearance.similarities(image, in_image)
-        hidden = self._hidden(float(raw.max()))
+        hidden = self._hidden(float(self._reappearing(raw, mask, in_image).max()))
+        if hidden and len(particles) > self.config.particles:  # no probe found the target
+            kept = self.config.particles
+            particles, in_image, raw = particles[:kept], in_image[:kept], raw[:kept]
         # hidden: the scores say nothing about the target, every particle counts the same
         weights = np.ones(len(raw)) if hidden else corrected_weights(raw, self.config)
         if mask is not None and not hidden:
@@ -472,10 +495,47 @@ class ColourParticleFilter:
             gain = max(LEVEL_GAIN, 1.0 / self.frames_seen)
             self.seen_velocity += gain * (state[4:] - self.seen_velocity)
         self.estimate = ParticleEstimate(state[:4].copy(), state[4:].copy(), similarity, hidden)
-        self.particles = (
-            particles if hidden else particles[resample(weights, self.config.resampling, self.rng)]
-        )
+        if not hidden:
+            drawn = resample(weights, self.config.resampling, self.rng, self.config.particles)
+            particles = particles[drawn]
+        self.particles = particles
         return self.estimate
+
+    def _reappearing(
+        self, raw: np.ndarray, mask: ForegroundMask | None, boxes: np.ndarray
+    ) -> np.ndarray:
+        """The scores that may end a hidden spell: with `reappear_in_mask`, only those of boxes
+        the foreground mask holds (the cue's `min_best`); the board or wall in front of the
+        target, or the street behind it, can match the reference well enough, but never moves."""
+        if not (self.config.reappear_in_mask and self.estimate.hidden and mask is not None):
+            return raw
+        cue = self.config.foreground
+        held: np.ndarray = np.where(cue.scores(mask, boxes) >= cue.min_best, raw, 0.0)
+        return held
+
+    def _probes(
+        self, particles: np.ndarray, foreground: ForegroundMask, view: ImageView
+    ) -> np.ndarray:
+        """Up to `probes` particles where the foreground mask holds a box of the target's size
+        (F_beta of the foreground cue at least its `min_best`) within `probe_reach` heights of
+        the coasting cloud's centre: a target that comes out off its dead reckoning is found
+        there, where the cloud's own spread would take many frames to reach."""
+        guess = particles.mean(axis=0)
+        size = guess[2:4]
+        count = PROBE_CANDIDATES * self.config.probes
+        angle = self.rng.uniform(0.0, 2.0 * np.pi, count)
+        radius = self.config.probe_reach * size[1] * np.sqrt(self.rng.random(count))
+        directions = np.column_stack([np.cos(angle), np.sin(angle)])
+        centres = guess[:2] + size / 2 + radius[:, None] * directions
+        boxes = np.column_stack([centres - size / 2, np.tile(size, (count, 1))])
+        cue = self.config.foreground
+        scores = cue.scores(foreground, view.to_image(boxes))
+        best = np.argsort(-scores, kind="stable")[: self.config.probes]
+        best = best[scores[best] >= cue.min_best]
+        probes = np.zeros((len(best), len(STATE)))
+        probes[:, :4] = boxes[best]
+        probes[:, 4:] = self.seen_velocity
+        return probes
 
     def _hidden(self, best: float) -> bool:
         """Whether the best score says the target is occluded; else it updates the level."""

@@ -375,6 +375,26 @@ PARAMETERS: tuple[ParamSpec, ...] = (
         1.0,
     ),
     ParamSpec(
+        "probes",
+        0,
+        "particles added on each hidden frame where the motion mask holds a box of the "
+        "target's size near the coasting cloud (0: off; not the thesis's)",
+        0,
+        100000,
+    ),
+    ParamSpec(
+        "probe_reach",
+        1.0,
+        "x the target's height: how far from the coasting cloud's centre probes are placed",
+        0.01,
+        100.0,
+    ),
+    ParamSpec(
+        "reappear_in_mask",
+        False,
+        "a hidden target is back only in a box the motion mask holds (not the thesis's)",
+    ),
+    ParamSpec(
         "correction",
         _C.correction.value,
         "weight correction (Ext 1)",
@@ -434,6 +454,9 @@ def build(values: Mapping[str, Any], first_id: int = 1) -> ColourParticleTracker
         foreground=ForegroundCue(power=values["foreground_power"]),
         height_spread=values["height_spread"],
         coast_noise=values["coast_noise"],
+        probes=values["probes"],
+        probe_reach=values["probe_reach"],
+        reappear_in_mask=values["reappear_in_mask"],
     )
     return ColourParticleTracker(
         config,
