@@ -445,7 +445,7 @@ def test_probes_find_a_target_that_comes_out_off_its_way():
         with_probes = found(replace(wide, probes=50, probe_reach=2.5), seed)
         without = found(wide, seed)
         assert with_probes is not None and with_probes <= 42
-        # without, the cloud's spread grows until a stray particle reaches them, 7-14 frames on
+        # without, the cloud's spread grows until a stray particle reaches them, 8-14 frames later
         assert without is None or without >= with_probes + 5
 
 
