@@ -416,18 +416,21 @@ def displaced_scene(drop: int = 160, seed: int = 0):
     return images, masks, boxes
 
 
+#: the noise that follows walkers, a quarter of it while hidden, and the foreground cue on
+QUIET_COASTING_WITH_MASK = replace(
+    COASTING,
+    sigma=tuple(16 * s for s in RECOMMENDED_SIGMA),
+    coast_noise=0.25,
+    foreground=ForegroundCue(power=15),
+)
+
+
 def test_probes_find_a_target_that_comes_out_off_its_way():
     """Coasting, the cloud follows the way the person went; one who comes out 2 heights
     lower is beyond its spread, and the filter stays 'hidden' while they walk on in sight.
     Probes on the foreground mask near the cloud find them as soon as they are back in it."""
     images, masks, truth = displaced_scene()
-    wide = replace(
-        COASTING,
-        sigma=tuple(16 * s for s in RECOMMENDED_SIGMA),
-        coast_noise=0.25,
-        size_noise=0.05,
-        foreground=ForegroundCue(power=15),
-    )
+    wide = replace(QUIET_COASTING_WITH_MASK, size_noise=0.05)
 
     def found(config: ParticleFilterConfig, seed: int) -> int | None:
         f = ColourParticleFilter(
@@ -454,13 +457,7 @@ def test_a_hidden_target_reappears_only_where_the_mask_moves():
     look-alike that does not move (here the person's own pixels with an empty mask, as a poster
     of them would be) leaves the target hidden; the same pixels in the mask bring it back."""
     images, masks, truth = displaced_scene(drop=0)
-    config = replace(
-        COASTING,
-        sigma=tuple(16 * s for s in RECOMMENDED_SIGMA),
-        coast_noise=0.25,
-        foreground=ForegroundCue(power=15),
-        reappear_in_mask=True,
-    )
+    config = replace(QUIET_COASTING_WITH_MASK, reappear_in_mask=True)
     empty = ForegroundMask.of(np.zeros(images[0].shape[:2], np.uint8))
 
     def hidden_after_the_board(config: ParticleFilterConfig, moving: bool) -> list[bool]:
