@@ -41,11 +41,13 @@ is given one, and on those frames `size_noise` s > 0 also scales each particle's
 by exp(N(0, s^2)) about its centre. A colour histogram alone cannot tell a box shrunk inside the
 person from the right one, so the thesis keeps the size nearly fixed (0.125 px per frame, which
 Ext 2 turns off while the match is good); with the mask to hold it, the size can follow a
-walker's perspective and stride. The mask loses legs on grey ground and holds two people
-walking together: `height_spread` > 0 then also multiplies each weight by a prior on the box's
-height, exp(-(ln(h / h_expected) / spread)^2 / 2), where h_expected is the height the target
-has where the box stands (`object_scale.ExpectedHeight`: the ground line learned from the
-tracks, scaled through the target's own boxes), given to each step.
+walker's perspective and stride; with the cue's `fit` > 0 the reported box is also pulled
+toward the box of the mask's blobs it holds (the cloud is not). The mask loses legs on grey
+ground and holds two people walking together: `height_spread` > 0 then also multiplies each
+weight by a prior on the box's height, exp(-(ln(h / h_expected) / spread)^2 / 2), where
+h_expected is the height the target has where the box stands (`object_scale.ExpectedHeight`:
+the ground line learned from the tracks, scaled through the target's own boxes), given to each
+step.
 
 The reference is taken from the start rectangle and never updated, as in the thesis. Every random
 draw comes from the filter's own `numpy.random.Generator`, so a run is reproducible.
@@ -398,6 +400,13 @@ class ImageView:
         out[:, 1] -= self.origin[1] * self.scale
         return out
 
+    def to_scene(self, boxes: np.ndarray) -> np.ndarray:
+        """Boxes (N, 4) x, y, w, h from image px to scene px (`to_image`'s inverse)."""
+        out = boxes / self.scale
+        out[:, 0] += self.origin[0]
+        out[:, 1] += self.origin[1]
+        return out
+
 
 class ColourParticleFilter:
     """One target's filter: started on a rectangle of an image, stepped once per frame. Boxes and
@@ -494,7 +503,10 @@ class ColourParticleFilter:
             self.frames_seen += 1
             gain = max(LEVEL_GAIN, 1.0 / self.frames_seen)
             self.seen_velocity += gain * (state[4:] - self.seen_velocity)
-        self.estimate = ParticleEstimate(state[:4].copy(), state[4:].copy(), similarity, hidden)
+        box = state[:4].copy()
+        if mask is not None and not hidden and cue.fit > 0:
+            box = view.to_scene(cue.fitted(mask, view.to_image(box[None])[0])[None])[0]
+        self.estimate = ParticleEstimate(box, state[4:].copy(), similarity, hidden)
         if not hidden:
             drawn = resample(weights, self.config.resampling, self.rng, self.config.particles)
             particles = particles[drawn]

@@ -20,6 +20,14 @@ stopped and was learned into the background, a frame where the detector found no
 cue is then left out rather than pulling the cloud onto whatever moves nearby. Box sums come from
 one integral image per frame (`ForegroundMask`, shared by every target's filter), four lookups
 per box.
+
+The fit (`fit` > 0): the weighted mean of a particle cloud is a blur of boxes, a few px off the
+person on every side. The mask's blobs (8-connected) in the estimate's surroundings G that are
+the estimate's (at least `FIT_MIN_INSIDE` of a blob's pixels inside it, or at least half of the
+foreground inside it in the blob) bound the person more tightly: their box, clipped to G, is
+blended into the reported box, `fit` of the way, when it overlaps the estimate by IoU >=
+`fit_min_iou` (else it is someone else's blob, or legs the mask lost). Only the report moves:
+pulling the cloud onto the blobs as well drew it onto people walking beside the target.
 """
 
 from __future__ import annotations
@@ -30,20 +38,26 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
+from tracker_msgs_py.geometry import iou_matrix
 from tracker_msgs_py.params import check_config
+
+#: a blob is the estimate's when at least this share of its pixels lies inside it
+FIT_MIN_INSIDE = 0.3
 
 
 @dataclass(frozen=True, eq=False)
 class ForegroundMask:
-    """One frame's foreground mask as its (H + 1, W + 1) integral image: built once per frame,
-    read by every filter that weighs boxes against it."""
+    """One frame's foreground mask, 0/1, and its (H + 1, W + 1) integral image: built once per
+    frame, read by every filter that weighs boxes against it."""
 
+    mask: np.ndarray
     integral: np.ndarray
 
     @classmethod
     def of(cls, mask: np.ndarray) -> ForegroundMask:
         """From a (H, W) mask, nonzero = foreground (0/1 or 0/255)."""
-        return cls(cv2.integral((np.asarray(mask) > 0).astype(np.uint8)))
+        binary = (np.asarray(mask) > 0).astype(np.uint8)
+        return cls(binary, cv2.integral(binary))
 
     @property
     def shape(self) -> tuple[int, int]:
@@ -60,6 +74,8 @@ class ForegroundCue:
     margin: float = 0.3
     floor: float = 0.05
     min_best: float = 0.2
+    fit: float = 0.0  # the blobs' box's share in the reported box (0 = off)
+    fit_min_iou: float = 0.4
 
     def problems(self) -> list[str]:
         """What is wrong with these values (empty when usable)."""
@@ -69,6 +85,8 @@ class ForegroundCue:
             "foreground margin must be > 0": math.isfinite(self.margin) and self.margin > 0,
             "foreground floor must be in (0, 1]": 0.0 < self.floor <= 1.0,
             "foreground min_best must be in [0, 1]": 0.0 <= self.min_best <= 1.0,
+            "foreground fit must be in [0, 1]": 0.0 <= self.fit <= 1.0,
+            "foreground fit_min_iou must be in [0, 1]": 0.0 <= self.fit_min_iou <= 1.0,
         }
         return [message for message, ok in checks.items() if not ok]
 
@@ -105,6 +123,47 @@ class ForegroundCue:
             return None
         factor: np.ndarray = np.maximum(f, self.floor) ** self.power
         return factor
+
+    def fitted(self, foreground: ForegroundMask, box: np.ndarray) -> np.ndarray:
+        """`box` (x, y, w, h in the mask's px) moved `fit` of the way to the box of its blobs
+        (module doc); `box` itself when the fit is off or no blob of it overlaps it enough."""
+        box = np.asarray(box, dtype=float)
+        if self.fit <= 0:
+            return box
+        blobs = blob_box(foreground.mask, box, self.margin)
+        if blobs is None or iou_matrix(box, blobs)[0, 0] < self.fit_min_iou:
+            return box
+        out: np.ndarray = box + self.fit * (blobs - box)
+        return out
+
+
+def blob_box(mask: np.ndarray, box: np.ndarray, margin: float) -> np.ndarray | None:
+    """The box (x, y, w, h) of the blobs of the 0/1 `mask` that are `box`'s, within `box` grown
+    by `margin` x its size per side and clipped to it (module doc); None when there are none."""
+    height, width = mask.shape
+    x, y, w, h = box
+    gx0, gy0 = max(0, math.floor(x - margin * w)), max(0, math.floor(y - margin * h))
+    gx1 = min(width, math.ceil(x + w + margin * w))
+    gy1 = min(height, math.ceil(y + h + margin * h))
+    if gx1 - gx0 < 2 or gy1 - gy0 < 2:
+        return None
+    count, labels, stats, _ = cv2.connectedComponentsWithStats(
+        mask[gy0:gy1, gx0:gx1], connectivity=8
+    )
+    bx0, by0 = max(0, int(round(x)) - gx0), max(0, int(round(y)) - gy0)
+    bx1, by1 = max(bx0, int(round(x + w)) - gx0), max(by0, int(round(y + h)) - gy0)
+    inner = labels[by0:by1, bx0:bx1]
+    inside = np.bincount(inner.ravel(), minlength=count)[1:]
+    areas = stats[1:, cv2.CC_STAT_AREA]
+    own = (inside >= FIT_MIN_INSIDE * areas) | (inside >= 0.5 * inside.sum())
+    own &= inside > 0
+    if not own.any():
+        return None
+    kept = stats[1:][own]
+    x0, y0 = kept[:, cv2.CC_STAT_LEFT].min(), kept[:, cv2.CC_STAT_TOP].min()
+    x1 = (kept[:, cv2.CC_STAT_LEFT] + kept[:, cv2.CC_STAT_WIDTH]).max()
+    y1 = (kept[:, cv2.CC_STAT_TOP] + kept[:, cv2.CC_STAT_HEIGHT]).max()
+    return np.array([gx0 + x0, gy0 + y0, x1 - x0, y1 - y0], dtype=float)
 
 
 def box_sums(integral: np.ndarray, boxes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -25,7 +25,9 @@ surveillance graph's detector, run over the scene, with the box's size free to m
 and both cues with a prior on the box's height where it stands (`height_spread`: the ground line
 the surveillance graph's tracker learns over the scene, by each frame, scaled through the person's
 start box), that with 16 x the noise, and that coasting with a quarter of its randomness while the
-person is hidden (`coast_noise`; the colour_particles tracker's defaults). With --runs R every
+person is hidden (`coast_noise`), that found again where the mask moves (`probes`,
+`reappear_in_mask`), and the last two with the reported box pulled half-way to the box of the
+mask's blobs it holds (`foreground_fit` 0.5). With --runs R every
 particle filter runs R times per person with different seeds (person id + 1000 r) and the table
 gives the mean over runs and sigma_Q, the standard deviation of a run's Q over the runs (the
 thesis's 10 runs). --sweep runs instead the best particle filter with 100 / 500 / 750 / 2000
@@ -71,6 +73,7 @@ from tracker_filter.object_scale import HeightByRow
 from tracker_filter.observation import Observation
 from tracker_filter.particle_tracker import (
     COAST_NOISE,
+    FOREGROUND_FIT,
     FOREGROUND_POWER,
     HEIGHT_SPREAD,
     NOISE_SCALE,
@@ -171,6 +174,10 @@ SHIPPED = replace(NOISIER, coast_noise=COAST_NOISE)
 #: passers-by), back only in the mask; not the colour_particles tracker's defaults (in the graph
 #: the probes made `occluded` worse)
 PROBING = replace(SHIPPED, probes=100, probe_reach=1.0, reappear_in_mask=True)
+#: ... the reported box half-way to the box of the mask's blobs it holds (`foreground_fit`; not
+#: the colour_particles tracker's default)
+FITTED = replace(SHIPPED, foreground=replace(SHIPPED.foreground, fit=FOREGROUND_FIT))
+PROBING_FITTED = replace(PROBING, foreground=FITTED.foreground)
 
 #: What is compared: one line per variant.
 VARIANTS: dict[str, Variant | ParticleVariant] = {
@@ -222,7 +229,7 @@ VARIANTS: dict[str, Variant | ParticleVariant] = {
             lambda: HistogramAppearance(background_weighting=True, contrast=1.0), NOISIER
         )
     ),
-    # ... coasting with a quarter of that randomness (the colour_particles defaults)
+    # ... coasting with a quarter of that randomness
     (
         "particles, final, 16 x sigma, background-weighted, quiet coasting, contrast, "
         "foreground, height"
@@ -235,6 +242,19 @@ VARIANTS: dict[str, Variant | ParticleVariant] = {
         "foreground, height, probes"
     ): ParticleVariant(
         lambda: HistogramAppearance(background_weighting=True, contrast=1.0), PROBING
+    ),
+    # the last two with the reported box pulled toward the mask's blobs
+    (
+        "particles, final, 16 x sigma, background-weighted, quiet coasting, contrast, "
+        "foreground, height, fitted"
+    ): ParticleVariant(
+        lambda: HistogramAppearance(background_weighting=True, contrast=1.0), FITTED
+    ),
+    (
+        "particles, final, 16 x sigma, background-weighted, quiet coasting, contrast, "
+        "foreground, height, probes, fitted"
+    ): ParticleVariant(
+        lambda: HistogramAppearance(background_weighting=True, contrast=1.0), PROBING_FITTED
     ),
 }
 
