@@ -383,6 +383,13 @@ class ParticleEstimate:
     velocity: np.ndarray  # vx, vy, vw, vh (px per frame)
     similarity: float  # of the estimate's rectangle to the reference
     hidden: bool = False  # taken as occluded this frame: the estimate is the coasting cloud's mean
+    # the cloud's own box when `box` was fitted to the foreground mask (None: `box` is that)
+    unfitted: np.ndarray | None = None
+
+    @property
+    def cloud_box(self) -> np.ndarray:
+        """The particles' estimate, before any fit to the mask."""
+        return self.box if self.unfitted is None else self.unfitted
 
 
 @dataclass(frozen=True)
@@ -503,10 +510,11 @@ class ColourParticleFilter:
             self.frames_seen += 1
             gain = max(LEVEL_GAIN, 1.0 / self.frames_seen)
             self.seen_velocity += gain * (state[4:] - self.seen_velocity)
-        box = state[:4].copy()
+        box, unfitted = state[:4].copy(), None
         if mask is not None and not hidden and cue.fit > 0:
+            unfitted = box
             box = view.to_scene(cue.fitted(mask, view.to_image(box[None])[0])[None])[0]
-        self.estimate = ParticleEstimate(box, state[4:].copy(), similarity, hidden)
+        self.estimate = ParticleEstimate(box, state[4:].copy(), similarity, hidden, unfitted)
         if not hidden:
             drawn = resample(weights, self.config.resampling, self.rng, self.config.particles)
             particles = particles[drawn]

@@ -27,7 +27,8 @@ the surveillance graph's tracker learns over the scene, by each frame, scaled th
 start box), that with 16 x the noise, and that coasting with a quarter of its randomness while the
 person is hidden (`coast_noise`), that found again where the mask moves (`probes`,
 `reappear_in_mask`), and the last two with the reported box pulled half-way to the box of the
-mask's blobs it holds (`foreground_fit` 0.5). With --runs R every
+mask's blobs it holds (`foreground_fit` 0.5; the first of them the colour_particles tracker's
+defaults). With --runs R every
 particle filter runs R times per person with different seeds (person id + 1000 r) and the table
 gives the mean over runs and sigma_Q, the standard deviation of a run's Q over the runs (the
 thesis's 10 runs). --sweep runs instead the best particle filter with 100 / 500 / 750 / 2000
@@ -174,8 +175,8 @@ SHIPPED = replace(NOISIER, coast_noise=COAST_NOISE)
 #: passers-by), back only in the mask; not the colour_particles tracker's defaults (in the graph
 #: the probes made `occluded` worse)
 PROBING = replace(SHIPPED, probes=100, probe_reach=1.0, reappear_in_mask=True)
-#: ... the reported box half-way to the box of the mask's blobs it holds (`foreground_fit`; not
-#: the colour_particles tracker's default)
+#: ... the reported box half-way to the box of the mask's blobs it holds (`foreground_fit`; the
+#: colour_particles tracker's defaults since 2026-11-27)
 FITTED = replace(SHIPPED, foreground=replace(SHIPPED.foreground, fit=FOREGROUND_FIT))
 PROBING_FITTED = replace(PROBING, foreground=FITTED.foreground)
 
