@@ -9,7 +9,10 @@ A `tracking.Tracker` that needs the camera image and window. Each frame:
   drawn rectangle (the select-target service);
 - a target overlapped by a detection reports the detection's box (the filter's box keeps its
   start size unless the foreground cue, `foreground_power` > 0 with `size_noise`, lets the size
-  follow the detector's motion mask, which the tracker then also needs);
+  follow the detector's motion mask, which the tracker then also needs); any other reports the
+  filter's box, moved `foreground_fit` of the way to the box of the mask's blobs it holds, while
+  whether a detection overlaps it is judged on the filter's own box (the fitted one is drawn
+  from the mask the detections come from);
 - with `height_spread` > 0 each filter's particles are also weighed by how close their box's
   height is to the target's height where the box stands: the ground line (height against the
   row of the feet) learned from the boxes of confirmed targets a detection overlapped, scaled
