@@ -180,6 +180,12 @@ PROBING = replace(SHIPPED, probes=100, probe_reach=1.0, reappear_in_mask=True)
 FITTED = replace(SHIPPED, foreground=replace(SHIPPED.foreground, fit=FOREGROUND_FIT))
 PROBING_FITTED = replace(PROBING, foreground=FITTED.foreground)
 
+
+def contrasted() -> HistogramAppearance:
+    """The background-weighted histogram with the contrast scale cue (`contrast` 1)."""
+    return HistogramAppearance(background_weighting=True, contrast=1.0)
+
+
 #: What is compared: one line per variant.
 VARIANTS: dict[str, Variant | ParticleVariant] = {
     "camshift, thesis histogram": Variant(THESIS, None),
@@ -200,13 +206,13 @@ VARIANTS: dict[str, Variant | ParticleVariant] = {
     "particles, final, 8 x sigma, background-weighted": ParticleVariant(
         lambda: HistogramAppearance(background_weighting=True), WIDE
     ),
-    # ... and coasting through occlusions (the colour_particles tracker's defaults)
+    # ... and coasting through occlusions
     "particles, final, 8 x sigma, background-weighted, coasting": ParticleVariant(
         lambda: HistogramAppearance(background_weighting=True), COASTING
     ),
     # ... with a scale cue: the ring around a box must not look like the person
     "particles, final, 8 x sigma, background-weighted, coasting, contrast": ParticleVariant(
-        lambda: HistogramAppearance(background_weighting=True, contrast=1.0), COASTING
+        contrasted, COASTING
     ),
     # ... or with the motion detector's mask as the scale cue, the size free to follow it
     "particles, final, 8 x sigma, background-weighted, coasting, foreground": ParticleVariant(
@@ -214,49 +220,35 @@ VARIANTS: dict[str, Variant | ParticleVariant] = {
     ),
     # ... and both cues
     "particles, final, 8 x sigma, background-weighted, coasting, contrast, foreground": (
-        ParticleVariant(
-            lambda: HistogramAppearance(background_weighting=True, contrast=1.0), FOREGROUND
-        )
+        ParticleVariant(contrasted, FOREGROUND)
     ),
     # ... and a prior on the box's height where it stands
     "particles, final, 8 x sigma, background-weighted, coasting, contrast, foreground, height": (
-        ParticleVariant(
-            lambda: HistogramAppearance(background_weighting=True, contrast=1.0), HEIGHT
-        )
+        ParticleVariant(contrasted, HEIGHT)
     ),
     # ... with twice the noise
     "particles, final, 16 x sigma, background-weighted, coasting, contrast, foreground, height": (
-        ParticleVariant(
-            lambda: HistogramAppearance(background_weighting=True, contrast=1.0), NOISIER
-        )
+        ParticleVariant(contrasted, NOISIER)
     ),
     # ... coasting with a quarter of that randomness
     (
         "particles, final, 16 x sigma, background-weighted, quiet coasting, contrast, "
         "foreground, height"
-    ): ParticleVariant(
-        lambda: HistogramAppearance(background_weighting=True, contrast=1.0), SHIPPED
-    ),
+    ): ParticleVariant(contrasted, SHIPPED),
     # ... and found again where the detector's mask moves (probes; back only in the mask)
     (
         "particles, final, 16 x sigma, background-weighted, quiet coasting, contrast, "
         "foreground, height, probes"
-    ): ParticleVariant(
-        lambda: HistogramAppearance(background_weighting=True, contrast=1.0), PROBING
-    ),
+    ): ParticleVariant(contrasted, PROBING),
     # the last two with the reported box pulled toward the mask's blobs
     (
         "particles, final, 16 x sigma, background-weighted, quiet coasting, contrast, "
         "foreground, height, fitted"
-    ): ParticleVariant(
-        lambda: HistogramAppearance(background_weighting=True, contrast=1.0), FITTED
-    ),
+    ): ParticleVariant(contrasted, FITTED),
     (
         "particles, final, 16 x sigma, background-weighted, quiet coasting, contrast, "
         "foreground, height, probes, fitted"
-    ): ParticleVariant(
-        lambda: HistogramAppearance(background_weighting=True, contrast=1.0), PROBING_FITTED
-    ),
+    ): ParticleVariant(contrasted, PROBING_FITTED),
 }
 
 
