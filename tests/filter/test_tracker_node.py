@@ -322,3 +322,49 @@ def test_executable_exits_cleanly_on_sigint_and_with_2_on_bad_parameters():
         timeout=20,
     )
     assert bad.returncode == 2 and "alpha" in bad.stderr
+
+
+def test_track_messages_carry_every_field_of_the_track_set():
+    import numpy as np
+    from std_msgs.msg import Header
+
+    from tracker_filter.tracker_node import track_to_msg, tracks_to_msg
+    from tracker_filter.tracking import TrackSet
+
+    rng = np.random.default_rng(4)
+    count, layout = 3, ("x", "y", "w", "h")  # a layout without velocity
+    covariances = rng.normal(size=(count, 4, 4))
+    tracks = TrackSet(
+        time=2.0,
+        state_layout=layout,
+        ids=np.array([7, 9, 12]),
+        status=np.array([0, 1, 2]),
+        means=rng.normal(size=(count, 4)) * 100,
+        covariances=covariances,
+        bboxes=np.array([[1.0, 2.0, 3.0, 4.0], [5.0, 6.0, -1.0, 8.0], [0.5, 0.5, 9.0, 0.0]]),
+        ages=np.array([0.0, 1.5, 3.25]),
+        hits=np.array([1, 4, 9]),
+        misses=np.array([0, 0, 2]),
+        existence=np.array([1.0, 0.5, 0.25]),
+        areas=np.zeros(count),
+        detections=np.array([0, 1, -1]),
+    )
+    msg = tracks_to_msg(tracks, Header(frame_id="scene"))
+    assert msg.header.frame_id == "scene" and len(msg.tracks) == count
+    for i, (track, report) in enumerate(zip(msg.tracks, tracks, strict=True)):
+        assert track == track_to_msg(tracks, i)
+        assert (track.id, track.status) == (report.id, int(report.status))
+        assert (track.x, track.y) == tuple(report.position)
+        assert (track.vx, track.vy) == (0.0, 0.0)
+        assert list(track.position_covariance) == list(report.position_covariance.reshape(-1))
+        assert track.state_layout == "x y w h"
+        assert list(track.state) == list(report.mean)
+        assert list(track.covariance) == list(report.covariance.reshape(-1))
+        box = (track.bbox.x, track.bbox.y, track.bbox.width, track.bbox.height)
+        assert box == tuple(max(v, 0.0) if k >= 2 else v for k, v in enumerate(report.bbox))
+        assert (track.existence, track.age) == (report.existence, report.age)
+        assert (track.hits, track.consecutive_misses) == (report.hits, report.consecutive_misses)
+    # no tracks: ids, status, means, covariances, bboxes, ages, hits, misses, existence, ...
+    shapes = ((), (), (4,), (4, 4), (4,), (), (), (), (), (), ())
+    empty = TrackSet(0.0, layout, *(np.zeros((0,) + shape) for shape in shapes))
+    assert tracks_to_msg(empty, Header()).tracks == []

@@ -66,31 +66,70 @@ def detections_from_msg(msg: BlobArray) -> Detections:
 
 
 def track_to_msg(tracks: TrackSet, i: int) -> Track:
-    mean, covariance, layout = tracks.means[i], tracks.covariances[i], tracks.layout
-    x, y = (float(v) for v in layout.positions(mean))
-    vx, vy = (float(v) for v in layout.velocities(mean))
-    bx, by, bw, bh = (float(v) for v in tracks.bboxes[i])
-    return Track(
-        id=int(tracks.ids[i]),
-        status=int(tracks.status[i]),
-        x=x,
-        y=y,
-        vx=vx,
-        vy=vy,
-        position_covariance=layout.position_covariances(covariance).reshape(-1),
-        state_layout=layout.text,
-        state=float64_sequence(mean),
-        covariance=float64_sequence(covariance),
-        bbox=Rect(x=bx, y=by, width=max(bw, 0.0), height=max(bh, 0.0)),
-        existence=float(tracks.existence[i]),
-        age=float(tracks.ages[i]),
-        hits=int(tracks.hits[i]),
-        consecutive_misses=int(tracks.misses[i]),
+    return tracks_to_msgs(tracks, slice(i, i + 1))[0]
+
+
+def tracks_to_msgs(tracks: TrackSet, which: slice = slice(None)) -> list[Track]:
+    """Track messages of the tracks `which` selects. The fields are taken out of the arrays for
+    all of them at once: per track, numpy scalar access cost ~8x the message's construction."""
+    means, covariances, layout = tracks.means[which], tracks.covariances[which], tracks.layout
+    positions = layout.positions(means).tolist()
+    velocities = layout.velocities(means).tolist()
+    position_covariances = layout.position_covariances(covariances).reshape(-1, 4)
+    boxes = tracks.bboxes[which].copy()
+    boxes[:, 2:] = np.maximum(boxes[:, 2:], 0.0)
+    columns = zip(
+        tracks.ids[which].tolist(),
+        tracks.status[which].tolist(),
+        positions,
+        velocities,
+        position_covariances,
+        means,
+        covariances,
+        boxes.tolist(),
+        tracks.existence[which].tolist(),
+        tracks.ages[which].tolist(),
+        tracks.hits[which].tolist(),
+        tracks.misses[which].tolist(),
+        strict=True,
     )
+    return [
+        Track(
+            id=track_id,
+            status=status,
+            x=x,
+            y=y,
+            vx=vx,
+            vy=vy,
+            position_covariance=position_covariance,
+            state_layout=layout.text,
+            state=float64_sequence(mean),
+            covariance=float64_sequence(covariance),
+            bbox=Rect(x=bx, y=by, width=bw, height=bh),
+            existence=existence,
+            age=age,
+            hits=hits,
+            consecutive_misses=misses,
+        )
+        for (
+            track_id,
+            status,
+            (x, y),
+            (vx, vy),
+            position_covariance,
+            mean,
+            covariance,
+            (bx, by, bw, bh),
+            existence,
+            age,
+            hits,
+            misses,
+        ) in columns
+    ]
 
 
 def tracks_to_msg(tracks: TrackSet, header: Header) -> TrackArray:
-    return TrackArray(header=header, tracks=[track_to_msg(tracks, i) for i in range(len(tracks))])
+    return TrackArray(header=header, tracks=tracks_to_msgs(tracks))
 
 
 def target_to_msg(
