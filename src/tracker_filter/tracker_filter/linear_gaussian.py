@@ -17,11 +17,8 @@ def inverse_2x2(matrices: np.ndarray) -> np.ndarray:
     a, b = matrices[..., 0, 0], matrices[..., 0, 1]
     c, d = matrices[..., 1, 0], matrices[..., 1, 1]
     det = a * d - b * c
-    inverse = np.empty_like(matrices)
-    inverse[..., 0, 0] = d / det
-    inverse[..., 0, 1] = -b / det
-    inverse[..., 1, 0] = -c / det
-    inverse[..., 1, 1] = a / det
+    adjugate = np.stack((d, -b, -c, a), axis=-1).reshape(matrices.shape)
+    inverse: np.ndarray = adjugate / det[..., None, None]
     return inverse
 
 

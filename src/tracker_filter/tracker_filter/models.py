@@ -51,12 +51,12 @@ class KinematicModel:
 
     def transition(self, dt: float) -> np.ndarray:
         """F(dt): the state transition over dt seconds."""
-        per_axis = np.eye(self.order + 1)
-        for power in range(1, self.order + 1):
-            per_axis += np.diag(
-                np.full(self.order + 1 - power, dt**power / math.factorial(power)), power
-            )
-        return np.kron(per_axis, np.eye(AXES))
+        blocks = self.order + 1
+        per_axis = np.eye(blocks)
+        for i in range(blocks):
+            for j in range(i + 1, blocks):
+                per_axis[i, j] = dt ** (j - i) / math.factorial(j - i)
+        return _each_axis(per_axis)
 
     def process_noise(self, dt: float, sigma: float) -> np.ndarray:
         """Q(dt): covariance of the random step of the highest derivative held over dt."""
@@ -66,7 +66,7 @@ class KinematicModel:
                 for i in range(self.order + 1)
             ]
         )
-        return np.kron(np.outer(gain, gain) * sigma**2, np.eye(AXES))
+        return _each_axis(np.outer(gain, gain) * sigma**2)
 
     def initial_covariance(
         self, position_std: float, velocity_std: float, acceleration_std: float = 0.0
@@ -74,6 +74,16 @@ class KinematicModel:
         """A diagonal covariance for a state initiated from one position measurement."""
         stds = (position_std, velocity_std, acceleration_std)[: self.order + 1]
         return np.diag(np.repeat(np.square(stds), AXES))
+
+
+def _each_axis(per_axis: np.ndarray) -> np.ndarray:
+    """The matrix over both axes' interleaved blocks (x y, vx vy, ...) of a per-axis one: its
+    Kronecker product with I2, written out (np.kron costs ~15 us, and this runs every step)."""
+    blocks = len(per_axis)
+    out = np.zeros((AXES * blocks, AXES * blocks))
+    for axis in range(AXES):
+        out[axis::AXES, axis::AXES] = per_axis
+    return out
 
 
 CONSTANT_VELOCITY = KinematicModel(order=1)

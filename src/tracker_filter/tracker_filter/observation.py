@@ -95,8 +95,22 @@ class Detections:
                 "non-finite score": ~np.isfinite(self.scores),
             }
 
+    def _all_valid(self) -> bool:
+        """Whether no detection has any of `invalid_by_cause`'s faults: five reductions instead
+        of the per-row masks of seven causes, for the usual frame. NaN fails every comparison."""
+        positions, boxes, areas = self.positions, self.bboxes, self.areas
+        return bool(
+            (np.abs(positions) <= MAX_COORDINATE_PX).all()
+            and (np.abs(boxes) <= MAX_COORDINATE_PX).all()
+            and (boxes[:, 2:] >= 0).all()
+            and ((areas >= 0) & (areas < np.inf)).all()
+            and np.isfinite(self.scores).all()
+        )
+
     def validated(self) -> tuple[Detections, dict[str, int]]:
         """The usable detections, and how many were rejected by cause (each under its first)."""
+        if self._all_valid():
+            return self, {}
         rejected: dict[str, int] = {}
         remaining = np.ones(len(self), dtype=bool)
         for cause, invalid in self.invalid_by_cause().items():
