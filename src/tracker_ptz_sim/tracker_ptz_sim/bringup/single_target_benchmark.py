@@ -117,13 +117,15 @@ Boxes = dict[int, Rect | None]
 class Footage:
     """What a tracker is given: the camera's frames (indexed by scene frame), stamps and rate, the
     motion detector's foreground mask of each frame (for the particle filter's foreground cue)
-    and the ground line the suite's tracker has learned by each frame (for its height prior)."""
+    and the ground line the suite's tracker has learned by each frame (for its height prior);
+    for a moving camera, where each frame's window lies in the scene (its top-left, scene px)."""
 
     frames: Sequence[np.ndarray] | np.ndarray
     stamps_ns: list[int]
     fps: float
     masks: Sequence[np.ndarray] | None = None
     ground: GroundLines | None = None
+    origins: Mapping[int, tuple[int, int]] | None = None
 
 
 @dataclass(frozen=True)
@@ -146,6 +148,8 @@ class ParticleVariant:
 
     appearance: Callable[[], Appearance]
     config: ParticleFilterConfig
+    # told where a moving camera's window is (the graph's PTZ pose); else it sees only images
+    posed: bool = False
     random: ClassVar[bool] = True
 
     @property
@@ -157,8 +161,18 @@ class ParticleVariant:
         masks = footage.masks if self.config.foreground.enabled else None
         ground = footage.ground if self.config.height_spread > 0 else None
         appearance = self.appearance()
+        origins = footage.origins if self.posed else None
         return follow_particles(
-            footage.frames, start, region, last, appearance, self.config, seed, masks, ground
+            footage.frames,
+            start,
+            region,
+            last,
+            appearance,
+            self.config,
+            seed,
+            masks,
+            ground,
+            origins,
         )
 
 
@@ -249,6 +263,11 @@ VARIANTS: dict[str, Variant | ParticleVariant] = {
         "particles, final, 16 x sigma, background-weighted, quiet coasting, contrast, "
         "foreground, height, probes, fitted"
     ): ParticleVariant(contrasted, PROBING_FITTED),
+    # the same told the moving camera's pose, as the graph's tracker is (fixed camera: the same)
+    (
+        "particles, final, 16 x sigma, background-weighted, quiet coasting, contrast, "
+        "foreground, height, probes, fitted, camera pose"
+    ): ParticleVariant(contrasted, PROBING_FITTED, posed=True),
 }
 
 
@@ -370,7 +389,7 @@ def windowed(
     if ground is not None:
         ground = GroundLines(ground.lines, {k: float(y) for k, (_, y) in path.origins.items()})
     seen = WindowedFrames(scene.frames, path)
-    return replace(footage, frames=seen, masks=masks, ground=ground), boxes
+    return replace(footage, frames=seen, masks=masks, ground=ground, origins=path.origins), boxes
 
 
 def motion_cues(scene: Scene) -> tuple[list[np.ndarray], list[tuple[float, float] | None]]:

@@ -25,7 +25,12 @@ import numpy as np
 
 from tracker_detect.camshift import CamShiftConfig, CamShiftTracker
 from tracker_detect.detector import CameraFrame
-from tracker_filter.colour_particle import Appearance, ColourParticleFilter, ParticleFilterConfig
+from tracker_filter.colour_particle import (
+    Appearance,
+    ColourParticleFilter,
+    ImageView,
+    ParticleFilterConfig,
+)
 from tracker_filter.filters import FilterFactory
 from tracker_filter.foreground_cue import ForegroundMask
 from tracker_filter.object_scale import ExpectedHeight
@@ -254,21 +259,39 @@ def follow_particles(
     seed: int,
     masks: Sequence[np.ndarray] | None = None,
     ground: GroundLines | None = None,
+    origins: Mapping[int, tuple[int, int]] | None = None,
 ) -> dict[int, Rect | None]:
     """Seed 003's particle filter started on `region` of frame `start` (its reference), run over
-    frames start+1..last of a static camera, given the motion detector's foreground `masks` (per
-    frame, for the foreground cue) and the `ground` lines learned so far (for the height prior)
-    when there are; the estimate's box per frame, clipped to the image (the truth is the
-    visible box)."""
+    frames start+1..last, given the motion detector's foreground `masks` (per frame, for the
+    foreground cue) and the `ground` lines learned so far (for the height prior) when there
+    are; the estimate's box per frame in the frame's image, clipped to it (the truth is the
+    visible box). Without `origins` the camera is static and the filter works in image px; with
+    them, frame k's image is the window whose top-left corner is at origins[k] (scene px), a pose
+    the filter is told, so it works in scene px as it does in the graph."""
     start_box = np.array([region.x, region.y, region.width, region.height])
     rng = np.random.default_rng(seed)
-    tracker = ColourParticleFilter(frames[start], start_box, appearance, config, rng)
+    if origins is not None:
+        start_box = start_box + [*origins[start], 0.0, 0.0]
+        ground = None if ground is None else GroundLines(ground.lines)  # scene rows
+    tracker = ColourParticleFilter(
+        frames[start], start_box, appearance, config, rng, view=_view(origins, start)
+    )
     boxes: dict[int, Rect | None] = {}
     for k in range(start + 1, last + 1):
         image = frames[k]
         foreground = None if masks is None else ForegroundMask.of(masks[k])
         height = None if ground is None else ground.expected(k, start_box, start)
-        estimate = tracker.step(image, foreground=foreground, height=height)
+        view = _view(origins, k)
+        estimate = tracker.step(image, view=view, foreground=foreground, height=height)
         frame = Rect(0.0, 0.0, float(image.shape[1]), float(image.shape[0]))
-        boxes[k] = Rect(*(float(v) for v in estimate.box)).intersection(frame)
+        x, y, w, h = (float(v) for v in view.to_image(estimate.box[None])[0])
+        boxes[k] = Rect(x, y, w, h).intersection(frame)
     return boxes
+
+
+def _view(origins: Mapping[int, tuple[int, int]] | None, frame: int) -> ImageView:
+    """Where frame `frame`'s image lies in the scene (the identity for a static camera)."""
+    if origins is None:
+        return ImageView()
+    x, y = origins[frame]
+    return ImageView((float(x), float(y)))
