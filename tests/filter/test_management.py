@@ -390,6 +390,32 @@ def test_detections_that_cannot_be_measurements_are_rejected_by_cause():
     assert np.isfinite(tracks.means).all() and (tracks.bboxes[:, 2:] >= 0).all()
 
 
+def test_each_fault_alone_is_rejected_under_its_cause():
+    """One faulty detection among good ones, for every cause: the check of a whole frame at once
+    (the usual, all-valid case) must not let any of them through."""
+    good = ([50.0, 60.0], [45.0, 55.0, 10.0, 10.0], 100.0, 0.3)  # centroid, box, area, score
+    faults = {
+        "non-finite centroid": ([np.nan, 60.0], good[1], 100.0, 0.3),
+        "centroid beyond 1e+06 px": ([-2e6, 60.0], good[1], 100.0, 0.3),
+        "non-finite box": (good[0], [45.0, np.inf, 10.0, 10.0], 100.0, 0.3),
+        "box beyond 1e+06 px": (good[0], [45.0, 55.0, 3e6, 10.0], 100.0, 0.3),
+        "negative box size": (good[0], [45.0, 55.0, 10.0, -0.5], 100.0, 0.3),
+        "non-finite or negative area": (good[0], good[1], np.inf, 0.3),
+        "non-finite score": (good[0], good[1], 100.0, -np.inf),
+    }
+    for cause, fault in faults.items():
+        rows = [good, fault, good]
+        detections = Detections(
+            np.array([r[0] for r in rows]),
+            np.array([r[2] for r in rows]),
+            np.array([r[1] for r in rows]),
+            np.array([r[3] for r in rows]),
+        )
+        valid, rejected = detections.validated()
+        assert rejected == {cause: 1} and len(valid) == 2, cause
+    assert set(faults) == set(detections.invalid_by_cause())
+
+
 def test_reset_and_ids():
     tracker = multi()
     tracker.step(Observation(5.0, Detections.from_positions([[10.0, 10.0], [50.0, 50.0]], size=4)))

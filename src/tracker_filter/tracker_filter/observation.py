@@ -78,7 +78,8 @@ class Detections:
     def invalid_by_cause(self) -> dict[str, np.ndarray]:
         """Masks (M,) of the detections that cannot be measurements, by cause, in the order they
         are checked: a centroid, box, area or score that is not a finite number, a centroid or
-        box beyond MAX_COORDINATE_PX, a box of negative size."""
+        box beyond MAX_COORDINATE_PX, a box of negative size. `_all_valid` is the same rule
+        over the whole frame at once: a new cause goes into both."""
         positions, boxes = self.positions, self.bboxes
         with np.errstate(invalid="ignore"):
             return {

@@ -73,6 +73,7 @@ def tracks_to_msgs(tracks: TrackSet, which: slice = slice(None)) -> list[Track]:
     """Track messages of the tracks `which` selects. The fields are taken out of the arrays for
     all of them at once: per track, numpy scalar access cost ~8x the message's construction."""
     means, covariances, layout = tracks.means[which], tracks.covariances[which], tracks.layout
+    layout_text = layout.text
     positions = layout.positions(means).tolist()
     velocities = layout.velocities(means).tolist()
     position_covariances = layout.position_covariances(covariances).reshape(-1, 4)
@@ -102,7 +103,7 @@ def tracks_to_msgs(tracks: TrackSet, which: slice = slice(None)) -> list[Track]:
             vx=vx,
             vy=vy,
             position_covariance=position_covariance,
-            state_layout=layout.text,
+            state_layout=layout_text,
             state=float64_sequence(mean),
             covariance=float64_sequence(covariance),
             bbox=Rect(x=bx, y=by, width=bw, height=bh),
