@@ -310,6 +310,37 @@ def test_legs_that_look_like_a_shadow_are_restored():
     assert len(wholes) == len(halves) and min(wholes) >= 0.7
 
 
+def stopping_walker(k: int, ground: np.ndarray) -> tuple[np.ndarray, Rect]:
+    """Frame k of a walker (24 x 50, red clothes with a coarse weave) crossing `ground` who
+    stands still from frame 20 to 69 (5 s at 10 frames/s), and its box."""
+    weave = np.random.default_rng(8).integers(0, 60, (50, 24, 1), dtype=np.uint8)
+    x = 20 + 4 * (min(k, 20) + max(k - 69, 0))
+    image = ground.copy()
+    image[140:190, x : x + 24] = np.array([20, 20, 150], np.uint8) + weave  # BGR: red
+    return image, Rect(x, 140, 24, 50)
+
+
+def test_a_person_who_stops_stays_foreground_with_a_stopped_heal_rate():
+    """Still pixels heal into the background at heal_rate (0.05 per frame): someone who stops
+    for 5 s is gone from the mask within about 2 s. With `stopped_heal_rate` 0.005 a still blob
+    whose outline is an edge of the view (not of the background) heals ten times slower: the
+    walker is found at IoU >= 0.5 through the whole stop, and leaves no ghost when they walk on."""
+    ground = asphalt()
+    plain = BackgroundDetector(BackgroundConfig(min_aspect=0.5))
+    holding = BackgroundDetector(BackgroundConfig(min_aspect=0.5, stopped_heal_rate=0.005))
+    plain_found, held_found, held_other = [], [], []
+    for k in range(100):
+        image, walker = stopping_walker(k, ground)
+        plain_blobs = plain.process(CameraFrame(k * NS, image)).blobs
+        held_blobs = holding.process(CameraFrame(k * NS, image)).blobs
+        plain_found.append(any(b.bbox.iou(walker) >= 0.5 for b in plain_blobs))
+        held_found.append(any(b.bbox.iou(walker) >= 0.5 for b in held_blobs))
+        held_other.append(sum(b.bbox.iou(walker) < 0.5 for b in held_blobs))
+    assert all(held_found[22:]), "lost while standing or after walking on"
+    assert sum(held_other[22:]) == 0, "a ghost where the walker stood"
+    assert not any(plain_found[45:70])
+
+
 def test_a_ghost_of_an_object_seen_at_start_fades():
     """An object present in the first frames is learned as background; once it leaves, its old
     place differs from the mosaic but does not change, and heals."""

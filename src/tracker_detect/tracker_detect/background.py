@@ -32,7 +32,11 @@ silhouettes:
    rows right below it that differ from the background in its columns and are no other blob's;
 5. the mosaic learns the view: quickly (learning_rate) where nothing is foreground, at heal_rate
    where the view differs but does not change (ghosts fade, a stopped object joins the
-   background), not at all under movers.
+   background), not at all under movers; with `stopped_heal_rate` below heal_rate, a still
+   blob whose outline is a clearly stronger edge in the view than in the background (a person
+   who stopped; a ghost's outline is in the background, where the mover stood) heals at that
+   slower rate, all of it, so someone standing still stays foreground for seconds rather than
+   a few frames, and leaves no ghost when they walk on.
 """
 
 from __future__ import annotations
@@ -77,6 +81,10 @@ REGISTER_JUDGED_SHARE = 0.5
 REGISTER_MIN_PEAK = 0.05
 REGISTER_MIN_GAIN = 0.9  # ... and the aligned view must differ from it by less than this x before
 MAX_REGISTER_REACH = 64
+# A blob is a stopped object, held at stopped_heal_rate, when at most this share of it moves and
+# its outline is this many times a stronger edge in the view than in the background.
+STOPPED_MOVING_SHARE = 0.25
+STOPPED_EDGE_RATIO = 2.0
 
 
 @dataclass(frozen=True)
@@ -87,6 +95,7 @@ class BackgroundConfig:
     gap: int = 3  # frames to the image that tells changing pixels from still ones (seed)
     learning_rate: float = 0.05  # per frame, where the view matches the background
     heal_rate: float = 0.05  # per frame, where the view differs but does not change
+    stopped_heal_rate: float = 0.05  # per frame, ... on an object whose outline is in the view
     warmup_observations: int = 20  # a scene pixel's first observations are averaged
     min_observations: int = 3  # a pixel is judged once the background saw it this often
     flicker_observations: int = 30  # the flicker rate is trusted once a pixel was seen this often
@@ -117,7 +126,8 @@ class BackgroundConfig:
             found.append(f"threshold must be in [-1, 1], got {self.threshold}")
         if self.gap < 1:
             found.append(f"gap must be >= 1, got {self.gap}")
-        for name in ("learning_rate", "heal_rate", "flicker_level", "presence_fraction"):
+        rates = ("learning_rate", "heal_rate", "stopped_heal_rate")
+        for name in (*rates, "flicker_level", "presence_fraction"):
             value = getattr(self, name)
             if not 0.0 <= value <= 1.0:
                 found.append(f"{name} must be in [0, 1], got {value}")
@@ -227,13 +237,18 @@ class BackgroundDetector:
         foreground = different & (in_place == 0)
         if chroma is not None and background.chroma is not None:
             foreground &= ~self._shadow(gray, chroma, background)
+        mask = self._clean(foreground.astype(np.uint8))
         heal, learn = np.float32(c.heal_rate), np.float32(c.learning_rate)
         rate = np.where(different, np.where(changing, np.float32(0.0), heal), learn)
+        if c.stopped_heal_rate < c.heal_rate and (different & ~changing).any():
+            # the whole blob, also where its flat inside looks like the ground to SSIM
+            moving = different & changing
+            still = _stopped_objects(mask, moving, gray, background.mean) & ~moving
+            rate[still] = np.minimum(rate[still], np.float32(c.stopped_heal_rate))
         # The flicker rate follows whole moving regions, not single pixels: SSIM of two
         # textures is noisy pixel by pixel, a fluttering patch is moving as a region.
         moving = self._clean((different & changing).astype(np.uint8), shrink=False)
         self.mosaic.update(view, gray, rate, moving, None if chroma is None else chroma[..., :2])
-        mask = self._clean(foreground.astype(np.uint8))
         if c.split_depth > 0:
             mask = cut_side_by_side(mask, c.split_depth, c.connectivity)
         found = [
@@ -373,6 +388,44 @@ def _with_legs(blob: Blob, excluded: np.ndarray, view: View) -> Blob:
     if rows == 0:
         return blob
     return replace(blob, bbox=Rect(box.x, box.y, box.width, box.height + rows * view.scale_y))
+
+
+def _stopped_objects(
+    mask: np.ndarray, moving: np.ndarray, gray: np.ndarray, background: np.ndarray
+) -> np.ndarray:
+    """The pixels of `mask`'s blobs (grown by a px) that are still objects standing there now:
+    at most STOPPED_MOVING_SHARE of the blob is `moving`, and its outline is an edge of the
+    view STOPPED_EDGE_RATIO times stronger than of the background (mean gradient magnitude
+    along the blob's morphological gradient).
+
+    Along a stopped person's outline the view has the contrast of body against ground and the
+    background only the ground; along a ghost's it is the other way round (Cucchiara et al.,
+    "Detecting moving objects, ghosts, and shadows in video streams", 2003, tell ghosts from
+    objects by their motion; a still object has none, its outline does). The margin keeps out
+    a thing that only changed its look (a sign lit up: both have its edge). A blob that is
+    mostly moving (a walker beside that sign) is left to heal_rate where it is still."""
+    count, labels = cv2.connectedComponents(mask, connectivity=8)
+    if count < 2:
+        return np.zeros(mask.shape, bool)
+    square = np.ones((3, 3), np.uint8)
+    outline = cv2.morphologyEx(mask, cv2.MORPH_GRADIENT, square) > 0
+    grown = cv2.dilate(labels.astype(np.float32), square).astype(np.int32)
+    owner = grown[outline]
+    in_view = np.bincount(owner, _gradient_magnitude(gray)[outline], count)
+    in_background = np.bincount(owner, _gradient_magnitude(background)[outline], count)
+    size = np.bincount(labels.ravel(), minlength=count)
+    moving_size = np.bincount(labels[moving], minlength=count)
+    standing = (in_view > STOPPED_EDGE_RATIO * in_background) & (
+        moving_size <= STOPPED_MOVING_SHARE * size
+    )
+    standing[0] = False
+    result: np.ndarray = standing[grown]
+    return result
+
+
+def _gradient_magnitude(image: np.ndarray) -> np.ndarray:
+    pixels = image.astype(np.float32, copy=False)
+    return cv2.magnitude(cv2.Sobel(pixels, cv2.CV_32F, 1, 0), cv2.Sobel(pixels, cv2.CV_32F, 0, 1))
 
 
 def _ellipse(size: int) -> np.ndarray:

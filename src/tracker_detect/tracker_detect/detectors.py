@@ -201,6 +201,15 @@ BACKGROUND_PARAMETERS: tuple[ParamSpec, ...] = (
         1.0,
     ),
     ParamSpec(
+        "stopped_heal_rate",
+        _B.stopped_heal_rate,
+        "background blend rate where the view differs but does not change, on a blob whose "
+        "outline is an edge of the view and not of the background (a stopped object, not a "
+        "ghost); below heal_rate it stays foreground longer",
+        0.0,
+        1.0,
+    ),
+    ParamSpec(
         "warmup_observations",
         _B.warmup_observations,
         "a scene pixel's first observations are averaged",
