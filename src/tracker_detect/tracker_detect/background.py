@@ -404,28 +404,34 @@ def _stopped_objects(
     objects by their motion; a still object has none, its outline does). The margin keeps out
     a thing that only changed its look (a sign lit up: both have its edge). A blob that is
     mostly moving (a walker beside that sign) is left to heal_rate where it is still."""
-    count, labels = cv2.connectedComponents(mask, connectivity=8)
-    if count < 2:
-        return np.zeros(mask.shape, bool)
+    result = np.zeros(mask.shape, bool)
+    x, y, width, height = cv2.boundingRect(mask)
+    if width == 0:
+        return result
+    # the blobs' part of the image, with room for the outline and the 3 x 3 gradients
+    rows = slice(max(y - 2, 0), y + height + 2)
+    cols = slice(max(x - 2, 0), x + width + 2)
+    count, labels = cv2.connectedComponents(mask[rows, cols], connectivity=8)
     square = np.ones((3, 3), np.uint8)
-    outline = cv2.morphologyEx(mask, cv2.MORPH_GRADIENT, square) > 0
+    outline = cv2.morphologyEx(mask[rows, cols], cv2.MORPH_GRADIENT, square) > 0
     grown = cv2.dilate(labels.astype(np.float32), square).astype(np.int32)
     owner = grown[outline]
-    in_view = np.bincount(owner, _gradient_magnitude(gray)[outline], count)
-    in_background = np.bincount(owner, _gradient_magnitude(background)[outline], count)
+    in_view = np.bincount(owner, _gradient_magnitude(gray[rows, cols])[outline], count)
+    in_background = np.bincount(
+        owner, _gradient_magnitude(background[rows, cols])[outline], count
+    )
     size = np.bincount(labels.ravel(), minlength=count)
-    moving_size = np.bincount(labels[moving], minlength=count)
+    moving_size = np.bincount(labels[moving[rows, cols]], minlength=count)
     standing = (in_view > STOPPED_EDGE_RATIO * in_background) & (
         moving_size <= STOPPED_MOVING_SHARE * size
     )
     standing[0] = False
-    result: np.ndarray = standing[grown]
+    result[rows, cols] = standing[grown]
     return result
 
 
 def _gradient_magnitude(image: np.ndarray) -> np.ndarray:
-    pixels = image.astype(np.float32, copy=False)
-    return cv2.magnitude(cv2.Sobel(pixels, cv2.CV_32F, 1, 0), cv2.Sobel(pixels, cv2.CV_32F, 0, 1))
+    return cv2.magnitude(cv2.Sobel(image, cv2.CV_32F, 1, 0), cv2.Sobel(image, cv2.CV_32F, 0, 1))
 
 
 def _ellipse(size: int) -> np.ndarray:
