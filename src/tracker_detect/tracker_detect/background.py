@@ -417,9 +417,7 @@ def _stopped_objects(
     grown = cv2.dilate(labels.astype(np.float32), square).astype(np.int32)
     owner = grown[outline]
     in_view = np.bincount(owner, _gradient_magnitude(gray[rows, cols])[outline], count)
-    in_background = np.bincount(
-        owner, _gradient_magnitude(background[rows, cols])[outline], count
-    )
+    in_background = np.bincount(owner, _gradient_magnitude(background[rows, cols])[outline], count)
     size = np.bincount(labels.ravel(), minlength=count)
     moving_size = np.bincount(labels[moving[rows, cols]], minlength=count)
     standing = (in_view > STOPPED_EDGE_RATIO * in_background) & (
