@@ -241,9 +241,10 @@ class BackgroundDetector:
         heal, learn = np.float32(c.heal_rate), np.float32(c.learning_rate)
         rate = np.where(different, np.where(changing, np.float32(0.0), heal), learn)
         if c.stopped_heal_rate < c.heal_rate and (different & ~changing).any():
+            movers = different & changing
             # the whole blob, also where its flat inside looks like the ground to SSIM
-            moving = different & changing
-            still = _stopped_objects(mask, moving, gray, background.mean) & ~moving
+            still = _stopped_objects(mask, movers, gray, background.mean, c.connectivity)
+            still &= ~movers
             rate[still] = np.minimum(rate[still], np.float32(c.stopped_heal_rate))
         # The flicker rate follows whole moving regions, not single pixels: SSIM of two
         # textures is noisy pixel by pixel, a fluttering patch is moving as a region.
@@ -391,7 +392,11 @@ def _with_legs(blob: Blob, excluded: np.ndarray, view: View) -> Blob:
 
 
 def _stopped_objects(
-    mask: np.ndarray, moving: np.ndarray, gray: np.ndarray, background: np.ndarray
+    mask: np.ndarray,
+    moving: np.ndarray,
+    gray: np.ndarray,
+    background: np.ndarray,
+    connectivity: int = 8,
 ) -> np.ndarray:
     """The pixels of `mask`'s blobs (grown by a px) that are still objects standing there now:
     at most STOPPED_MOVING_SHARE of the blob is `moving`, and its outline is an edge of the
@@ -411,7 +416,7 @@ def _stopped_objects(
     # the blobs' part of the image, with room for the outline and the 3 x 3 gradients
     rows = slice(max(y - 2, 0), y + height + 2)
     cols = slice(max(x - 2, 0), x + width + 2)
-    count, labels = cv2.connectedComponents(mask[rows, cols], connectivity=8)
+    count, labels = cv2.connectedComponents(mask[rows, cols], connectivity=connectivity)
     square = np.ones((3, 3), np.uint8)
     outline = cv2.morphologyEx(mask[rows, cols], cv2.MORPH_GRADIENT, square) > 0
     grown = cv2.dilate(labels.astype(np.float32), square).astype(np.int32)
