@@ -1,6 +1,8 @@
 """The colour-following graph (seed 001) as separate processes, in lockstep: the motion pipeline
 finds a walker and hands its box over to CamShift, whose own tracker the pan-tilt camera follows,
-also while the walker stands still (where change detection loses them)."""
+also while the walker stands still (where change detection loses them: these runs heal stopped
+objects at the plain heal rate, as the detector did before `stopped_heal_rate`, so the colour
+tracker alone keeps the walker through the stop)."""
 
 from __future__ import annotations
 
@@ -11,6 +13,7 @@ pytestmark = [pytest.mark.ros, pytest.mark.slow]
 
 STOP = (42, 76)  # frames the walker of the scene below stands still (38-76, settled after 4)
 UNSEEN = (58, 76)  # ... and change detection no longer sees them (its background has healed)
+PLAIN_HEALING = {"ssim_detector": {"stopped_heal_rate": 0.05}}  # = heal_rate: stoppers heal
 
 
 @pytest.fixture(scope="module")
@@ -33,7 +36,10 @@ def colour_run(stopper, name: str):
 
     _, paths, root = stopper
     out = root / name
-    run_demo(paths.video, out, graph="colour", small_view=False)
+    settings = [
+        f"{node}.{k}={v}" for node, values in PLAIN_HEALING.items() for k, v in values.items()
+    ]
+    run_demo(paths.video, out, *settings, graph="colour", small_view=False)
     return out, run_report.collect(out / "bag")
 
 
@@ -93,7 +99,7 @@ def test_in_process_colour_pipeline_matches_the_graph(stopper, first_run):
     scene, _, _ = stopper
     _, frames = first_run
     graph = scoring.trace_from_frames(frames)
-    settings = pipeline.PipelineSettings.from_graph(load_graph("colour"))
+    settings = pipeline.PipelineSettings.from_graph(load_graph("colour"), PLAIN_HEALING)
     fast = scoring.trace_from_steps(
         pipeline.run(scene.frames, scene.stamps_ns(), settings), scene.fps
     )
