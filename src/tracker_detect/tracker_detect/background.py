@@ -238,17 +238,17 @@ class BackgroundDetector:
         if chroma is not None and background.chroma is not None:
             foreground &= ~self._shadow(gray, chroma, background)
         mask = self._clean(foreground.astype(np.uint8))
+        movers = different & changing
         heal, learn = np.float32(c.heal_rate), np.float32(c.learning_rate)
         rate = np.where(different, np.where(changing, np.float32(0.0), heal), learn)
         if c.stopped_heal_rate < c.heal_rate and (different & ~changing).any():
-            movers = different & changing
-            # the whole blob, also where its flat inside looks like the ground to SSIM
+            # the whole blob, also where its flat inside looks like the ground to SSIM (its
+            # movers keep their rate 0: the minimum)
             still = _stopped_objects(mask, movers, gray, background.mean, c.connectivity)
-            still &= ~movers
             rate[still] = np.minimum(rate[still], np.float32(c.stopped_heal_rate))
         # The flicker rate follows whole moving regions, not single pixels: SSIM of two
         # textures is noisy pixel by pixel, a fluttering patch is moving as a region.
-        moving = self._clean((different & changing).astype(np.uint8), shrink=False)
+        moving = self._clean(movers.astype(np.uint8), shrink=False)
         self.mosaic.update(view, gray, rate, moving, None if chroma is None else chroma[..., :2])
         if c.split_depth > 0:
             mask = cut_side_by_side(mask, c.split_depth, c.connectivity)
@@ -396,7 +396,7 @@ def _stopped_objects(
     moving: np.ndarray,
     gray: np.ndarray,
     background: np.ndarray,
-    connectivity: int = 8,
+    connectivity: int,
 ) -> np.ndarray:
     """The pixels of `mask`'s blobs (grown by a px) that are still objects standing there now:
     at most STOPPED_MOVING_SHARE of the blob is `moving`, and its outline is an edge of the
