@@ -341,6 +341,55 @@ def test_a_person_who_stops_stays_foreground_with_a_stopped_heal_rate():
     assert not any(plain_found[45:70])
 
 
+EMPTY_FRAMES = 60
+
+
+def bush(ground: np.ndarray) -> np.ndarray:
+    """`ground` with a bush behind where `stopping_walker` stands: dark and bright leaves, as
+    edged as the walker's outline (x 80-160, y 120-200)."""
+    rng = np.random.default_rng(6)
+    leaves = cv2.GaussianBlur(rng.integers(0, 255, (80, 80), dtype=np.uint8), (0, 0), 1.5)
+    leaves = cv2.normalize(leaves, None, 20, 235, cv2.NORM_MINMAX)
+    image = ground.copy()
+    image[120:200, 80:160] = np.dstack([leaves // 2, leaves, leaves // 2])  # green
+    return image
+
+
+def test_a_person_who_stops_before_a_bush_stays_foreground():
+    """Before foliage the background's edges along the walker's outline are as strong as the
+    walker's, so the outline alone does not tell a stopped person from a ghost; the long-term
+    background (the bush, seen before the walker came) does: held through the stop, and no
+    ghost of them when they walk on."""
+    ground = bush(asphalt())
+    holding = BackgroundDetector(BackgroundConfig(min_aspect=0.5, stopped_heal_rate=0.005))
+    for k in range(EMPTY_FRAMES):  # the place seen empty first, as a camera on duty has
+        holding.process(CameraFrame(k * NS, ground))
+    found, other = [], []
+    for k in range(100):
+        image, walker = stopping_walker(k, ground)
+        blobs = holding.process(CameraFrame((EMPTY_FRAMES + k) * NS, image)).blobs
+        found.append(any(b.bbox.iou(walker) >= 0.5 for b in blobs))
+        other.append(sum(b.bbox.iou(walker) < 0.5 for b in blobs))
+    assert all(found[22:]), "lost while standing before the bush or after walking on"
+    assert sum(other[22:]) == 0, "a ghost where the walker stood"
+
+
+def test_a_ghost_of_an_object_seen_at_start_fades_also_when_stopped_objects_are_held():
+    """The long-term background learned the object too (it was there from the start): its
+    ghost differs from both backgrounds, but its outline is the background's, and it heals."""
+    rng = np.random.default_rng(3)
+    base = cv2.GaussianBlur(rng.integers(0, 255, (160, 200), dtype=np.uint8), (0, 0), 2)
+    detector = BackgroundDetector(BackgroundConfig(stopped_heal_rate=0.005))
+    ghosts = []
+    for k in range(60):
+        image = base.copy()
+        if k < 10:
+            image[60:110, 40:70] = 220
+        ghosts.append(len(detector.process(CameraFrame(k * NS, image)).blobs))
+    assert sum(ghosts[10:14]) >= 1
+    assert ghosts[40:] == [0] * 20
+
+
 def test_a_ghost_of_an_object_seen_at_start_fades():
     """An object present in the first frames is learned as background; once it leaves, its old
     place differs from the mosaic but does not change, and heals."""

@@ -36,7 +36,11 @@ silhouettes:
    blob whose outline is a clearly stronger edge in the view than in the background (a person
    who stopped; a ghost's outline is in the background, where the mover stood) heals at that
    slower rate, all of it, so someone standing still stays foreground for seconds rather than
-   a few frames, and leaves no ghost when they walk on.
+   a few frames, and leaves no ghost when they walk on. Before foliage or posts a person's
+   outline is no stronger than the background's there; the detector then asks a long-term
+   background (a second mosaic that learns only where the view matches the background: the
+   scene before anything stopped in it), which a stopped person still differs from and a ghost
+   does not.
 """
 
 from __future__ import annotations
@@ -85,6 +89,14 @@ MAX_REGISTER_REACH = 64
 # its outline is this many times a stronger edge in the view than in the background.
 STOPPED_MOVING_SHARE = 0.25
 STOPPED_EDGE_RATIO = 2.0
+# ... or when it differs from the long-term background at least LASTING_SHARE as much as from
+# the background (it is still there), its outline is at least LASTING_EDGE_RATIO as strong in
+# the view (not clearly the background's: a ghost) and its flicker rate is at most
+# LASTING_FLICKER (a piece of foliage at rest is not an object that stopped).
+LASTING_SHARE = 0.6
+LASTING_EDGE_RATIO = 0.8
+LASTING_FLICKER = 0.15
+LASTING_MIN_PX = 200  # image px: smaller blobs (a leaf at rest) are held only by the outline test
 
 
 @dataclass(frozen=True)
@@ -173,6 +185,8 @@ class BackgroundDetector:
     def __init__(self, config: BackgroundConfig | None = None) -> None:
         self.config = config or BackgroundConfig()
         self.mosaic = SceneMosaic(self.config.warmup_observations, self.config.flicker_memory)
+        # the scene before anything stopped in it: learns only where the view is background
+        self.long_term = SceneMosaic(self.config.warmup_observations, self.config.flicker_memory)
         self._change = MotionDetector(self._change_config(self.config))
         self._last_stamp: int | None = None
         self._size: tuple[int, int] | None = None
@@ -191,13 +205,15 @@ class BackgroundDetector:
     def reconfigure(self, config: BackgroundConfig) -> None:
         """Use `config` from the next frame on, keeping the mosaic."""
         self.config = config
-        self.mosaic.warmup_observations = config.warmup_observations
-        self.mosaic.flicker_memory = config.flicker_memory
+        for mosaic in (self.mosaic, self.long_term):
+            mosaic.warmup_observations = config.warmup_observations
+            mosaic.flicker_memory = config.flicker_memory
         self._change.reconfigure(self._change_config(config))
 
     def reset(self) -> None:
         """Forget the mosaic and the frame history."""
         self.mosaic.clear()
+        self.long_term.clear()
         self._change.reset()
         self._last_stamp = None
         self._size = None
@@ -211,7 +227,9 @@ class BackgroundDetector:
         view = checked_view(frame, self._last_stamp)
         history_reset = self._size is not None and self._size != (width, height)
         if history_reset and frame.view is None:
-            self.mosaic.clear()  # a static camera's mosaic is the image: a new size, a new scene
+            # a static camera's mosaic is the image: a new size, a new scene
+            self.mosaic.clear()
+            self.long_term.clear()
         self._last_stamp, self._size = frame.stamp_ns, (width, height)
         background = self.mosaic.sample(view)
         judged = background.observations >= c.min_observations
@@ -241,15 +259,20 @@ class BackgroundDetector:
         movers = different & changing
         heal, learn = np.float32(c.heal_rate), np.float32(c.learning_rate)
         rate = np.where(different, np.where(changing, np.float32(0.0), heal), learn)
-        if c.stopped_heal_rate < c.heal_rate and (different & ~changing).any():
+        holds_stopped = c.stopped_heal_rate < c.heal_rate
+        long_term = self._long_term_view(view, gray) if holds_stopped else None
+        if long_term is not None and (different & ~changing).any():
             # the whole blob, also where its flat inside looks like the ground to SSIM (its
             # movers keep their rate 0: the minimum)
-            still = _stopped_objects(mask, movers, gray, background.mean, c.connectivity)
+            still = _stopped_objects(mask, movers, gray, background, long_term, c.connectivity)
             rate[still] = np.minimum(rate[still], np.float32(c.stopped_heal_rate))
         # The flicker rate follows whole moving regions, not single pixels: SSIM of two
         # textures is noisy pixel by pixel, a fluttering patch is moving as a region.
         moving = self._clean(movers.astype(np.uint8), shrink=False)
         self.mosaic.update(view, gray, rate, moving, None if chroma is None else chroma[..., :2])
+        if holds_stopped:
+            seen = np.where(different, np.float32(0.0), learn)
+            self.long_term.update(view, gray, seen, np.zeros_like(moving))
         if c.split_depth > 0:
             mask = cut_side_by_side(mask, c.split_depth, c.connectivity)
         found = [
@@ -274,6 +297,13 @@ class BackgroundDetector:
             mask=mask,
             history_reset=history_reset,
         )
+
+    def _long_term_view(self, view: View, gray: np.ndarray) -> np.ndarray:
+        """The long-term background seen through `view`; the view itself where it has not
+        been observed `min_observations` times (no evidence that anything stopped there)."""
+        sample = self.long_term.sample(view)
+        known = sample.observations >= self.config.min_observations
+        return np.where(known, sample.mean, gray.astype(np.float32))
 
     def _upright(self, box: Rect, window: Rect) -> bool:
         """Whether a blob is at least `min_aspect` tall for its width; one cut by the top or
@@ -395,20 +425,27 @@ def _stopped_objects(
     mask: np.ndarray,
     moving: np.ndarray,
     gray: np.ndarray,
-    background: np.ndarray,
+    background: MosaicSample,
+    long_term: np.ndarray,
     connectivity: int,
 ) -> np.ndarray:
     """The pixels of `mask`'s blobs (grown by a px) that are still objects standing there now:
-    at most STOPPED_MOVING_SHARE of the blob is `moving`, and its outline is an edge of the
-    view STOPPED_EDGE_RATIO times stronger than of the background (mean gradient magnitude
-    along the blob's morphological gradient).
+    at most STOPPED_MOVING_SHARE of the blob is `moving`, and either its outline is an edge of
+    the view STOPPED_EDGE_RATIO times stronger than of the background (mean gradient magnitude
+    along the blob's morphological gradient), or it is still there against the `long_term`
+    background (module doc), its outline not clearly the background's and its place not one
+    that flickers (the LASTING_ constants).
 
     Along a stopped person's outline the view has the contrast of body against ground and the
     background only the ground; along a ghost's it is the other way round (Cucchiara et al.,
     "Detecting moving objects, ghosts, and shadows in video streams", 2003, tell ghosts from
     objects by their motion; a still object has none, its outline does). The margin keeps out
-    a thing that only changed its look (a sign lit up: both have its edge). A blob that is
-    mostly moving (a walker beside that sign) is left to heal_rate where it is still."""
+    a thing that only changed its look (a sign lit up: both have its edge). Before foliage or
+    posts the background's outline is as textured as the body's, and the long-term background
+    decides: it saw the ground there before the person came, while a ghost is the ground again
+    (dual backgrounds: Porikli, Ivanov and Haga, "Robust abandoned object detection using dual
+    foregrounds", 2008). A blob that is mostly moving (a walker beside that sign) is left to
+    heal_rate where it is still."""
     result = np.zeros(mask.shape, bool)
     x, y, width, height = cv2.boundingRect(mask)
     if width == 0:
@@ -420,13 +457,29 @@ def _stopped_objects(
     square = np.ones((3, 3), np.uint8)
     outline = cv2.morphologyEx(mask[rows, cols], cv2.MORPH_GRADIENT, square) > 0
     grown = cv2.dilate(labels.astype(np.float32), square).astype(np.int32)
-    owner = grown[outline]
-    in_view = np.bincount(owner, _gradient_magnitude(gray[rows, cols])[outline], count)
-    in_background = np.bincount(owner, _gradient_magnitude(background[rows, cols])[outline], count)
-    size = np.bincount(labels.ravel(), minlength=count)
+    on_outline = grown[outline]
+    view, before = gray[rows, cols].astype(np.float32), background.mean[rows, cols]
+    in_view = np.bincount(on_outline, _gradient_magnitude(view)[outline], count)
+    in_background = np.bincount(on_outline, _gradient_magnitude(before)[outline], count)
+    inside = labels > 0
+    owner = labels[inside]
+    size = np.bincount(owner, minlength=count)
+
+    def per_blob(values: np.ndarray) -> np.ndarray:
+        return np.bincount(owner, values[inside], count)
+
+    off_background = per_blob(np.abs(view - before))
+    off_long_term = per_blob(np.abs(view - long_term[rows, cols]))
+    flicker = per_blob(background.flicker[rows, cols]) / np.maximum(size, 1)
     moving_size = np.bincount(labels[moving[rows, cols]], minlength=count)
-    standing = (in_view > STOPPED_EDGE_RATIO * in_background) & (
-        moving_size <= STOPPED_MOVING_SHARE * size
+    still_there = (
+        (off_long_term >= LASTING_SHARE * off_background)
+        & (flicker <= LASTING_FLICKER)
+        & (size >= LASTING_MIN_PX)
+    )
+    standing = (moving_size <= STOPPED_MOVING_SHARE * size) & (
+        (in_view > STOPPED_EDGE_RATIO * in_background)
+        | (still_there & (in_view > LASTING_EDGE_RATIO * in_background))
     )
     standing[0] = False
     result[rows, cols] = standing[grown]
