@@ -260,10 +260,10 @@ class BackgroundDetector:
         heal, learn = np.float32(c.heal_rate), np.float32(c.learning_rate)
         rate = np.where(different, np.where(changing, np.float32(0.0), heal), learn)
         holds_stopped = c.stopped_heal_rate < c.heal_rate
-        long_term = self._long_term_view(view, gray) if holds_stopped else None
-        if long_term is not None and (different & ~changing).any():
+        if holds_stopped and (different & ~changing).any():
             # the whole blob, also where its flat inside looks like the ground to SSIM (its
             # movers keep their rate 0: the minimum)
+            long_term = self._long_term_view(view, gray)
             still = _stopped_objects(mask, movers, gray, background, long_term, c.connectivity)
             rate[still] = np.minimum(rate[still], np.float32(c.stopped_heal_rate))
         # The flicker rate follows whole moving regions, not single pixels: SSIM of two
@@ -471,7 +471,7 @@ def _stopped_objects(
     off_background = per_blob(np.abs(view - before))
     off_long_term = per_blob(np.abs(view - long_term[rows, cols]))
     flicker = per_blob(background.flicker[rows, cols]) / np.maximum(size, 1)
-    moving_size = np.bincount(labels[moving[rows, cols]], minlength=count)
+    moving_size = per_blob(moving[rows, cols])
     still_there = (
         (off_long_term >= LASTING_SHARE * off_background)
         & (flicker <= LASTING_FLICKER)
