@@ -209,6 +209,10 @@ def test_ground_lines_give_a_window_the_heights_of_the_scene():
         in_window.heights(later - [0.0, 70.0, 0.0, 0.0]), in_scene.heights(later)
     )
     assert in_scene.heights(start[None])[0] == pytest.approx(50.0)
+    # the usual aspect learned by a frame comes with its expected height, in a window too
+    shaped = GroundLines(lines, {0: 40.0, 1: 50.0, 2: 70.0}, aspects=[None, 0.3, 0.4])
+    seen = shaped.expected(2, start - [0, 40, 0, 0], 0)
+    assert seen is not None and seen.aspect == 0.4 and in_window.aspect is None
 
 
 def test_a_filter_told_the_camera_pose_keeps_a_target_hidden_while_the_window_sways():

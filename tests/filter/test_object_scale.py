@@ -138,3 +138,33 @@ def test_the_likelihood_is_one_at_the_expected_height_and_falls_on_a_log_scale()
     weights = expected.likelihood(boxes, spread=0.1)
     np.testing.assert_allclose(weights[:3], [1.0, math.exp(-0.5), math.exp(-0.5)])
     assert weights[3] < 1e-9  # half the height: a torso is not the person
+
+
+def test_the_usual_aspect_is_a_low_quantile_of_the_boxes_width_over_height():
+    """People 0.4 as wide as tall (a stride +-30 %), and a fifth of the boxes pairs in one blob:
+    the aspect learned is one person's, not pulled up by the pairs."""
+    rng = np.random.default_rng(4)
+    boxes = _ground_plane_boxes(rng, 200)
+    boxes[:, 2] *= rng.uniform(0.7, 1.3, 200)
+    boxes[:40, 2] *= 2.0
+    scale = HeightByRow(0.5)
+    assert scale.aspect is None
+    scale.observe(boxes)
+    assert scale.aspect == pytest.approx(0.4, abs=0.04)
+    scale.clear()
+    assert scale.aspect is None
+
+
+def test_the_aspect_prior_is_one_sided():
+    """A box narrower than the usual aspect (mid-stride, partly hidden) costs nothing; a wider one
+    falls on a log scale; without a known aspect, or with the spread 0, only the height counts."""
+    expected = ExpectedHeight(60.0, 0.0, aspect=0.4)
+    widths = [12.0, 24.0, 24.0 * math.exp(0.15), 48.0]
+    boxes = np.array([[0.0, 0.0, w, 60.0] for w in widths])
+    weights = expected.likelihood(boxes, spread=0.1, aspect_spread=0.15)
+    np.testing.assert_allclose(weights[:3], [1.0, 1.0, math.exp(-0.5)])
+    assert weights[3] < 1e-4  # twice as wide: two people
+    np.testing.assert_allclose(expected.likelihood(boxes, spread=0.1), 1.0)
+    unknown = ExpectedHeight(60.0, 0.0)
+    np.testing.assert_allclose(unknown.likelihood(boxes, spread=0.1, aspect_spread=0.15), 1.0)
+    assert expected.shifted(10.0).aspect == 0.4 and unknown.with_aspect(0.3).aspect == 0.3

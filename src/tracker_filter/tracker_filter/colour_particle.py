@@ -47,7 +47,10 @@ ground and holds two people walking together: `height_spread` > 0 then also mult
 weight by a prior on the box's height, exp(-(ln(h / h_expected) / spread)^2 / 2), where
 h_expected is the height the target has where the box stands (`object_scale.ExpectedHeight`:
 the ground line learned from the tracks, scaled through the target's own boxes), given to each
-step.
+step; `aspect_spread` > 0 adds a one-sided prior on the box's width for its height when the
+expected height knows how wide one object usually is (`ExpectedHeight.likelihood`): a person
+walking half behind another is one blob with them, and the cue's recall would widen the box
+over both.
 
 The reference is taken from the start rectangle and never updated, as in the thesis. Every random
 draw comes from the filter's own `numpy.random.Generator`, so a run is reproducible.
@@ -127,6 +130,8 @@ class ParticleFilterConfig:
     foreground: ForegroundCue = ForegroundCue()  # not the thesis's: off (power 0)
     # not the thesis's: std of ln(box height / the height expected where it stands) (0 = off)
     height_spread: float = 0.0
+    # not the thesis's: std of ln(box aspect / one object's usual aspect) above it (0 = off)
+    aspect_spread: float = 0.0
     # not the thesis's: the cloud's randomness while the target is hidden, as a share of what it
     # is while seen (the noise std, the velocities' spread)
     coast_noise: float = 1.0
@@ -150,6 +155,8 @@ class ParticleFilterConfig:
             "size_noise must be in [0, 1]": 0.0 <= self.size_noise <= 1.0,
             "height_spread must be >= 0": math.isfinite(self.height_spread)
             and self.height_spread >= 0.0,
+            "aspect_spread must be >= 0": math.isfinite(self.aspect_spread)
+            and self.aspect_spread >= 0.0,
             "coast_noise must be in [0, 1]": 0.0 <= self.coast_noise <= 1.0,
             "probes must be >= 0": self.probes >= 0,
             "probe_reach must be > 0": math.isfinite(self.probe_reach) and self.probe_reach > 0,
@@ -489,7 +496,9 @@ class ColourParticleFilter:
             if factor is not None:
                 weights = weights * factor
         if height is not None and self.config.height_spread > 0 and not hidden:
-            weights = weights * height.likelihood(particles[:, :4], self.config.height_spread)
+            weights = weights * height.likelihood(
+                particles[:, :4], self.config.height_spread, self.config.aspect_spread
+            )
         total = float(weights.sum())
         weights = weights / total if total > 0 else np.full(len(raw), 1.0 / len(raw))
         if self.config.estimate is EstimateRule.MEAN:

@@ -9,6 +9,11 @@ lost its legs is an outlier), and gives the least height a new track must have w
 patch) is mostly far smaller than a person at its place; a person whose legs go unseen for a
 frame is still more than half of one. Until `min_samples` boxes have been seen nothing is
 required, so a camera's first movers are confirmed as before.
+
+It also learns how wide the followed objects are for their height (`aspect`): a low quantile of
+the boxes' width over height, as a box is widened, not narrowed, by what does not belong to one
+object (two people walking in one blob, a shadow); a person's stride swings their width by
+about a third either way.
 """
 
 from __future__ import annotations
@@ -21,6 +26,8 @@ import numpy as np
 HUBER_K = 1.345  # residuals beyond this many robust standard deviations are down-weighted
 MAD_TO_STD = 1.4826
 FIT_ITERATIONS = 4
+#: the quantile of the observed boxes' width / height taken as one object's aspect (see above)
+ASPECT_QUANTILE = 0.3
 
 
 def robust_line(x: np.ndarray, y: np.ndarray) -> tuple[float, float]:
@@ -70,8 +77,10 @@ class HeightByRow:
     def clear(self) -> None:
         self._rows = np.zeros(0)
         self._heights = np.zeros(0)
+        self._widths = np.zeros(0)
         self._unfitted = 0
         self.line: tuple[float, float] | None = None  # (intercept px, px per row)
+        self.aspect: float | None = None  # one object's width / height (module doc)
 
     def __len__(self) -> int:
         return len(self._rows)
@@ -82,11 +91,14 @@ class HeightByRow:
             return
         self._rows = np.concatenate([self._rows, bottom_rows(boxes)])[-self.capacity :]
         self._heights = np.concatenate([self._heights, boxes[:, 3]])[-self.capacity :]
+        self._widths = np.concatenate([self._widths, boxes[:, 2]])[-self.capacity :]
         self._unfitted += len(boxes)
         if len(self) >= self.min_samples and (
             self.line is None or self._unfitted >= self.refit_every
         ):
             self.line = robust_line(self._rows, self._heights)
+            aspects = self._widths / np.maximum(self._heights, 1.0)
+            self.aspect = float(np.quantile(aspects, ASPECT_QUANTILE))
             self._unfitted = 0
 
     def expected_heights(self, boxes: np.ndarray) -> np.ndarray:
@@ -119,10 +131,14 @@ class ExpectedHeight:
     reference box of this one, `scaled` by a ratio such as the median of `height_ratios` over
     the boxes that measured it: a child or a crouching person keeps their own height, and a line
     biased by a few per cent (boxes with a shadow, pairs in one blob) cancels out; only the
-    line's slope and horizon matter."""
+    line's slope and horizon matter.
+
+    `aspect` (optional): the width / height one such object rarely exceeds (`HeightByRow.aspect`);
+    a wider box holds more than the object (a neighbour in the same blob)."""
 
     intercept: float
     slope: float
+    aspect: float | None = None
 
     @classmethod
     def through(
@@ -145,15 +161,28 @@ class ExpectedHeight:
 
     def shifted(self, rows: float) -> ExpectedHeight:
         """The same heights in coordinates whose row 0 is this line's row `rows` (a window)."""
-        return ExpectedHeight(self.intercept + self.slope * rows, self.slope)
+        return ExpectedHeight(self.intercept + self.slope * rows, self.slope, self.aspect)
+
+    def with_aspect(self, aspect: float | None) -> ExpectedHeight:
+        """The same heights with the object's usual aspect (None: unknown)."""
+        return ExpectedHeight(self.intercept, self.slope, aspect)
 
     def heights(self, boxes: np.ndarray) -> np.ndarray:
         """The expected height (px, at least 1) at each box's (N, 4) bottom row."""
         return np.maximum(self.intercept + self.slope * bottom_rows(boxes), 1.0)
 
-    def likelihood(self, boxes: np.ndarray, spread: float) -> np.ndarray:
+    def likelihood(
+        self, boxes: np.ndarray, spread: float, aspect_spread: float = 0.0
+    ) -> np.ndarray:
         """exp(-(ln(h / expected h) / spread)^2 / 2) per box (N, 4): 1 at the expected height,
-        0.61 one `spread` (a relative deviation, 0.1 = about 10 %) away."""
-        ratio = np.maximum(boxes[:, 3], 1.0) / self.heights(boxes)
-        result: np.ndarray = np.exp(-0.5 * (np.log(ratio) / spread) ** 2)
+        0.61 one `spread` (a relative deviation, 0.1 = about 10 %) away; with `aspect_spread` > 0
+        and a known `aspect`, times exp(-(max(ln(a / aspect), 0) / aspect_spread)^2 / 2) for the
+        box's aspect a = w / h: one-sided, a narrow box is a person mid-stride or partly hidden,
+        a wide one holds someone else too."""
+        heights = np.maximum(boxes[:, 3], 1.0)
+        deviation = (np.log(heights / self.heights(boxes)) / spread) ** 2
+        if aspect_spread > 0 and self.aspect is not None and self.aspect > 0:
+            wider = np.maximum(np.log(np.maximum(boxes[:, 2], 1.0) / heights / self.aspect), 0.0)
+            deviation = deviation + (wider / aspect_spread) ** 2
+        result: np.ndarray = np.exp(-0.5 * deviation)
         return result

@@ -6,6 +6,7 @@ street scenes, one person at a time.
     single_target_benchmark --runs 10             particle filters 10 times (sigma_Q)
     single_target_benchmark --sweep --runs 3      particle count and histogram bins
     single_target_benchmark --variants camshift   only the rows named
+    single_target_benchmark --first-seed 3        three other scenes per preset
 
 Protocol: for every person of a scene, each tracker is started on the person's true box in the
 first frame where they are at least 90 % visible and 40 px tall (as a user would draw it) and runs
@@ -73,6 +74,7 @@ from tracker_filter.models import seed001_nominal_model
 from tracker_filter.object_scale import HeightByRow
 from tracker_filter.observation import Observation
 from tracker_filter.particle_tracker import (
+    ASPECT_SPREAD,
     COAST_NOISE,
     FOREGROUND_FIT,
     FOREGROUND_POWER,
@@ -193,6 +195,9 @@ PROBING = replace(SHIPPED, probes=100, probe_reach=1.0, reappear_in_mask=True)
 #: colour_particles tracker's defaults since 2026-11-27)
 FITTED = replace(SHIPPED, foreground=replace(SHIPPED.foreground, fit=FOREGROUND_FIT))
 PROBING_FITTED = replace(PROBING, foreground=FITTED.foreground)
+#: ... and a box held from growing wider than one person usually is for their height
+#: (`aspect_spread`; the colour_particles tracker's default since 2026-11-28)
+SHAPED = replace(PROBING_FITTED, aspect_spread=ASPECT_SPREAD)
 
 
 def contrasted() -> HistogramAppearance:
@@ -268,6 +273,15 @@ VARIANTS: dict[str, Variant | ParticleVariant] = {
         "particles, final, 16 x sigma, background-weighted, quiet coasting, contrast, "
         "foreground, height, probes, fitted, camera pose"
     ): ParticleVariant(contrasted, PROBING_FITTED, posed=True),
+    # ... and no wider than one person usually is (the aspect prior)
+    (
+        "particles, final, 16 x sigma, background-weighted, quiet coasting, contrast, "
+        "foreground, height, probes, fitted, aspect"
+    ): ParticleVariant(contrasted, SHAPED),
+    (
+        "particles, final, 16 x sigma, background-weighted, quiet coasting, contrast, "
+        "foreground, height, probes, fitted, aspect, camera pose"
+    ): ParticleVariant(contrasted, SHAPED, posed=True),
 }
 
 
@@ -352,8 +366,7 @@ def run_scene(
     out = []
     masks, ground = None, None
     if any(v.needs_motion for v in variants.values()):
-        masks, lines = motion_cues(scene)
-        ground = GroundLines(lines)
+        masks, ground = motion_cues(scene)
     whole = Footage(scene.frames, scene.stamps_ns(), scene.fps, masks, ground)
     for person, truth in sorted(people(scene).items()):
         start = start_frame(scene, person)
@@ -387,24 +400,26 @@ def windowed(
     masks = None if footage.masks is None else WindowedFrames(footage.masks, path)
     ground = footage.ground
     if ground is not None:
-        ground = GroundLines(ground.lines, {k: float(y) for k, (_, y) in path.origins.items()})
+        ground = replace(ground, top_rows={k: float(y) for k, (_, y) in path.origins.items()})
     seen = WindowedFrames(scene.frames, path)
     return replace(footage, frames=seen, masks=masks, ground=ground, origins=path.origins), boxes
 
 
-def motion_cues(scene: Scene) -> tuple[list[np.ndarray], list[tuple[float, float] | None]]:
+def motion_cues(scene: Scene) -> tuple[list[np.ndarray], GroundLines]:
     """The surveillance graph's motion stage (its detector and tracker, as configured there) run
     over `scene` on the fixed whole-scene camera: each frame's foreground mask, and the ground
     line (`object_scale.HeightByRow`: height against the row of the feet, from the boxes of the
-    confirmed tracks observed so far) as learned by that frame, None before its first fit. A
-    moving camera's window takes its part of these: the suite's detector keeps its background in
-    scene coordinates, so under a pan it sees what a fixed camera would."""
+    confirmed tracks observed so far) and a person's usual aspect as learned by that frame, None
+    before the first fit. A moving camera's window takes its part of these: the suite's
+    detector keeps its background in scene coordinates, so under a pan it sees what a fixed
+    camera would."""
     stage = PipelineSettings.from_graph(load_graph("surveillance")).motion
     detector = DETECTORS.get(stage.detector_method).build(stage.detector_values)
     tracker = TRACKERS.get(stage.tracker_method).build(stage.tracker_values, 1)
     ground = HeightByRow(0.0)
     masks: list[np.ndarray] = []
     lines: list[tuple[float, float] | None] = []
+    aspects: list[float | None] = []
     stamps = scene.stamps_ns()
     for stamp, frame in zip(stamps, scene.frames, strict=True):
         detection = detector.process(CameraFrame(stamp, frame))
@@ -415,7 +430,8 @@ def motion_cues(scene: Scene) -> tuple[list[np.ndarray], list[tuple[float, float
         tracks = tracker.step(Observation(t, found, detection.target_present))
         ground.observe(tracks.bboxes[tracks.status == TrackStatus.CONFIRMED])
         lines.append(ground.line)
-    return masks, lines
+        aspects.append(ground.aspect)
+    return masks, GroundLines(lines, aspects=aspects)
 
 
 def run_person(
@@ -535,6 +551,13 @@ def main(argv: list[str] | None = None) -> int:
     )
     parser.add_argument("--scenes", nargs="+", choices=sorted(street.STREET_PRESETS))
     parser.add_argument("--seeds", type=int, default=3, help="scenes per preset")
+    parser.add_argument(
+        "--first-seed",
+        type=int,
+        default=0,
+        help="skip this many scenes of each preset (--first-seed 3 --seeds 3: three scenes "
+        "that the rows of record, the first three, do not include)",
+    )
     parser.add_argument("--frames", type=int, help="shorten every scene to this many frames")
     parser.add_argument("--background", choices=("vtest", "generated"), default="vtest")
     parser.add_argument("--runs", type=int, default=1, help="seeds per particle filter and person")
@@ -547,6 +570,8 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     if args.runs < 1:
         parser.error("--runs must be >= 1")
+    if args.first_seed < 0:
+        parser.error("--first-seed must be >= 0")
     variants: Mapping[str, Variant | ParticleVariant] = SWEEP if args.sweep else VARIANTS
     if args.variants:
         unknown = sorted(set(args.variants) - set(variants))
@@ -557,7 +582,7 @@ def main(argv: list[str] | None = None) -> int:
     background, described = background_image(args.background)
     runs: list[PersonRun] = []
     for name in args.scenes or list(street.STREET_PRESETS):
-        for k in range(args.seeds):
+        for k in range(args.first_seed, args.first_seed + args.seeds):
             preset = street.STREET_PRESETS[name]
             config = replace(
                 preset, seed=preset.seed + k, num_frames=args.frames or preset.num_frames

@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -230,11 +230,13 @@ def follow(
 @dataclass(frozen=True)
 class GroundLines:
     """The ground line (`object_scale.HeightByRow.line`: a person's height against the row of
-    their feet, scene px) as the suite's tracker had learned it by each frame (None before its
-    first fit), and the row of the scene each frame's image starts at (0: the whole scene)."""
+    their feet, scene px) and a person's usual aspect (`HeightByRow.aspect`) as the suite's
+    tracker had learned them by each frame (None before its first fit; no aspects: none known),
+    and the row of the scene each frame's image starts at (0: the whole scene)."""
 
     lines: Sequence[tuple[float, float] | None]
     top_rows: Mapping[int, float] | None = None
+    aspects: Sequence[float | None] | None = None
 
     def expected(self, frame: int, reference: np.ndarray, seen: int) -> ExpectedHeight | None:
         """The height of the object of the box `reference` (image px of frame `seen`) where a box
@@ -244,9 +246,11 @@ class GroundLines:
             return None
         rows = self.top_rows
         through = ExpectedHeight.through(line, reference, 0.0 if rows is None else rows[seen])
-        if through is None or rows is None:
-            return through
-        return through.shifted(rows[frame])
+        if through is None:
+            return None
+        if self.aspects is not None:
+            through = through.with_aspect(self.aspects[frame])
+        return through if rows is None else through.shifted(rows[frame])
 
 
 def follow_particles(
@@ -272,7 +276,7 @@ def follow_particles(
     rng = np.random.default_rng(seed)
     if origins is not None:
         start_box = start_box + [*origins[start], 0.0, 0.0]
-        ground = None if ground is None else GroundLines(ground.lines)  # scene rows
+        ground = None if ground is None else replace(ground, top_rows=None)  # scene rows
     tracker = ColourParticleFilter(
         frames[start], start_box, appearance, config, rng, view=_view(origins, start)
     )
