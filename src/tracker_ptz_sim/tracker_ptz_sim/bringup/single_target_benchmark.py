@@ -29,7 +29,8 @@ start box), that with 16 x the noise, and that coasting with a quarter of its ra
 person is hidden (`coast_noise`), that found again where the mask moves (`probes`,
 `reappear_in_mask`), and the last two with the reported box pulled half-way to the box of the
 mask's blobs it holds (`foreground_fit` 0.5; the first of them the colour_particles tracker's
-defaults). With --runs R every
+defaults), and that with its box held no wider than one person usually is for their height
+(`aspect_spread`; the tracker's default since 2026-11-28). With --runs R every
 particle filter runs R times per person with different seeds (person id + 1000 r) and the table
 gives the mean over runs and sigma_Q, the standard deviation of a run's Q over the runs (the
 thesis's 10 runs). --sweep runs instead the best particle filter with 100 / 500 / 750 / 2000
@@ -205,6 +206,11 @@ def contrasted() -> HistogramAppearance:
     return HistogramAppearance(background_weighting=True, contrast=1.0)
 
 
+#: the name of the rows from quiet coasting on, before what each adds
+QUIET = (
+    "particles, final, 16 x sigma, background-weighted, quiet coasting, contrast, "
+    "foreground, height"
+)
 #: What is compared: one line per variant.
 VARIANTS: dict[str, Variant | ParticleVariant] = {
     "camshift, thesis histogram": Variant(THESIS, None),
@@ -250,38 +256,21 @@ VARIANTS: dict[str, Variant | ParticleVariant] = {
         ParticleVariant(contrasted, NOISIER)
     ),
     # ... coasting with a quarter of that randomness
-    (
-        "particles, final, 16 x sigma, background-weighted, quiet coasting, contrast, "
-        "foreground, height"
-    ): ParticleVariant(contrasted, SHIPPED),
+    QUIET: ParticleVariant(contrasted, SHIPPED),
     # ... and found again where the detector's mask moves (probes; back only in the mask)
-    (
-        "particles, final, 16 x sigma, background-weighted, quiet coasting, contrast, "
-        "foreground, height, probes"
-    ): ParticleVariant(contrasted, PROBING),
+    f"{QUIET}, probes": ParticleVariant(contrasted, PROBING),
     # the last two with the reported box pulled toward the mask's blobs
-    (
-        "particles, final, 16 x sigma, background-weighted, quiet coasting, contrast, "
-        "foreground, height, fitted"
-    ): ParticleVariant(contrasted, FITTED),
-    (
-        "particles, final, 16 x sigma, background-weighted, quiet coasting, contrast, "
-        "foreground, height, probes, fitted"
-    ): ParticleVariant(contrasted, PROBING_FITTED),
+    f"{QUIET}, fitted": ParticleVariant(contrasted, FITTED),
+    f"{QUIET}, probes, fitted": ParticleVariant(contrasted, PROBING_FITTED),
     # the same told the moving camera's pose, as the graph's tracker is (fixed camera: the same)
-    (
-        "particles, final, 16 x sigma, background-weighted, quiet coasting, contrast, "
-        "foreground, height, probes, fitted, camera pose"
-    ): ParticleVariant(contrasted, PROBING_FITTED, posed=True),
+    f"{QUIET}, probes, fitted, camera pose": ParticleVariant(
+        contrasted, PROBING_FITTED, posed=True
+    ),
     # ... and no wider than one person usually is (the aspect prior)
-    (
-        "particles, final, 16 x sigma, background-weighted, quiet coasting, contrast, "
-        "foreground, height, probes, fitted, aspect"
-    ): ParticleVariant(contrasted, SHAPED),
-    (
-        "particles, final, 16 x sigma, background-weighted, quiet coasting, contrast, "
-        "foreground, height, probes, fitted, aspect, camera pose"
-    ): ParticleVariant(contrasted, SHAPED, posed=True),
+    f"{QUIET}, probes, fitted, aspect": ParticleVariant(contrasted, SHAPED),
+    f"{QUIET}, probes, fitted, aspect, camera pose": ParticleVariant(
+        contrasted, SHAPED, posed=True
+    ),
 }
 
 
