@@ -156,10 +156,13 @@ def test_the_height_prior_learns_the_ground_line_from_confirmed_targets():
     assert t.ground.line is not None
     feet = np.array([[0.0, 100.0, 20.0, 60.0], [0.0, 90.0, 20.0, 60.0]])  # rows 160 and 150
     np.testing.assert_allclose(t.ground.expected_heights(feet), 60.0, atol=1.0)
-    # each target's own height, from its start box and the detections that measured it
+    # each target's own height, from its start box and the detections that measured it, with
+    # the people's usual aspect learned with the line (20 x 60 px boxes) for the aspect prior
+    assert t.ground.aspect == pytest.approx(20.0 / 60.0, abs=0.02)
     for expected, box in zip(t._expected_heights(), feet, strict=True):
         assert expected is not None
         assert expected.heights(box[None])[0] == pytest.approx(60.0, abs=1.0)
+        assert expected.aspect == t.ground.aspect
     last, truth = history[-1], frames[-1][1]
     for i, box in zip(last.ids, last.bboxes, strict=True):
         assert iou(box, truth[i - 1]) > 0.5

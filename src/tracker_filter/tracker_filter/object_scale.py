@@ -79,8 +79,10 @@ class HeightByRow:
         self._heights = np.zeros(0)
         self._widths = np.zeros(0)
         self._unfitted = 0
+        # the widths and heights the line was fitted to (`observe` replaces, never changes, them)
+        self._fitted: tuple[np.ndarray, np.ndarray] = (self._widths, self._heights)
         self.line: tuple[float, float] | None = None  # (intercept px, px per row)
-        self.aspect: float | None = None  # one object's width / height (module doc)
+        self._aspect: float | None = None  # of the boxes of the last fit, once asked for
 
     def __len__(self) -> int:
         return len(self._rows)
@@ -97,9 +99,21 @@ class HeightByRow:
             self.line is None or self._unfitted >= self.refit_every
         ):
             self.line = robust_line(self._rows, self._heights)
-            aspects = self._widths / np.maximum(self._heights, 1.0)
-            self.aspect = float(np.quantile(aspects, ASPECT_QUANTILE))
+            self._fitted = (self._widths, self._heights)
+            self._aspect = None
             self._unfitted = 0
+
+    @property
+    def aspect(self) -> float | None:
+        """One object's width / height (module doc) over the boxes of the last fit, None before
+        it; worked out when first asked for (the height rule alone never asks)."""
+        if self.line is None:
+            return None
+        if self._aspect is None:
+            widths, heights = self._fitted
+            aspects = widths / np.maximum(heights, 1.0)
+            self._aspect = float(np.quantile(aspects, ASPECT_QUANTILE))
+        return self._aspect
 
     def expected_heights(self, boxes: np.ndarray) -> np.ndarray:
         """The fitted height (px, at least 0) at each box's bottom row; 0 before the first fit."""
