@@ -141,6 +141,10 @@ class ParticleFilterConfig:
     probe_reach: float = 1.0
     # not the thesis's: a hidden target is back only in a box the foreground mask holds
     reappear_in_mask: bool = False
+    # not the thesis's: the target is never taken as hidden in its first frames (0 = from the
+    # first): the tracked level is still the start frame's own match, which a walker's next
+    # steps do not reach, and a cloud started at rest is still catching up with them
+    settle_frames: int = 0
 
     def problems(self) -> list[str]:
         """What is wrong with these values (empty when usable)."""
@@ -160,6 +164,7 @@ class ParticleFilterConfig:
             "coast_noise must be in [0, 1]": 0.0 <= self.coast_noise <= 1.0,
             "probes must be >= 0": self.probes >= 0,
             "probe_reach must be > 0": math.isfinite(self.probe_reach) and self.probe_reach > 0,
+            "settle_frames must be >= 0": self.settle_frames >= 0,
         }
         return [message for message, ok in checks.items() if not ok]
 
@@ -569,7 +574,8 @@ class ColourParticleFilter:
     def _hidden(self, best: float) -> bool:
         """Whether the best score says the target is occluded; else it updates the level."""
         ratio = self.config.occlusion_ratio
-        if ratio > 0 and self.level is not None and best < ratio * self.level:
+        settled = self.frames_seen >= self.config.settle_frames
+        if ratio > 0 and settled and self.level is not None and best < ratio * self.level:
             return True
         self.level = best if self.level is None else self.level + LEVEL_GAIN * (best - self.level)
         return False

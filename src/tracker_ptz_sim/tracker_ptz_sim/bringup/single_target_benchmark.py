@@ -30,7 +30,8 @@ person is hidden (`coast_noise`), that found again where the mask moves (`probes
 `reappear_in_mask`), and the last two with the reported box pulled half-way to the box of the
 mask's blobs it holds (`foreground_fit` 0.5; the first of them the colour_particles tracker's
 defaults), and that with its box held no wider than one person usually is for their height
-(`aspect_spread`; the tracker's default since 2026-11-28). With --runs R every
+(`aspect_spread`; the tracker's default since 2026-11-28), and that never taken as hidden in its
+first second (`settle_frames` 10; the tracker's default since 2026-11-28). With --runs R every
 particle filter runs R times per person with different seeds (person id + 1000 r) and the table
 gives the mean over runs and sigma_Q, the standard deviation of a run's Q over the runs (the
 thesis's 10 runs). --sweep runs instead the best particle filter with 100 / 500 / 750 / 2000
@@ -82,6 +83,7 @@ from tracker_filter.particle_tracker import (
     HEIGHT_SPREAD,
     NOISE_SCALE,
     OCCLUSION_RATIO,
+    SETTLE_FRAMES,
     SIZE_NOISE,
 )
 from tracker_filter.robust_kalman import LambdaRule, RobustKalmanConfig, seed001_uncertainty
@@ -199,6 +201,9 @@ PROBING_FITTED = replace(PROBING, foreground=FITTED.foreground)
 #: ... and a box held from growing wider than one person usually is for their height
 #: (`aspect_spread`; the colour_particles tracker's default since 2026-11-28)
 SHAPED = replace(PROBING_FITTED, aspect_spread=ASPECT_SPREAD)
+#: ... and never taken as hidden in its first second (`settle_frames`; the colour_particles
+#: tracker's default since 2026-11-28)
+SETTLED = replace(SHAPED, settle_frames=SETTLE_FRAMES)
 
 
 def contrasted() -> HistogramAppearance:
@@ -270,6 +275,11 @@ VARIANTS: dict[str, Variant | ParticleVariant] = {
     f"{QUIET}, probes, fitted, aspect": ParticleVariant(contrasted, SHAPED),
     f"{QUIET}, probes, fitted, aspect, camera pose": ParticleVariant(
         contrasted, SHAPED, posed=True
+    ),
+    # ... and never taken as hidden in its first second
+    f"{QUIET}, probes, fitted, aspect, settled": ParticleVariant(contrasted, SETTLED),
+    f"{QUIET}, probes, fitted, aspect, settled, camera pose": ParticleVariant(
+        contrasted, SETTLED, posed=True
     ),
 }
 
