@@ -31,7 +31,8 @@ person is hidden (`coast_noise`), that found again where the mask moves (`probes
 mask's blobs it holds (`foreground_fit` 0.5; the first of them the colour_particles tracker's
 defaults), and that with its box held no wider than one person usually is for their height
 (`aspect_spread`; the tracker's default since 2026-11-28), and that never taken as hidden in its
-first second (`settle_frames` 10; the tracker's default since 2026-11-28). With --runs R every
+first second (`settle_frames` 10; not the tracker's default: in the graph it made `occluded`
+worse). With --runs R every
 particle filter runs R times per person with different seeds (person id + 1000 r) and the table
 gives the mean over runs and sigma_Q, the standard deviation of a run's Q over the runs (the
 thesis's 10 runs). --sweep runs instead the best particle filter with 100 / 500 / 750 / 2000
@@ -201,8 +202,8 @@ PROBING_FITTED = replace(PROBING, foreground=FITTED.foreground)
 #: ... and a box held from growing wider than one person usually is for their height
 #: (`aspect_spread`; the colour_particles tracker's default since 2026-11-28)
 SHAPED = replace(PROBING_FITTED, aspect_spread=ASPECT_SPREAD)
-#: ... and never taken as hidden in its first second (`settle_frames`; the colour_particles
-#: tracker's default since 2026-11-28)
+#: ... and never taken as hidden in its first second (`settle_frames`; not the colour_particles
+#: tracker's default: in the graph it made `occluded` and `shaky` worse)
 SETTLED = replace(SHAPED, settle_frames=SETTLE_FRAMES)
 
 
