@@ -34,6 +34,9 @@ hidden frame, up to P particles at the target's size where the mask holds such a
 proposal of Okuma et al.'s boosted particle filter, with the mask as the detector): someone who
 comes out off the way they went in is found when they are back in sight, not when the cloud's
 spread has grown to reach them. Probes that find nothing are dropped.
+`settle_frames` N > 0: the target is never taken as hidden in its first N frames, as the level
+starts at the start frame's own match, which a walker's next steps rarely reach, and a cloud
+started at rest is still catching up with them.
 
 Scale (not the thesis's; off by default): `foreground` (`foreground_cue`) multiplies each weight by
 how well the particle's box bounds the motion detector's foreground mask, on the frames whose step
