@@ -8,6 +8,7 @@ from pathlib import Path
 
 from tracker_ptz_sim.bringup import benchmark
 from tracker_ptz_sim.simulation import street
+from tracker_ptz_sim.simulation.scenes import load_scene
 
 TINY = street.StreetConfig(
     width=96, height=72, num_frames=2, person_height_far=20.0, person_height_near=40.0, walkers=1
@@ -25,3 +26,21 @@ def test_a_scene_is_rendered_once_per_config_and_generator(tmp_path, monkeypatch
     changed.write_bytes(Path(street.__file__).read_bytes() + b"\n# edited\n")
     monkeypatch.setattr(street, "__file__", str(changed))
     assert benchmark.prepare_scene("tiny", TINY, None, tmp_path) != first
+
+
+def test_a_scene_appears_whole_or_not_at_all(tmp_path):
+    """Rendered into a directory of the process's own and renamed into place: a reader (another
+    benchmark sharing the cache) never sees half a video; a directory an interrupted write left
+    without its metadata is replaced; a scene another process put in place first is kept."""
+    stale = tmp_path / "leftover"
+    stale.mkdir()
+    (stale / "scene.mp4").write_bytes(b"half a video")
+    scene = street.generate_street(TINY, None)
+    benchmark._write_whole(scene, stale)
+    assert (stale / benchmark.META_NAME).exists()
+    assert len(load_scene(stale).frames) == TINY.num_frames
+    placed = benchmark.prepare_scene("tiny", TINY, None, tmp_path)
+    before = sorted(p.name for p in placed.iterdir())
+    benchmark._write_whole(scene, placed)  # the same scene, finished by someone else first
+    assert sorted(p.name for p in placed.iterdir()) == before
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted(["leftover", placed.name])

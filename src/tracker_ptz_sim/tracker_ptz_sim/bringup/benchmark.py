@@ -42,6 +42,7 @@ import hashlib
 import json
 import math
 import os
+import shutil
 import sys
 import time
 from dataclasses import asdict, dataclass, field, replace
@@ -182,11 +183,29 @@ def prepare_scene(
     root = cache / f"{name}-{key}"
     if not (root / META_NAME).exists():
         print(f"rendering scene {name} ({config.num_frames} frames) ...", flush=True)
+        scene: Scene
         if isinstance(config, small_objects.SmallObjectsConfig):
-            write_scene(small_objects.generate_small_objects(config, background), root)
+            scene = small_objects.generate_small_objects(config, background)
         else:
-            write_scene(street.generate_street(config, background), root)
+            scene = street.generate_street(config, background)
+        _write_whole(scene, root)
     return root
+
+
+def _write_whole(scene: Scene, root: Path) -> None:
+    """Write `scene` to `root` so that no reader ever sees part of it: into a directory of this
+    process's own, renamed into place (two benchmarks sharing a cache render the same scene at
+    once; one read the other's half-written video). A `root` without its metadata is what an
+    interrupted write left before: replaced."""
+    staging = root.with_name(f".{root.name}.{os.getpid()}")
+    shutil.rmtree(staging, ignore_errors=True)
+    write_scene(scene, staging)
+    if root.exists() and not (root / META_NAME).exists():
+        shutil.rmtree(root, ignore_errors=True)
+    try:
+        staging.rename(root)
+    except OSError:  # another process put the same scene in place first
+        shutil.rmtree(staging, ignore_errors=True)
 
 
 def run_in_process(scene: Scene, settings: pipeline.PipelineSettings) -> scoring.RunTrace:
