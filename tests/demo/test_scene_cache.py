@@ -6,6 +6,8 @@ from __future__ import annotations
 from dataclasses import replace
 from pathlib import Path
 
+import pytest
+
 from tracker_ptz_sim.bringup import benchmark
 from tracker_ptz_sim.simulation import street
 from tracker_ptz_sim.simulation.scenes import load_scene
@@ -28,7 +30,7 @@ def test_a_scene_is_rendered_once_per_config_and_generator(tmp_path, monkeypatch
     assert benchmark.prepare_scene("tiny", TINY, None, tmp_path) != first
 
 
-def test_a_scene_appears_whole_or_not_at_all(tmp_path):
+def test_a_scene_appears_whole_or_not_at_all(tmp_path, monkeypatch):
     """Rendered into a directory of the process's own and renamed into place: a reader (another
     benchmark sharing the cache) never sees half a video; a directory an interrupted write left
     without its metadata is replaced; a scene another process put in place first is kept."""
@@ -43,4 +45,13 @@ def test_a_scene_appears_whole_or_not_at_all(tmp_path):
     before = sorted(p.name for p in placed.iterdir())
     benchmark._write_whole(scene, placed)  # the same scene, finished by someone else first
     assert sorted(p.name for p in placed.iterdir()) == before
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted(["leftover", placed.name])
+
+    # a rename that fails for any other reason is an error, not a scene that is not there
+    def refuse(self, target):
+        raise PermissionError(f"cannot rename {self} to {target}")
+
+    monkeypatch.setattr(Path, "rename", refuse)
+    with pytest.raises(PermissionError):
+        benchmark._write_whole(scene, tmp_path / "elsewhere")
     assert sorted(p.name for p in tmp_path.iterdir()) == sorted(["leftover", placed.name])

@@ -204,8 +204,10 @@ def _write_whole(scene: Scene, root: Path) -> None:
         shutil.rmtree(root, ignore_errors=True)
     try:
         staging.rename(root)
-    except OSError:  # another process put the same scene in place first
+    except OSError:
         shutil.rmtree(staging, ignore_errors=True)
+        if not (root / META_NAME).exists():  # not another process's scene put in place first
+            raise
 
 
 def run_in_process(scene: Scene, settings: pipeline.PipelineSettings) -> scoring.RunTrace:
