@@ -123,6 +123,7 @@ def test_summary_figures(bag):
     assert summary.throughput_fps == pytest.approx(20.0)  # scene images received every 50 ms
     assert summary.latency_ms["video_source -> ptz_camera"]["p50"] == pytest.approx(2.0)
     assert summary.latency_ms["camera image -> command"]["p95"] == pytest.approx(7.0)
+    assert summary.latency_ms["camera image -> command"]["min"] == pytest.approx(7.0)
     assert summary.locked_share == pytest.approx(4 / 6)
     # The target is at x = 35 + k, y = 25 against the view centre (35, 25): distances 2, 3, 4, 5.
     assert summary.mean_center_distance_px == pytest.approx(3.5)

@@ -142,7 +142,7 @@ class Recorder(Node):
         self._writer.start()
         self._keep: dict[str, Subscription] = {}  # per graph topic, the recorder's subscription
         for topic in graph.topics:
-            msg_type = _import_type(topic.type)
+            msg_type = import_message_type(topic.type)
             durable = topic.type in RESULT_TYPES
             qos = CLOCK_QOS if topic.name == "/clock" else result_qos(late_joiners=durable)
             self._keep[topic.name] = self.create_subscription(
@@ -236,7 +236,8 @@ class Recorder(Node):
         return self.status
 
 
-def _import_type(name: str) -> Any:
+def import_message_type(name: str) -> Any:
+    """The message class of a type name such as "sensor_msgs/msg/Image"."""
     package, kind, message = name.split("/")
     module = __import__(f"{package}.{kind}", fromlist=[message])
     return getattr(module, message)

@@ -102,6 +102,7 @@ def summarize(frames: dict[int, FrameRecord], message_counts: dict[str, int]) ->
         ]
         if values:
             latency[name] = {
+                "min": float(np.min(values)),
                 "p50": float(np.percentile(values, 50)),
                 "p95": float(np.percentile(values, 95)),
                 "max": float(np.max(values)),
