@@ -44,6 +44,23 @@ def test_nothing_is_required_until_enough_boxes_were_seen():
     assert len(scale) == 0 and scale.line is None
 
 
+def test_a_line_no_camera_above_the_ground_gives_is_not_taken():
+    """The first boxes of a scene: two people at the view's edge, the lower one cut off by it, so
+    the boxes shrink with the row. That line is refused (none yet); boxes of a ground plane then
+    give one, and a later falling fit leaves it as it was."""
+    scale = HeightByRow(0.5, min_samples=30, refit_every=10)
+    rows = np.linspace(200.0, 400.0, 30)
+    falling = np.column_stack([np.zeros(30), rows - (300.0 - 0.5 * rows), np.full(30, 20.0)])
+    falling = np.column_stack([falling, 300.0 - 0.5 * rows])  # x, y, w, h: h falls with the row
+    scale.observe(falling)
+    assert scale.line is None and scale.least_heights(falling).tolist() == [0.0] * 30
+    scale.observe(_ground_plane_boxes(np.random.default_rng(3), 200))
+    kept = scale.line
+    assert kept is not None and kept[1] > 0
+    scale.observe(np.repeat(falling, 20, axis=0)[:600])
+    assert scale.line == kept
+
+
 def test_bad_settings_are_refused():
     with pytest.raises(ValueError):
         HeightByRow(1.5)

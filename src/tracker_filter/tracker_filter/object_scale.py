@@ -8,7 +8,10 @@ lost its legs is an outlier), and gives the least height a new track must have w
 `ratio` x the line's height there. Clutter that drifts (a healing ghost, a leaf, a flickering
 patch) is mostly far smaller than a person at its place; a person whose legs go unseen for a
 frame is still more than half of one. Until `min_samples` boxes have been seen nothing is
-required, so a camera's first movers are confirmed as before.
+required, so a camera's first movers are confirmed as before. A fit whose slope is not positive
+(people taller the higher up they stand) cannot come from a camera above the ground and is not
+taken: the first boxes of a scene can be a few people partly out of the view, whose boxes gave
+lines falling by up to 0.7 px per row, and a target's expected height jumped from 126 to 320 px.
 
 It also learns how wide the followed objects are for their height (`aspect`): a low quantile of
 the boxes' width over height, as a box is widened, not narrowed, by what does not belong to one
@@ -98,9 +101,11 @@ class HeightByRow:
         if len(self) >= self.min_samples and (
             self.line is None or self._unfitted >= self.refit_every
         ):
-            self.line = robust_line(self._rows, self._heights)
-            self._fitted = (self._widths, self._heights)
-            self._aspect = None
+            line = robust_line(self._rows, self._heights)
+            if line[1] > 0:  # else not a ground plane's (module doc): the last line stays
+                self.line = line
+                self._fitted = (self._widths, self._heights)
+                self._aspect = None
             self._unfitted = 0
 
     @property
