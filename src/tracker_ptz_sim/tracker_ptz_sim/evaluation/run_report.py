@@ -1,8 +1,11 @@
 """What a recorded run produced, read back from its bag (no rclpy): the annotated video, the tracks
 in MOTChallenge format, and the summary (frames, throughput, per-hop latency, lock share, centring).
 
-Latencies come from the recorder's receive times of the messages that share one image stamp, so
-they measure the graph as a user sees it (serialization, DDS and each node's processing).
+Latencies come from the recorder's receive times (its callback times) of the messages that share
+one image stamp, so they measure the graph as a user sees it (serialization, DDS and each node's
+processing), to within the recorder's own lag: it is the busiest process, and a hop shorter than
+a millisecond can come out negative on a frame (each hop's `min` shows it). scripts/two_hosts.py
+times such a hop on the middleware's timestamps instead.
 """
 
 from __future__ import annotations
