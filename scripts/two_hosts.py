@@ -32,15 +32,17 @@ import sys
 import time
 from collections.abc import Iterator
 from contextlib import contextmanager
+from functools import partial
 from pathlib import Path
 
 from tracker_ptz_sim.bringup.graph import executable_path, load_graph, ros_args
 from tracker_ptz_sim.evaluation import metrics
+from tracker_ptz_sim.evaluation.run_report import DETECTIONS, TARGET, latency_stats
 
 HOSTS = {"a": "10.211.0.1", "b": "10.211.0.2"}
 REMOTE_NODES = ("tracker", "ptz_controller")
 HOP = "ssim_detector -> tracker"
-PROBED = {"/detections": "source_timestamp", "/target": "received_timestamp"}
+PROBED = {DETECTIONS: "source_timestamp", TARGET: "received_timestamp"}
 INSTALL = Path(__file__).resolve().parents[1] / "install"
 
 
@@ -113,9 +115,12 @@ def probe(out: Path) -> int:
         times[topic].setdefault(header_stamp_ns(data), info[PROBED[topic]])
 
     for topic in PROBED:
-        callback = (lambda t: lambda data, info: keep(t, data, info))(topic)
         node.create_subscription(
-            import_message_type(types[topic]), topic, callback, result_qos(False), raw=True
+            import_message_type(types[topic]),
+            topic,
+            partial(keep, topic),
+            result_qos(False),
+            raw=True,
         )
     executor = SingleThreadedExecutor()
     executor.add_node(node)
@@ -124,28 +129,20 @@ def probe(out: Path) -> int:
     while not stop:
         executor.spin_once(timeout_sec=0.1)
     rows = {
-        str(stamp): [sent, times["/target"].get(stamp)]
-        for stamp, sent in times["/detections"].items()
+        str(stamp): [sent, times[TARGET].get(stamp)] for stamp, sent in times[DETECTIONS].items()
     }
     out.write_text(json.dumps(rows))
     return 0
 
 
 def probed_latency_ms(path: Path) -> dict[str, float]:
-    """p50, p95, min and max of the probe's detections -> target times, in ms."""
-    import numpy as np
-
+    """The frames the probe timed, and min, p50, p95 and max of their detections -> target times
+    (ms)."""
     rows = json.loads(path.read_text()).values()
-    values = np.array([(arrived - sent) / 1e6 for sent, arrived in rows if arrived is not None])
-    if values.size == 0:
+    values = [(arrived - sent) / 1e6 for sent, arrived in rows if arrived is not None]
+    if not values:
         raise RuntimeError(f"the probe ({path}) saw no detections with their target")
-    return {
-        "frames": int(values.size),
-        "min": float(values.min()),
-        "p50": float(np.percentile(values, 50)),
-        "p95": float(np.percentile(values, 95)),
-        "max": float(values.max()),
-    }
+    return {"frames": len(values), **latency_stats(values)}
 
 
 @contextmanager

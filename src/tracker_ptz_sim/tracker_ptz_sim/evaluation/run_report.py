@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import json
 from collections import defaultdict
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
@@ -92,6 +92,16 @@ def collect(bag: Path) -> dict[int, FrameRecord]:
     return dict(sorted(frames.items()))
 
 
+def latency_stats(values_ms: Sequence[float]) -> dict[str, float]:
+    """min, p50, p95 and max of a hop's per-frame latencies (ms; at least one)."""
+    return {
+        "min": float(np.min(values_ms)),
+        "p50": float(np.percentile(values_ms, 50)),
+        "p95": float(np.percentile(values_ms, 95)),
+        "max": float(np.max(values_ms)),
+    }
+
+
 def summarize(frames: dict[int, FrameRecord], message_counts: dict[str, int]) -> Summary:
     scene_times = sorted(r.received[SCENE] for r in frames.values() if SCENE in r.received)
     count = len(scene_times)
@@ -104,12 +114,7 @@ def summarize(frames: dict[int, FrameRecord], message_counts: dict[str, int]) ->
             if source in r.received and sink in r.received
         ]
         if values:
-            latency[name] = {
-                "min": float(np.min(values)),
-                "p50": float(np.percentile(values, 50)),
-                "p95": float(np.percentile(values, 95)),
-                "max": float(np.max(values)),
-            }
+            latency[name] = latency_stats(values)
     locked = [r for r in frames.values() if r.target is not None and r.target.locked]
     with_state = [r for r in frames.values() if r.target is not None]
     distances, shares = [], []
