@@ -28,10 +28,12 @@ from tracker_filter.colour_particle import (
     Resampling,
     WeightCorrection,
     corrected_weights,
+    in_perspective,
     resample,
     static_noise_share,
 )
 from tracker_filter.foreground_cue import ForegroundCue, ForegroundMask
+from tracker_filter.object_scale import ExpectedHeight
 from tracker_filter.region_covariance import (
     RIDGE,
     forstner_distances,
@@ -329,6 +331,55 @@ def test_coasting_keeps_the_target_through_a_one_second_occlusion():
         # frames 32-40: the estimate goes on at about the walking speed (4 px per frame)
         advance = (estimates[39].box[0] - estimates[31].box[0]) / 8
         assert 3.0 < advance < 5.0
+
+
+def test_in_perspective_scales_a_moved_box_about_its_bottom_centre():
+    ground = ExpectedHeight(0.0, 0.5)  # h = 0.5 x bottom row
+    before = np.array([[10.0, 100.0, 40.0, 100.0]])  # bottom row 200: 100 px expected
+    moved = np.array([[10.0, 80.0, 40.0, 100.0]])  # its feet 20 rows up: 90 px expected
+    np.testing.assert_allclose(in_perspective(moved, before, ground), [[12.0, 90.0, 36.0, 90.0]])
+    np.testing.assert_allclose(in_perspective(before, before, ground), before)
+
+
+def walker_who_vanishes(seed: int = 0):
+    """A 30 x 80 px person walking 3 px/frame up the image (away from the camera) for 12 frames,
+    then hidden (gone from the image) for 10."""
+    rng = np.random.default_rng(seed)
+    background = rng.integers(60, 160, size=(240, 200, 3), dtype=np.uint8)
+    images, boxes = [], []
+    for k in range(22):
+        image = background.copy()
+        y = 130 - 3 * k
+        if k < 12:
+            image[y : y + 40, 80:110] = (40, 40, 200)
+            image[y + 40 : y + 80, 80:110] = (150, 60, 30)
+        noise = rng.integers(-12, 13, size=image.shape)
+        images.append(np.clip(image.astype(int) + noise, 0, 255).astype(np.uint8))
+        boxes.append(np.array([80.0, y, 30.0, 80.0]))
+    return images, boxes
+
+
+@pytest.mark.parametrize("perspective", [False, True])
+def test_a_hidden_target_coasting_away_shrinks_with_the_ground_line(perspective: bool):
+    """While hidden, the cloud's boxes move on at the speed seen; with `coast_perspective` they
+    also shrink as their feet rise, as the ground line says (here h = 0.5 x the bottom row),
+    instead of keeping the size they went out of sight with."""
+    images, truth = walker_who_vanishes()
+    ground = ExpectedHeight(0.0, 0.5)
+    config = replace(COASTING, coast_perspective=perspective)
+    f = ColourParticleFilter(
+        images[0], truth[0], HistogramAppearance(), config, np.random.default_rng(0)
+    )
+    estimates = [f.step(image, height=ground) for image in images[1:]]
+    hidden = [k for k, e in enumerate(estimates) if e.hidden]
+    assert hidden and hidden == list(range(hidden[0], len(estimates))) and hidden[0] >= 10
+    first, last = estimates[hidden[0]].box, estimates[-1].box
+    assert last[1] + last[3] < first[1] + first[3] - 15, "coasting up the image"
+    height_for_row = [box[3] / (box[1] + box[3]) for box in (first, last)]
+    if perspective:
+        assert height_for_row[1] == pytest.approx(height_for_row[0], rel=0.03)
+    else:
+        assert last[3] == pytest.approx(first[3], rel=0.03)
 
 
 def turning_scene(seed: int = 0):

@@ -36,7 +36,11 @@ comes out off the way they went in is found when they are back in sight, not whe
 spread has grown to reach them. Probes that find nothing are dropped.
 `settle_frames` N > 0: the target is never taken as hidden in its first N frames, as the level
 starts at the start frame's own match, which a walker's next steps rarely reach, and a cloud
-started at rest is still catching up with them.
+started at rest is still catching up with them. `coast_perspective`: a hidden target's boxes are
+also rescaled about their bottom centre as they coast, by the expected height (`height`, below)
+at their new bottom row over that at the old (`in_perspective`): a person walking away from the
+camera behind a board comes out smaller than they went in, and a cloud that kept their old size
+was twice their width when they did.
 
 Scale (not the thesis's; off by default): `foreground` (`foreground_cue`) multiplies each weight by
 how well the particle's box bounds the motion detector's foreground mask, on the frames whose step
@@ -148,6 +152,10 @@ class ParticleFilterConfig:
     # first): the tracked level is still the start frame's own match, which a walker's next
     # steps do not reach, and a cloud started at rest is still catching up with them
     settle_frames: int = 0
+    # not the thesis's: a hidden target's boxes keep the ground line's perspective as they coast
+    # (scaled by the expected height at their new bottom row over that at the old; needs the
+    # height prior's `height` in `step`)
+    coast_perspective: bool = False
 
     def problems(self) -> list[str]:
         """What is wrong with these values (empty when usable)."""
@@ -392,6 +400,19 @@ class CovarianceAppearance:
         return out
 
 
+def in_perspective(boxes: np.ndarray, before: np.ndarray, height: ExpectedHeight) -> np.ndarray:
+    """Boxes (N, 4) that moved from `before` rescaled about their bottom centre by the expected
+    height at their bottom row over that at their old one: an object walking away from the
+    camera shrinks as its feet rise in the image, also while nothing of it is seen."""
+    ratio = height.heights(boxes) / height.heights(before)
+    out = boxes.copy()
+    out[:, 2] = np.maximum(boxes[:, 2] * ratio, MIN_SIDE)
+    out[:, 3] = np.maximum(boxes[:, 3] * ratio, MIN_SIDE)
+    out[:, 0] = boxes[:, 0] + 0.5 * (boxes[:, 2] - out[:, 2])
+    out[:, 1] = boxes[:, 1] + (boxes[:, 3] - out[:, 3])
+    return out
+
+
 @dataclass(frozen=True)
 class ParticleEstimate:
     box: np.ndarray  # x, y, w, h (px)
@@ -489,6 +510,8 @@ class ColourParticleFilter:
         # the size moves only where the mask can hold it (colour alone lets it shrink or grow)
         size_noise = self.config.size_noise if mask is not None else 0.0
         particles = propagate(self.particles, self.noise(), self.rng, size_noise)
+        if self.estimate.hidden and height is not None and self.config.coast_perspective:
+            particles[:, :4] = in_perspective(particles[:, :4], self.particles[:, :4], height)
         if self.estimate.hidden and mask is not None and self.config.probes > 0:
             particles = np.vstack([particles, self._probes(particles, mask, view)])
         in_image = view.to_image(particles[:, :4])

@@ -423,6 +423,12 @@ PARAMETERS: tuple[ParamSpec, ...] = (
         1000,
     ),
     ParamSpec(
+        "coast_perspective",
+        False,
+        "with the height prior: a hidden target's boxes grow or shrink with the ground line as "
+        "they coast (not the thesis's)",
+    ),
+    ParamSpec(
         "probes",
         0,
         "particles added on each hidden frame where the motion mask holds a box of the "
@@ -507,6 +513,7 @@ def build(values: Mapping[str, Any], first_id: int = 1) -> ColourParticleTracker
         probe_reach=values["probe_reach"],
         reappear_in_mask=values["reappear_in_mask"],
         settle_frames=values["settle_frames"],
+        coast_perspective=values["coast_perspective"],
     )
     return ColourParticleTracker(
         config,

@@ -32,7 +32,8 @@ mask's blobs it holds (`foreground_fit` 0.5; the first of them the colour_partic
 defaults), and that with its box held no wider than one person usually is for their height
 (`aspect_spread`; the tracker's default since 2026-11-28), and that never taken as hidden in its
 first second (`settle_frames` 10; not the tracker's default: in the graph it made `occluded`
-worse). With --runs R every
+worse), and that with a hidden person's boxes rescaled by the ground line as they coast
+(`coast_perspective`). With --runs R every
 particle filter runs R times per person with different seeds (person id + 1000 r) and the table
 gives the mean over runs and sigma_Q, the standard deviation of a run's Q over the runs (the
 thesis's 10 runs). --sweep runs instead the best particle filter with 100 / 500 / 750 / 2000
@@ -205,6 +206,8 @@ SHAPED = replace(PROBING_FITTED, aspect_spread=ASPECT_SPREAD)
 #: ... and never taken as hidden in its first second (`settle_frames`; not the colour_particles
 #: tracker's default: in the graph it made `occluded` and `shaky` worse)
 SETTLED = replace(SHAPED, settle_frames=SETTLE_FRAMES)
+#: ... and a hidden target's boxes shrinking or growing with the ground line as they coast
+PERSPECTIVE = replace(SETTLED, coast_perspective=True)
 
 
 def contrasted() -> HistogramAppearance:
@@ -281,6 +284,13 @@ VARIANTS: dict[str, Variant | ParticleVariant] = {
     f"{QUIET}, probes, fitted, aspect, settled": ParticleVariant(contrasted, SETTLED),
     f"{QUIET}, probes, fitted, aspect, settled, camera pose": ParticleVariant(
         contrasted, SETTLED, posed=True
+    ),
+    # ... and coasting in perspective
+    f"{QUIET}, probes, fitted, aspect, settled, perspective": ParticleVariant(
+        contrasted, PERSPECTIVE
+    ),
+    f"{QUIET}, probes, fitted, aspect, settled, perspective, camera pose": ParticleVariant(
+        contrasted, PERSPECTIVE, posed=True
     ),
 }
 
