@@ -424,7 +424,7 @@ PARAMETERS: tuple[ParamSpec, ...] = (
     ),
     ParamSpec(
         "coast_perspective",
-        False,
+        True,
         "with the height prior: a hidden target's boxes grow or shrink with the ground line as "
         "they coast (not the thesis's)",
     ),

@@ -33,7 +33,7 @@ defaults), and that with its box held no wider than one person usually is for th
 (`aspect_spread`; the tracker's default since 2026-11-28), and that never taken as hidden in its
 first second (`settle_frames` 10; not the tracker's default: in the graph it made `occluded`
 worse), and that with a hidden person's boxes rescaled by the ground line as they coast
-(`coast_perspective`). With --runs R every
+(`coast_perspective`; the tracker's default since 2026-11-28). With --runs R every
 particle filter runs R times per person with different seeds (person id + 1000 r) and the table
 gives the mean over runs and sigma_Q, the standard deviation of a run's Q over the runs (the
 thesis's 10 runs). --sweep runs instead the best particle filter with 100 / 500 / 750 / 2000
