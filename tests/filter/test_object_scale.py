@@ -50,8 +50,8 @@ def test_a_line_no_camera_above_the_ground_gives_is_not_taken():
     give one, and a later falling fit leaves it as it was."""
     scale = HeightByRow(0.5, min_samples=30, refit_every=10)
     rows = np.linspace(200.0, 400.0, 30)
-    falling = np.column_stack([np.zeros(30), rows - (300.0 - 0.5 * rows), np.full(30, 20.0)])
-    falling = np.column_stack([falling, 300.0 - 0.5 * rows])  # x, y, w, h: h falls with the row
+    heights = 300.0 - 0.5 * rows  # falling with the row
+    falling = np.column_stack([np.zeros(30), rows - heights, np.full(30, 20.0), heights])
     scale.observe(falling)
     assert scale.line is None and scale.least_heights(falling).tolist() == [0.0] * 30
     scale.observe(_ground_plane_boxes(np.random.default_rng(3), 200))
