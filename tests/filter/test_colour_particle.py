@@ -382,6 +382,54 @@ def test_a_hidden_target_coasting_away_shrinks_with_the_ground_line(perspective:
         assert last[3] == pytest.approx(first[3], rel=0.03)
 
 
+def walker_whose_legs_the_mask_loses(seed: int = 0):
+    """The textured scene's 30 x 80 px person walking 4 px/frame right; from frame 5 on the
+    foreground mask holds only their upper half (trousers that match the ground): images,
+    masks and true boxes."""
+    rng = np.random.default_rng(seed)
+    background = rng.integers(60, 160, size=(200, 320, 3), dtype=np.uint8)
+    images, masks, boxes = [], [], []
+    for k in range(40):
+        x, y = 20 + 4 * k, 60
+        image = background.copy()
+        image[y : y + 40, x : x + 30] = (40, 40, 200)
+        image[y + 40 : y + 80, x : x + 30] = (150, 60, 30)
+        person = np.zeros(image.shape[:2], bool)
+        person[y : y + (80 if k < 5 else 40), x : x + 30] = True
+        noise = rng.integers(-12, 13, size=image.shape)
+        images.append(np.clip(image.astype(int) + noise, 0, 255).astype(np.uint8))
+        masks.append(ForegroundMask.of(person))
+        boxes.append(np.array([x, y, 30.0, 80.0]))
+    return images, masks, boxes
+
+
+@pytest.mark.parametrize("start_height", [False, True])
+def test_before_a_ground_line_the_start_height_is_expected(start_height: bool):
+    """With the height prior but no ground line yet (the step gets no `height`), the foreground
+    cue pulls the box onto the half of the person the mask holds; with `height_before_line`
+    the prior expects the start box's height wherever the box stands, and the box keeps it."""
+    images, masks, truth = walker_whose_legs_the_mask_loses()
+    config = replace(
+        QUIET_COASTING_WITH_MASK,
+        size_noise=0.05,
+        height_spread=0.1,
+        height_before_line=start_height,
+    )
+    for seed in range(3):
+        f = ColourParticleFilter(
+            images[0], truth[0], HistogramAppearance(), config, np.random.default_rng(seed)
+        )
+        steps = zip(images[1:], masks[1:], strict=True)
+        estimates = [f.step(image, foreground=mask) for image, mask in steps]
+        assert not any(e.hidden for e in estimates)
+        heights = [e.box[3] for e in estimates[-10:]]
+        assert abs(estimates[-1].box[0] - truth[-1][0]) < 10, "on the walker"
+        if start_height:
+            assert min(heights) > 0.9 * 80
+        else:
+            assert max(heights) < 0.75 * 80, "shrunk towards the half in the mask"
+
+
 def turning_scene(seed: int = 0):
     """The textured scene's person walking 8 px/frame right who turns in their fourth frame: from
     then on the shirt shows another colour, and the person's box matches the start frame's

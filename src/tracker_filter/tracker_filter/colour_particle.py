@@ -40,7 +40,10 @@ started at rest is still catching up with them. `coast_perspective`: a hidden ta
 also rescaled about their bottom centre as they coast, by the expected height (`height`, below)
 at their new bottom row over that at the old (`in_perspective`): a person walking away from the
 camera behind a board comes out smaller than they went in, and a cloud that kept their old size
-was twice their width when they did.
+was twice their width when they did. `height_before_line`: until a ground line is learned (the
+step is given no `height`), the height prior expects the target's start height wherever a box
+stands (a flat line through the start box): early in a scene a person whose legs the mask loses,
+or who walks behind a low board, would otherwise be followed by a box shrinking onto their head.
 
 Scale (not the thesis's; off by default): `foreground` (`foreground_cue`) multiplies each weight by
 how well the particle's box bounds the motion detector's foreground mask, on the frames whose step
@@ -156,6 +159,9 @@ class ParticleFilterConfig:
     # (scaled by the expected height at their new bottom row over that at the old; needs the
     # height prior's `height` in `step`)
     coast_perspective: bool = False
+    # not the thesis's: with the height prior, before a ground line is known the target's start
+    # height is expected wherever its box stands
+    height_before_line: bool = False
 
     def problems(self) -> list[str]:
         """What is wrong with these values (empty when usable)."""
@@ -473,6 +479,7 @@ class ColourParticleFilter:
         start = np.concatenate([box, np.zeros(4)])
         self.particles = np.tile(start, (config.particles, 1))  # N copies, velocity 0
         self.estimate = ParticleEstimate(box, np.zeros(4), 1.0)
+        self.start_height = ExpectedHeight(float(box[3]), 0.0)  # a flat ground line through it
         self.level: float | None = None  # the best particle's score while the target is seen
         # the estimate's velocity while seen: a plain mean over the first frames, then running
         self.seen_velocity = np.zeros(4)
@@ -505,6 +512,8 @@ class ColourParticleFilter:
                 f"the foreground mask is {foreground.shape[1]}x{foreground.shape[0]} px, "
                 f"the image {image.shape[1]}x{image.shape[0]}"
             )
+        if height is None and self.config.height_before_line:
+            height = self.start_height
         cue = self.config.foreground
         mask = foreground if cue.enabled else None
         # the size moves only where the mask can hold it (colour alone lets it shrink or grow)

@@ -429,6 +429,12 @@ PARAMETERS: tuple[ParamSpec, ...] = (
         "they coast (not the thesis's)",
     ),
     ParamSpec(
+        "height_before_line",
+        False,
+        "with the height prior: before a ground line is learned, a target's start height is "
+        "expected wherever its box stands (not the thesis's)",
+    ),
+    ParamSpec(
         "probes",
         0,
         "particles added on each hidden frame where the motion mask holds a box of the "
@@ -514,6 +520,7 @@ def build(values: Mapping[str, Any], first_id: int = 1) -> ColourParticleTracker
         reappear_in_mask=values["reappear_in_mask"],
         settle_frames=values["settle_frames"],
         coast_perspective=values["coast_perspective"],
+        height_before_line=values["height_before_line"],
     )
     return ColourParticleTracker(
         config,

@@ -33,7 +33,8 @@ defaults), and that with its box held no wider than one person usually is for th
 (`aspect_spread`; the tracker's default since 2026-11-28), and that never taken as hidden in its
 first second (`settle_frames` 10; not the tracker's default: in the graph it made `occluded`
 worse), and that with a hidden person's boxes rescaled by the ground line as they coast
-(`coast_perspective`; the tracker's default since 2026-11-28). With --runs R every
+(`coast_perspective`; the tracker's default since 2026-11-28), and that expecting the person's
+start height until a ground line is learned (`height_before_line`). With --runs R every
 particle filter runs R times per person with different seeds (person id + 1000 r) and the table
 gives the mean over runs and sigma_Q, the standard deviation of a run's Q over the runs (the
 thesis's 10 runs). --sweep runs instead the best particle filter with 100 / 500 / 750 / 2000
@@ -208,6 +209,8 @@ SHAPED = replace(PROBING_FITTED, aspect_spread=ASPECT_SPREAD)
 SETTLED = replace(SHAPED, settle_frames=SETTLE_FRAMES)
 #: ... and a hidden target's boxes shrinking or growing with the ground line as they coast
 PERSPECTIVE = replace(SETTLED, coast_perspective=True)
+#: ... and, until the suite has learned a ground line, the target's start height expected
+BEFORE_LINE = replace(PERSPECTIVE, height_before_line=True)
 
 
 def contrasted() -> HistogramAppearance:
@@ -291,6 +294,13 @@ VARIANTS: dict[str, Variant | ParticleVariant] = {
     ),
     f"{QUIET}, probes, fitted, aspect, settled, perspective, camera pose": ParticleVariant(
         contrasted, PERSPECTIVE, posed=True
+    ),
+    # ... and the start height expected before a ground line is learned
+    f"{QUIET}, probes, fitted, aspect, settled, perspective, start height": ParticleVariant(
+        contrasted, BEFORE_LINE
+    ),
+    f"{QUIET}, probes, fitted, aspect, settled, perspective, start height, camera pose": (
+        ParticleVariant(contrasted, BEFORE_LINE, posed=True)
     ),
 }
 
