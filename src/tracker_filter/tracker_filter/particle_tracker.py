@@ -431,8 +431,9 @@ PARAMETERS: tuple[ParamSpec, ...] = (
     ParamSpec(
         "height_before_line",
         False,
-        "with the height prior: before a ground line is learned, a target's start height is "
-        "expected wherever its box stands (not the thesis's)",
+        "with the height prior: until a target's expected height is known (a ground line "
+        "learned and 3 of its boxes measured), its start height is expected wherever its box "
+        "stands (not the thesis's)",
     ),
     ParamSpec(
         "probes",
