@@ -166,6 +166,21 @@ def test_resampling_follows_the_weights():
     assert counts.tolist() in ([1, 1, 1], [0, 1, 2], [1, 0, 2])
 
 
+SHIRT, TROUSERS = (40, 40, 200), (150, 60, 30)  # bgr
+
+
+def draw_person(image: np.ndarray, x: int, y: int, shirt: tuple[int, int, int] = SHIRT) -> None:
+    """A 30 x 80 px person, shirt over trousers, with their top-left corner at (x, y)."""
+    image[y : y + 40, x : x + 30] = shirt
+    image[y + 40 : y + 80, x : x + 30] = TROUSERS
+
+
+def with_sensor_noise(image: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+    """The image with uniform noise of +-12 grey levels per channel, clipped to uint8."""
+    noise = rng.integers(-12, 13, size=image.shape)
+    return np.clip(image.astype(int) + noise, 0, 255).astype(np.uint8)
+
+
 def textured_scene(frames: int, seed: int = 0):
     """A red-shirted, blue-trousered 30 x 80 px person walking 2 px/frame right and 0.5 px/frame
     down over a textured grey-green background; returns images and true boxes (x, y, w, h)."""
@@ -177,10 +192,8 @@ def textured_scene(frames: int, seed: int = 0):
         x, y = 40.0 + 2.0 * k, 60.0 + 0.5 * k
         image = background.copy()
         xi, yi = round(x), round(y)
-        image[yi : yi + 40, xi : xi + 30] = (40, 40, 200)  # shirt (bgr)
-        image[yi + 40 : yi + 80, xi : xi + 30] = (150, 60, 30)  # trousers
-        noise = rng.integers(-12, 13, size=image.shape)
-        images.append(np.clip(image.astype(int) + noise, 0, 255).astype(np.uint8))
+        draw_person(image, xi, yi)
+        images.append(with_sensor_noise(image, rng))
         boxes.append(np.array([xi, yi, 30.0, 80.0]))
     return images, boxes
 
@@ -295,11 +308,9 @@ def occluded_scene(seed: int = 0):
     for k in range(60):
         image = background.copy()
         x = 10 + 4 * k
-        image[40:80, x : x + 30] = (40, 40, 200)
-        image[80:120, x : x + 30] = (150, 60, 30)
+        draw_person(image, x, 40)
         image[20:140, 130:200] = board
-        noise = rng.integers(-12, 13, size=image.shape)
-        images.append(np.clip(image.astype(int) + noise, 0, 255).astype(np.uint8))
+        images.append(with_sensor_noise(image, rng))
         boxes.append(np.array([x, 40.0, 30.0, 80.0]))
     return images, boxes
 
@@ -351,10 +362,8 @@ def walker_who_vanishes(seed: int = 0):
         image = background.copy()
         y = 130 - 3 * k
         if k < 12:
-            image[y : y + 40, 80:110] = (40, 40, 200)
-            image[y + 40 : y + 80, 80:110] = (150, 60, 30)
-        noise = rng.integers(-12, 13, size=image.shape)
-        images.append(np.clip(image.astype(int) + noise, 0, 255).astype(np.uint8))
+            draw_person(image, 80, y)
+        images.append(with_sensor_noise(image, rng))
         boxes.append(np.array([80.0, y, 30.0, 80.0]))
     return images, boxes
 
@@ -392,12 +401,10 @@ def walker_whose_legs_the_mask_loses(seed: int = 0):
     for k in range(40):
         x, y = 20 + 4 * k, 60
         image = background.copy()
-        image[y : y + 40, x : x + 30] = (40, 40, 200)
-        image[y + 40 : y + 80, x : x + 30] = (150, 60, 30)
+        draw_person(image, x, y)
         person = np.zeros(image.shape[:2], bool)
         person[y : y + (80 if k < 5 else 40), x : x + 30] = True
-        noise = rng.integers(-12, 13, size=image.shape)
-        images.append(np.clip(image.astype(int) + noise, 0, 255).astype(np.uint8))
+        images.append(with_sensor_noise(image, rng))
         masks.append(ForegroundMask.of(person))
         boxes.append(np.array([x, y, 30.0, 80.0]))
     return images, masks, boxes
@@ -440,10 +447,8 @@ def turning_scene(seed: int = 0):
     for k in range(40):
         image = background.copy()
         x = 20 + 8 * k
-        image[40:80, x : x + 30] = (40, 40, 200) if k < 3 else (40, 140, 230)
-        image[80:120, x : x + 30] = (150, 60, 30)
-        noise = rng.integers(-12, 13, size=image.shape)
-        images.append(np.clip(image.astype(int) + noise, 0, 255).astype(np.uint8))
+        draw_person(image, x, 40, SHIRT if k < 3 else (40, 140, 230))
+        images.append(with_sensor_noise(image, rng))
         boxes.append(np.array([x, 40.0, 30.0, 80.0]))
     return images, boxes
 
@@ -553,13 +558,11 @@ def displaced_scene(drop: int = 160, seed: int = 0):
         y = 30 + (drop if x >= 170 else 0)
         image = background.copy()
         person = np.zeros(image.shape[:2], bool)
-        image[y : y + 40, x : x + 30] = (40, 40, 200)
-        image[y + 40 : y + 80, x : x + 30] = (150, 60, 30)
+        draw_person(image, x, y)
         person[y : y + 80, x : x + 30] = True
         image[20:140, 130:200] = (150, 150, 150)  # the board
         person[20:140, 130:200] = False
-        noise = rng.integers(-12, 13, size=image.shape)
-        images.append(np.clip(image.astype(int) + noise, 0, 255).astype(np.uint8))
+        images.append(with_sensor_noise(image, rng))
         masks.append(ForegroundMask.of(person))
         boxes.append(np.array([x, y, 30.0, 80.0]))
     return images, masks, boxes
