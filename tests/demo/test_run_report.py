@@ -184,6 +184,22 @@ def test_graph_description_is_consistent():
     assert format_value([1.0, 2.0]) == "[1.0,2.0]"
 
 
+def test_set_arguments_read_back_as_the_values_given():
+    from tracker_ptz_sim.bringup.graph import override_arguments, parse_overrides
+
+    given = ["video_source.recorder_topic=", "tracker.lead_time=0.2", "tracker.topic=a/b"]
+    overrides = parse_overrides(given)
+    # nothing after the '=' is an empty string (a topic turned off), never the text "None"
+    assert overrides == {
+        "video_source": {"recorder_topic": ""},
+        "tracker": {"lead_time": 0.2, "topic": "a/b"},
+    }
+    assert (
+        parse_overrides(a.removeprefix("--set=") for a in override_arguments(overrides))
+        == overrides
+    )
+
+
 def test_colour_graph_hands_motion_over_to_camshift_on_its_own_topics():
     from tracker_ptz_sim.bringup.graph import load_graph, node_parameters
 

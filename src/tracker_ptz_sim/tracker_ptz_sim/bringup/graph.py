@@ -203,14 +203,15 @@ def executable_path(install_dir: Path, node: NodeSpec) -> Path:
 
 
 def parse_overrides(items: Sequence[str]) -> dict[str, dict[str, Any]]:
-    """--set node.param=value (values parsed as YAML: 0.5, true, [1, 2], text)."""
+    """--set node.param=value (values parsed as YAML: 0.5, true, [1, 2], text; nothing after
+    the `=` is the empty string, e.g. a topic turned off, not YAML's null)."""
     overrides: dict[str, dict[str, Any]] = {}
     for item in items:
         key, sep, value = item.partition("=")
         node, dot, param = key.partition(".")
         if not sep or not dot:
             raise SystemExit(f"--set expects node.param=value, got '{item}'")
-        overrides.setdefault(node, {})[param] = yaml.safe_load(value)
+        overrides.setdefault(node, {})[param] = yaml.safe_load(value) if value.strip() else ""
     return overrides
 
 
