@@ -43,6 +43,7 @@ HOSTS = {"a": "10.211.0.1", "b": "10.211.0.2"}
 REMOTE_NODES = ("tracker", "ptz_controller")
 HOP = "ssim_detector -> tracker"
 PROBED = {DETECTIONS: "source_timestamp", TARGET: "received_timestamp"}
+PROBE_START_S = 60.0  # for the probe process to create its readers
 INSTALL = Path(__file__).resolve().parents[1] / "install"
 
 
@@ -126,6 +127,8 @@ def probe(out: Path) -> int:
     executor.add_node(node)
     stop = []
     signal.signal(signal.SIGINT, lambda *_: stop.append(True))
+    executor.spin_once(timeout_sec=0.0)
+    ready_file(out).touch()  # its readers exist: the graph may start
     while not stop:
         executor.spin_once(timeout_sec=0.1)
     rows = {
@@ -145,12 +148,28 @@ def probed_latency_ms(path: Path) -> dict[str, float]:
     return {"frames": len(values), **latency_stats(values)}
 
 
+def ready_file(out: Path) -> Path:
+    """The file the probe writing `out` creates once its readers exist."""
+    return out.with_name(out.name + ".ready")
+
+
 @contextmanager
 def probing(netns: str, env: dict[str, str], out: Path) -> Iterator[Path]:
-    """The probe running in `netns` for the duration; yields the JSON it writes on exit."""
+    """The probe running in `netns` for the duration; yields the JSON it writes on exit. The
+    graph starts only once the probe's readers exist (a fixed second was not always enough on a
+    loaded machine: the probe's own start-up took longer and it missed the first frames); the
+    graph's nodes then take seconds to come up and reach their first frame, time for the probe's
+    readers to match their writers."""
+    ready = ready_file(out)
+    ready.unlink(missing_ok=True)
     command = ["ip", "netns", "exec", netns, sys.executable, __file__, "--probe", str(out)]
     process = subprocess.Popen(command, env=env)
-    time.sleep(1.0)  # discovery starts; the graph takes longer to start its first frame
+    deadline = time.monotonic() + PROBE_START_S
+    while not ready.exists():
+        if process.poll() is not None or time.monotonic() > deadline:
+            process.kill()
+            raise RuntimeError(f"the hop probe did not start within {PROBE_START_S:.0f} s")
+        time.sleep(0.05)
     try:
         yield out
     finally:
