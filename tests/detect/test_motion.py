@@ -13,6 +13,7 @@ from tracker_detect.motion import (
     DetectorConfig,
     MotionDetector,
     StaleFrameError,
+    components,
     fill_holes,
     find_blobs,
     largest_blob,
@@ -90,6 +91,41 @@ def test_blobs_in_scene_coordinates_with_pixel_centre_convention():
     assert largest_blob(blobs) is big
     assert len(find_blobs(mask, similarity, view, connectivity=8)) == 2
     assert find_blobs(np.zeros((5, 5), np.uint8), np.ones((5, 5)), View.identity(5, 5)) == []
+
+
+@pytest.mark.parametrize("connectivity", [4, 8])
+def test_components_are_opencvs_labels_boxes_and_centroids(connectivity):
+    """`components` (and `find_blobs` on it) give what cv2.connectedComponentsWithStats gives:
+    the same labels, boxes, areas and centroids to the last bit, and the SSIM sums of one
+    bincount over the whole image."""
+    rng = np.random.default_rng(connectivity)
+    for _ in range(40):
+        mask = (ndimage.uniform_filter(rng.random((48, 64)), 3) > 0.55).astype(np.uint8)
+        similarity = rng.random(mask.shape).astype(np.float32)
+        count, labels, stats, centroids = cv2.connectedComponentsWithStats(
+            mask, connectivity=connectivity, ltype=cv2.CV_32S
+        )
+        parts = components(mask, connectivity)
+        assert parts.count == count and np.array_equal(parts.labels, labels)
+        assert [parts.box(k) for k in range(1, count)] == [
+            tuple(stats[k, :4]) for k in range(1, count)
+        ]
+        sums = np.bincount(labels.ravel(), weights=similarity.ravel(), minlength=count)
+        blobs = find_blobs(mask, similarity, View.identity(64, 48), connectivity)
+        expected = sorted(
+            (
+                (
+                    int(stats[k, 4]),
+                    float(centroids[k, 0] + 0.5),
+                    float(centroids[k, 1] + 0.5),
+                    float(sums[k] / stats[k, 4]),
+                )
+                for k in range(1, count)
+            ),
+            key=lambda e: (-e[0], e[2], e[1]),
+        )
+        assert [(b.pixel_count, b.centroid_x, b.centroid_y, b.score) for b in blobs] == expected
+    assert components(np.zeros((5, 5), np.uint8)).slices == []
 
 
 def _blob(x, y, w, h):

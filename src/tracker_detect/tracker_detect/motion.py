@@ -22,6 +22,7 @@ from dataclasses import dataclass, field
 
 import cv2
 import numpy as np
+from scipy import ndimage
 
 from tracker_detect.detector import Blob, Detection, StaleFrameError
 from tracker_detect.registration import (
@@ -109,20 +110,50 @@ def motion_mask(
     return mask
 
 
+@dataclass(frozen=True)
+class Components:
+    """The connected components of a mask: `labels` (H, W) int32, 0 the background and 1 ..
+    count - 1 the components, and each component's bounding (rows, columns) slices."""
+
+    count: int
+    labels: np.ndarray
+    slices: list[tuple[slice, slice]]
+
+    def box(self, label: int) -> tuple[int, int, int, int]:
+        """Component `label`'s tight box: x, y, width, height (px)."""
+        rows, columns = self.slices[label - 1]
+        return columns.start, rows.start, columns.stop - columns.start, rows.stop - rows.start
+
+
+def components(mask: np.ndarray, connectivity: int = 8) -> Components:
+    """`mask`'s (uint8, nonzero = foreground) connected components, labelled as
+    cv2.connectedComponentsWithStats labels them. Its statistics pass cost ten times the
+    labelling itself here (OpenCV 5.0: 0.2 of 0.22 ms on a 264 x 264 view); the boxes come from
+    one scan of the labels instead, and a component's own figures from its box alone."""
+    count, labels = cv2.connectedComponents(mask, connectivity=connectivity, ltype=cv2.CV_32S)
+    found = ndimage.find_objects(labels, count - 1) if count > 1 else []
+    # the labels are 1 .. count - 1 without a gap: no component lacks its slices
+    return Components(count, labels, [part for part in found if part is not None])
+
+
 def find_blobs(
     mask: np.ndarray, similarity: np.ndarray, view: View, connectivity: int = 4
 ) -> list[Blob]:
     """Connected components of `mask`, largest first (blobs[0] is the seed's target)."""
-    count, labels, stats, centroids = cv2.connectedComponentsWithStats(
-        mask, connectivity=connectivity, ltype=cv2.CV_32S
-    )
-    if count <= 1:
-        return []
-    ssim_sums = np.bincount(labels.ravel(), weights=similarity.ravel(), minlength=count)
+    parts = components(mask, connectivity)
     blobs = []
-    for i in range(1, count):
-        x, y, w, h, n = (int(v) for v in stats[i])
-        cx, cy = view.to_scene(centroids[i][0] + 0.5, centroids[i][1] + 0.5)
+    for label, (rows, columns) in enumerate(parts.slices, start=1):
+        local = parts.labels[rows, columns]
+        ys, xs = np.nonzero(local == label)
+        n = len(xs)
+        # summed in the pixels' row-major order, as one bincount over the whole image would
+        ssim_sum = np.bincount(
+            local.ravel(), weights=similarity[rows, columns].ravel(), minlength=label + 1
+        )[label]
+        x, y, w, h = parts.box(label)
+        # the mean of the image coordinates, one division of exact sums as OpenCV's centroids
+        mean_x, mean_y = (int(xs.sum()) + n * x) / n, (int(ys.sum()) + n * y) / n
+        cx, cy = view.to_scene(mean_x + 0.5, mean_y + 0.5)
         blobs.append(
             Blob(
                 cx,
@@ -130,7 +161,7 @@ def find_blobs(
                 view.rect_to_scene(x, y, w, h),
                 n * view.scale_x * view.scale_y,
                 n,
-                float(ssim_sums[i] / n),
+                float(ssim_sum / n),
             )
         )
     blobs.sort(key=lambda b: (-b.pixel_count, b.centroid_y, b.centroid_x))

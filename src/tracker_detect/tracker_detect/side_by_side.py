@@ -20,8 +20,9 @@ flat blobs, joining a person's fragments, growing legs) sees each on its own.
 
 from __future__ import annotations
 
-import cv2
 import numpy as np
+
+from tracker_detect.motion import components
 
 WIDE_ASPECT = 0.6  # width / height from which a blob may hold people side by side
 FLAT_ASPECT = 3.0  # ... up to this: flatter blobs are tape or smears
@@ -64,15 +65,13 @@ def valley_columns(outline: np.ndarray, height: float, depth: float) -> list[int
 def cut_side_by_side(mask: np.ndarray, depth: float, connectivity: int = 8) -> np.ndarray:
     """`mask` (uint8, nonzero = foreground) with every blob of people side by side cut apart
     (module doc); the input itself when nothing is cut."""
-    count, labels, stats, _ = cv2.connectedComponentsWithStats(
-        mask, connectivity=connectivity, ltype=cv2.CV_32S
-    )
+    parts = components(mask, connectivity)
     result = mask
-    for label in range(1, count):
-        x, y, width, height = (int(v) for v in stats[label, :4])
+    for label in range(1, parts.count):
+        x, y, width, height = parts.box(label)
         if height < MIN_HEIGHT or not WIDE_ASPECT * height <= width <= FLAT_ASPECT * height:
             continue
-        component = labels[y : y + height, x : x + width] == label
+        component = parts.labels[y : y + height, x : x + width] == label
         for column in valley_columns(top_outline(component), height, depth):
             if result is mask:
                 result = mask.copy()
