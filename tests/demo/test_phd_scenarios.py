@@ -12,7 +12,11 @@ import numpy as np
 import pytest
 
 from tracker_filter.gmphd_tracker import GmPhdTracker
-from tracker_ptz_sim.bringup.phd_benchmark import gm_phd_scan_tracker, scenario_parameters
+from tracker_ptz_sim.bringup.phd_benchmark import (
+    gm_phd_scan_tracker,
+    missed_draws,
+    scenario_parameters,
+)
 from tracker_ptz_sim.evaluation import phd_scenarios
 from tracker_ptz_sim.evaluation.phd_scenarios import AREA, STEPS, Summary
 
@@ -55,6 +59,8 @@ def test_gm_phd_tracks_the_scenarios(number, mota, ospa, missed_share):
     assert found.mota >= mota
     assert found.ospa <= ospa
     assert found.missed_occlusions <= missed_share * found.occlusions
+    assert sum(found.missed_by_seed.values()) == found.missed_occlusions
+    assert set(found.missed_by_seed) <= set(SEEDS)
 
 
 @pytest.mark.parametrize("number", [1, 2])
@@ -63,6 +69,11 @@ def test_occlusion_handling_keeps_labels_through_crossings(number):
     plain = evaluate(number, occlusion_handling=False)
     assert handled.missed_occlusions < plain.missed_occlusions / 2
     assert handled.idf1 > plain.idf1 + 0.1
+    # the draws that missed one are named, each with its count
+    assert sum(plain.missed_by_seed.values()) == plain.missed_occlusions > 0
+    assert all(count > 0 for count in plain.missed_by_seed.values())
+    line = missed_draws({number: plain})
+    assert all(str(seed) in line for seed in plain.missed_by_seed)
 
 
 @pytest.mark.parametrize("seed", [4, 27])

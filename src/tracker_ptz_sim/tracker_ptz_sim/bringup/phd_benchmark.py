@@ -150,7 +150,19 @@ def table(
             )
         lines.append(line)
     runs = f"{len(seeds)} Monte Carlo runs per scenario (seeds {seeds.start}-{seeds.stop - 1})."
-    return "\n".join(lines) + f"\n\n{runs}"
+    return "\n".join(lines) + f"\n\n{runs}\n{missed_draws(results['gm_phd'])}"
+
+
+def missed_draws(results: dict[int, Summary]) -> str:
+    """Which draws (seeds) missed an occlusion, per scenario: where to look first."""
+    parts = []
+    for number, summary in results.items():
+        draws = ", ".join(
+            f"{seed}" + (f" (x{count})" if count > 1 else "")
+            for seed, count in sorted(summary.missed_by_seed.items())
+        )
+        parts.append(f"scenario {number}: {draws or 'none'}")
+    return "Missed occlusions (ours) in the draws of seeds: " + "; ".join(parts) + "."
 
 
 def plot_scenarios(numbers: list[int], path: Path, seed: int = 0) -> Path:

@@ -26,7 +26,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from scipy.sparse import csr_matrix
@@ -190,6 +190,7 @@ ScanTracker = Callable[[int, np.ndarray], Points]
 class RunResult:
     scores: PointScores
     seconds_per_step: float
+    seed: int = 0  # the draw's
 
 
 def run(case: Scenario, seed: int, tracker: ScanTracker) -> RunResult:
@@ -202,7 +203,7 @@ def run(case: Scenario, seed: int, tracker: ScanTracker) -> RunResult:
     scores = score_points(
         case.truth(), estimates, MATCH_DISTANCE, OSPA_CUTOFF, draw.occlusions, REACQUIRE
     )
-    return RunResult(scores, elapsed)
+    return RunResult(scores, elapsed, seed)
 
 
 @dataclass(frozen=True)
@@ -221,6 +222,8 @@ class Summary:
     occlusions: int
     missed_occlusions: int
     ms_per_step: float
+    # the draws (seeds) with a missed occlusion and how many each: where to look first
+    missed_by_seed: dict[int, int] = field(default_factory=dict)
 
 
 def summarise(results: list[RunResult]) -> Summary:
@@ -240,6 +243,9 @@ def summarise(results: list[RunResult]) -> Summary:
         occlusions=occlusions,
         missed_occlusions=missed,
         ms_per_step=1e3 * float(np.mean([r.seconds_per_step for r in results])),
+        missed_by_seed={
+            r.seed: r.scores.missed_occlusions for r in results if r.scores.missed_occlusions
+        },
     )
 
 
