@@ -135,6 +135,23 @@ def test_the_table_gives_the_mean_and_spread_over_runs_and_pools_the_fixed_camer
     assert rows["all"][4:6] == ["0.350", "0.071"]  # runs 0: 0.3, 1: 0.4 over both scenes
 
 
+def test_each_occlusion_is_judged_over_its_runs():
+    from tracker_ptz_sim.bringup.single_target_benchmark import PersonRun, occlusions_kept
+
+    def run(person: int, k: int, kept: tuple[bool, ...]) -> PersonRun:
+        return PersonRun("occluded-9", person, "pf", 5, SingleTargetScores(10, 1, 1, 1, 0), {},
+                         run=k, kept=kept)  # fmt: skip
+
+    # person 1: both occlusions kept in 9 of 10 runs; person 2: its one occlusion in 8 of 10
+    runs = [run(1, k, (k != 3, k != 7)) for k in range(10)]
+    runs += [run(2, k, (k < 8,)) for k in range(10)]
+    text = occlusions_kept(runs, ["pf", "absent"])
+    assert text == (
+        "pf: 2 of 3 occlusions kept in at least 90% of the runs; "
+        "not: occluded-9 person 2 occlusion 1: 8/10"
+    )
+
+
 def test_q1_is_split_into_what_the_centre_and_the_size_cost():
     truth = {0: Rect.from_center(100.0, 100.0, 40.0, 80.0)}
     shifted = {0: Rect.from_center(120.0, 100.0, 40.0, 80.0)}  # right size, 20 px off
