@@ -190,7 +190,7 @@ ScanTracker = Callable[[int, np.ndarray], Points]
 class RunResult:
     scores: PointScores
     seconds_per_step: float
-    seed: int = 0  # the draw's
+    seed: int  # the draw's
 
 
 def run(case: Scenario, seed: int, tracker: ScanTracker) -> RunResult:
