@@ -200,6 +200,22 @@ def test_set_arguments_read_back_as_the_values_given():
     )
 
 
+def test_a_set_argument_for_a_node_the_graph_lacks_is_refused_by_name(capsys):
+    from tracker_ptz_sim.bringup import benchmark
+    from tracker_ptz_sim.bringup.graph import load_graph, unknown_override_nodes
+
+    graph = load_graph("surveillance")
+    assert unknown_override_nodes({"ssim_detector": {"split_people": True}}, [graph]) is None
+    problem = unknown_override_nodes({"detector": {"split_people": True}}, [graph])
+    assert problem is not None and "no node detector" in problem and "ssim_detector" in problem
+    # the small-objects graph names its detector `detector`: fine when that graph runs too
+    both = [graph, load_graph("small_objects")]
+    assert unknown_override_nodes({"detector": {"history": 50}}, both) is None
+    with pytest.raises(SystemExit):
+        benchmark.main(["--scenes", "walkers", "--configs", "suite", "--set", "detector.x=1"])
+    assert "no node detector" in capsys.readouterr().err
+
+
 def test_colour_graph_hands_motion_over_to_camshift_on_its_own_topics():
     from tracker_ptz_sim.bringup.graph import load_graph, node_parameters
 

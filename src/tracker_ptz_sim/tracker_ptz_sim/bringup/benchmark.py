@@ -4,6 +4,7 @@
     benchmark --graph              also through the real node graph (lockstep replay)
     benchmark --scenes walkers --configs suite --frames 150
     benchmark --scenes small_objects --configs gmphd --graph
+    benchmark --scenes groups --seeds 12 --first-seed 12   twelve scenes the rows of record skip
 
 Street scenes (`simulation.street`): people walking with a gait and perspective over a real
 background (the median of the sample clip vtest.avi when it can be fetched, else a generated
@@ -55,7 +56,7 @@ from tracker_filter.config import PRESETS
 from tracker_msgs_py import stop_signals
 from tracker_msgs_py.ros_domain import private_domain_id
 from tracker_ptz_sim.bringup import pipeline
-from tracker_ptz_sim.bringup.graph import load_graph, node_parameters
+from tracker_ptz_sim.bringup.graph import load_graph, node_parameters, unknown_override_nodes
 from tracker_ptz_sim.evaluation import error_classes, scoring
 from tracker_ptz_sim.evaluation.centre_scores import OSPA_CUTOFFS, ospa_key
 from tracker_ptz_sim.simulation import small_objects, street
@@ -400,6 +401,13 @@ def main(argv: list[str] | None = None) -> int:
         "--seeds", type=int, default=3, help="scenes per preset (its seed, seed + 1, ...)"
     )
     parser.add_argument(
+        "--first-seed",
+        type=int,
+        default=0,
+        help="skip this many scenes of each preset (--seeds 12 --first-seed 12: twelve scenes "
+        "that the README's rows of record, the first twelve, do not include)",
+    )
+    parser.add_argument(
         "--background",
         choices=("vtest", "generated"),
         default="vtest",
@@ -418,6 +426,8 @@ def main(argv: list[str] | None = None) -> int:
         help="override a parameter in every configuration",
     )
     args = parser.parse_args(argv)
+    if args.first_seed < 0:
+        parser.error("--first-seed must be >= 0")
     from tracker_ptz_sim.bringup.demo import parse_overrides
 
     extra = parse_overrides(args.set)
@@ -434,6 +444,10 @@ def main(argv: list[str] | None = None) -> int:
             + "; small-object scenes "
             + ", ".join(c for c, v in CONFIGURATIONS.items() if v.scenes == SMALL_OBJECTS)
         )
+    graphs = {CONFIGURATIONS[c].graph for chosen in runs.values() for c in chosen}
+    problem = unknown_override_nodes(extra, [load_graph(name) for name in sorted(graphs)])
+    if problem:
+        parser.error(problem)
     paths = PATHS if args.graph else PATHS[:1]
     if args.graph:
         _isolate_ros(args.ros_domain_id)
@@ -487,7 +501,7 @@ def _run_all(
         if not runs[name]:
             continue
         small = scene_kind(SCENES[name]) == SMALL_OBJECTS
-        for k in range(args.seeds):
+        for k in range(args.first_seed, args.first_seed + args.seeds):
             preset = SCENES[name]
             config = replace(
                 preset, seed=preset.seed + k, num_frames=args.frames or preset.num_frames

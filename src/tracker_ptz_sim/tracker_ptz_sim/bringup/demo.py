@@ -70,6 +70,7 @@ from tracker_ptz_sim.bringup.graph import (
     node_parameters,
     parse_overrides,
     pipelined,
+    unknown_override_nodes,
     with_live_view,
     without_nodes,
 )
@@ -800,6 +801,10 @@ def main(argv: list[str] | None = None) -> int:
     graph = without_nodes(graph, set(args.external))
     if args.live:
         graph = with_live_view(graph)
+    problem = unknown_override_nodes(parse_overrides(args.set), [graph])
+    if problem:
+        parser.error(problem)
+    if args.live:
         port = overrides.get("live_view", {}).get("port", 8765)
         print(f"live view: open ws://127.0.0.1:{port} in Foxglove (Open connection)", flush=True)
     run = run_graph(

@@ -41,11 +41,14 @@ def main(argv: list[str] | None = None) -> int:
     bag, run = args.bag, None
     if bag is None:
         from tracker_ptz_sim.bringup import demo
-        from tracker_ptz_sim.bringup.graph import load_graph
+        from tracker_ptz_sim.bringup.graph import load_graph, unknown_override_nodes
         from tracker_ptz_sim.simulation.scenes import scene_video
 
         video = args.video or scene_video(args.scene)
         overrides = demo.parse_overrides(args.set)
+        problem = unknown_override_nodes(overrides, [load_graph()])
+        if problem:
+            parser.error(problem)
         if args.mode:
             overrides.setdefault("ptz_controller", {})["mode"] = args.mode
         run = demo.run_graph(

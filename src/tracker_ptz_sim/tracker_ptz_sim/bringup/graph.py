@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import os
 import re
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
@@ -228,6 +228,18 @@ def pipelined(frames_in_flight: int) -> dict[str, dict[str, Any]]:
         "video_source": {"frames_in_flight": frames_in_flight},
         "ptz_camera": {"command_delay_frames": frames_in_flight},
     }
+
+
+def unknown_override_nodes(overrides: Mapping[str, Any], graphs: Iterable[Graph]) -> str | None:
+    """Why --set `overrides` name a node that none of `graphs` runs (its values would change
+    nothing: a misspelt node name), or None when every node is there."""
+    names = {node.name for graph in graphs for node in graph.nodes}
+    unknown = sorted(set(overrides) - names)
+    if not unknown:
+        return None
+    return (
+        f"--set: no node {', '.join(unknown)} in the graph (its nodes: {', '.join(sorted(names))})"
+    )
 
 
 def override_arguments(overrides: dict[str, dict[str, Any]]) -> list[str]:

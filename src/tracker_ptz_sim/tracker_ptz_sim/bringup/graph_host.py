@@ -33,6 +33,7 @@ from tracker_ptz_sim.bringup.graph import (
     missing_topics,
     parse_overrides,
     ros_args,
+    unknown_override_nodes,
     with_live_view,
 )
 
@@ -104,6 +105,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     if args.live:
         graph = with_live_view(graph)
     overrides = parse_overrides(args.set)
+    problem = unknown_override_nodes(overrides, [graph])
+    if problem:
+        parser.error(problem)
     return run_nodes(lambda group: start_graph(group, graph, overrides), ros or None, args.executor)
 
 
