@@ -64,6 +64,11 @@ install_python_packages() {
   local nodeps
   nodeps="$(sed -n '/^# --- no-deps ---/,$p' "$ROOT/requirements.txt" | grep -v '^#')"
   say "installing Python packages ($mode mode, pinned by $(basename "$constraints"))"
+  if "$VENV/bin/pip" show -q opencv-python-headless 2>/dev/null; then
+    # the plain OpenCV build that the contrib build replaced: both own cv2/, so remove both and
+    # let the install below put the contrib build back whole
+    "$VENV/bin/pip" uninstall -q -y opencv-python-headless opencv-contrib-python-headless
+  fi
   # shellcheck disable=SC2086
   "$VENV/bin/pip" install -q --disable-pip-version-check -c "$constraints" $reqs \
     2> >(grep -v "is ignored: it is neither a file nor a directory" >&2)

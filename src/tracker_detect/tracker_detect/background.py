@@ -63,6 +63,7 @@ from tracker_detect.motion import (
     paste_map,
     presence_test,
 )
+from tracker_detect.people import PeopleDetector, split_people
 from tracker_detect.registration import View, phase_correlation_shift
 from tracker_detect.side_by_side import cut_side_by_side
 from tracker_detect.ssim import SsimParams, auto_downsample_factor, ssim_map
@@ -124,6 +125,7 @@ class BackgroundConfig:
     shadow_ratio: float = 0.0  # darkest shadow, as a share of the background's brightness (0: off)
     restore_legs: bool = False  # grow boxes down through their legs lost to shadow or flicker
     register_reach: int = 0  # px: align the view with the mosaic up to this far (0: trust the pose)
+    split_people: bool = False  # replace a blob that holds several people by one per person (HOG)
     presence_fraction: float = 0.0008  # presence test, as the seed
     auto_downsample: bool = True
     ssim: SsimParams = field(default_factory=SsimParams)
@@ -188,6 +190,7 @@ class BackgroundDetector:
         # the scene before anything stopped in it: learns only where the view is background
         self.long_term = SceneMosaic(self.config.warmup_observations, self.config.flicker_memory)
         self._change = MotionDetector(self._change_config(self.config))
+        self._people = PeopleDetector()
         self._last_stamp: int | None = None
         self._size: tuple[int, int] | None = None
 
@@ -284,6 +287,8 @@ class BackgroundDetector:
         if c.restore_legs:
             excluded = self._clean(different.astype(np.uint8)) & (mask == 0)
             blobs = [_with_legs(b, excluded, view) for b in blobs]
+        if c.split_people:
+            blobs = split_people(blobs, frame.image, mask, view, self._people)
         compared = int(np.count_nonzero(judged))
         present = presence_test(sum(b.pixel_count for b in blobs), compared, c.presence_fraction)
         return Detection(

@@ -313,6 +313,12 @@ BACKGROUND_PARAMETERS: tuple[ParamSpec, ...] = (
         0,
         64,
     ),
+    ParamSpec(
+        "split_people",
+        _B.split_people,
+        "replace a blob in which OpenCV's HOG people detector finds two or more people by one "
+        "blob per person (people walking half behind one another)",
+    ),
     _like_ssim("presence_fraction", _B.presence_fraction),
     _like_ssim("auto_downsample", _B.auto_downsample),
 )

@@ -1,0 +1,94 @@
+"""Telling people apart inside one blob with the HOG people detector (tracker_detect.people)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from tracker_detect.motion import find_blobs
+from tracker_detect.people import (
+    PeopleDetector,
+    Person,
+    _apart,
+    _suppress,
+    split_people,
+)
+from tracker_detect.registration import View
+from tracker_msgs_py.geometry import Rect
+from tracker_ptz_sim.simulation.street import StreetConfig, generate_street
+
+CLEAN = dict(noise_sigma=0.0, jpeg_quality=0, optical_blur=0.0, illumination_drift=0.0)
+QUIET = dict(flutter=0, foliage=0, flicker=0)
+
+
+def street(**values) -> object:
+    return generate_street(StreetConfig(num_frames=60, **(CLEAN | QUIET | values)))
+
+
+def truth_blobs(scene, k: int):
+    """Frame k's blobs as a perfect foreground mask makes them, and that mask."""
+    mask = (scene.labels[k] > 0).astype(np.uint8)
+    height, width = mask.shape
+    view = View.identity(width, height)
+    return find_blobs(mask, np.zeros(mask.shape, np.float32), view, 8), mask, view
+
+
+def people_in(scene, k: int) -> list[Rect]:
+    return [Rect(b.x, b.y, b.width, b.height) for b in scene.boxes[k]]
+
+
+def test_a_hit_nested_in_a_stronger_one_or_overlapping_it_is_the_same_person():
+    person = Person(Rect(100, 50, 40, 120), 2.0)
+    legs = Person(Rect(105, 110, 30, 60), 1.0)  # all inside: a second hit on the legs
+    shifted = Person(Rect(108, 52, 40, 120), 0.8)  # IoU 0.67: the same person again
+    behind = Person(Rect(125, 40, 38, 115), 1.5)  # a person half behind: IoU ~0.27
+    kept = _suppress([legs, shifted, person, behind])
+    assert kept == [person, behind]
+
+
+def test_people_in_one_blob_stand_apart_across():
+    left = Person(Rect(100, 50, 40, 120), 1.0)
+    beside = Person(Rect(122, 50, 40, 120), 1.0)  # centres 22 px apart: over half a width
+    stride = Person(Rect(112, 50, 40, 120), 1.0)  # 12 px: one walker's stride or arm
+    assert _apart([beside, left])
+    assert not _apart([left, stride])
+
+
+@pytest.fixture(scope="module")
+def group():
+    """Two people walking together across the view, one half behind the other (seed 2)."""
+    return street(walkers=0, groups=1, seed=2)
+
+
+def test_a_blob_over_two_people_is_split_into_them(group):
+    detector = PeopleDetector()
+    merged = recovered = pieces = pieces_on_people = 0
+    for k in range(group.num_frames):
+        blobs, mask, view = truth_blobs(group, k)
+        truth = people_in(group, k)
+        out = split_people(blobs, group.frames[k], mask, view, detector)
+        new = [b for b in out if b not in blobs]
+        pieces += len(new)
+        pieces_on_people += sum(max(b.bbox.iou(t) for t in truth) >= 0.5 for b in new)
+        for blob in blobs:
+            held = [t for t in truth if _inside(t, blob.bbox) >= 0.5]
+            if len(held) >= 2 and max(blob.bbox.iou(t) for t in held) < 0.5:
+                merged += 1
+                recovered += all(any(b.bbox.iou(t) >= 0.5 for b in out) for t in held)
+    assert merged >= 15
+    assert recovered >= 4, f"{recovered} of {merged} merged blobs split into their people"
+    assert pieces_on_people >= 0.8 * pieces > 0
+
+
+def test_people_walking_alone_are_never_split():
+    detector = PeopleDetector()
+    scene = street(walkers=4, seed=1)
+    for k in range(scene.num_frames):
+        blobs, mask, view = truth_blobs(scene, k)
+        assert split_people(blobs, scene.frames[k], mask, view, detector) == blobs, k
+
+
+def _inside(person: Rect, box: Rect) -> float:
+    """Share of `person`'s box inside `box`."""
+    common = person.intersection(box)
+    return 0.0 if common is None else common.area / person.area
