@@ -11,6 +11,8 @@ import subprocess
 import pytest
 from ros_process import executable
 
+pytest.importorskip("rclpy")  # the benchmark runs the graph's nodes, in process or not
+
 from tracker_ptz_sim.bringup import benchmark
 from tracker_ptz_sim.evaluation import error_classes
 
