@@ -131,12 +131,16 @@ def crossing(k: int) -> np.ndarray:
     return np.array([[300.0 + 5 * k, 400.0 + 2 * k], [300.0 + 5 * k, 480.0 - 2 * k]])
 
 
-def run_crossing(tracker, frames: int = 40) -> list[dict[int, np.ndarray]]:
+def run_crossing(tracker, frames: int = 40, hidden: bool = False) -> list[dict[int, np.ndarray]]:
+    """The crossing's tracks per frame: while the two are closer than 20 px they are one blob
+    (its centre measured), or with `hidden` the second is hidden behind the first (only the
+    first measured)."""
     out = []
     for k in range(frames):
         truth = crossing(k)
-        merged = np.hypot(*(truth[0] - truth[1])) < 20.0  # one blob for both
-        z = truth.mean(axis=0, keepdims=True) if merged else truth
+        z = truth
+        if np.hypot(*(truth[0] - truth[1])) < 20.0:  # one blob for both, or one hides the other
+            z = truth[:1] if hidden else truth.mean(axis=0, keepdims=True)
         found = tracker.step(Observation(k * 0.1, Detections.from_positions(z, size=8.0), True,
                                          window=WINDOW))  # fmt: skip
         shown = (TrackStatus.CONFIRMED, TrackStatus.COASTING)
@@ -169,10 +173,17 @@ def test_labels_survive_the_crossing_with_occlusion_handling():
     assert all(len(history[k]) == 2 for k in range(17, 24))
 
 
-def test_without_occlusion_handling_a_target_is_dropped_or_relabelled():
-    history = run_crossing(build(occlusion_handling=False))
-    dropped = min(len(history[k]) for k in range(17, 28)) == 1
-    assert dropped or labels_of(history, 30) != labels_of(history, 12)
+def test_without_occlusion_handling_a_hidden_target_is_dropped_and_relabelled():
+    # Hidden behind the other (no measurement of its own), the plain filter's component fades
+    # by 1 - p_D a frame; with occlusion handling it coasts through under its own label. (In the
+    # merged-blob crossing the plain filter's outcome is a knife-edge: the two components merge
+    # into one of weight ~1.5, reported once with NumPy 2 and twice with NumPy 1.26.)
+    plain = run_crossing(build(occlusion_handling=False), hidden=True)
+    assert sum(len(plain[k]) == 1 for k in range(16, 28)) >= 5
+    assert labels_of(plain, 30) != labels_of(plain, 12)
+    handled = run_crossing(build(), hidden=True)
+    assert all(len(handled[k]) == 2 for k in range(18, 28))
+    assert labels_of(handled, 30) == labels_of(handled, 12)
 
 
 def test_the_same_input_gives_the_same_tracks():
