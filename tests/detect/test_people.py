@@ -6,13 +6,7 @@ import numpy as np
 import pytest
 
 from tracker_detect.motion import find_blobs
-from tracker_detect.people import (
-    PeopleDetector,
-    Person,
-    _apart,
-    _suppress,
-    split_people,
-)
+from tracker_detect.people import HOLD_FRAMES, PeopleSplitter, Person, _apart, _suppress
 from tracker_detect.registration import View
 from tracker_msgs_py.geometry import Rect
 from tracker_ptz_sim.simulation.street import StreetConfig, generate_street
@@ -61,12 +55,12 @@ def group():
 
 
 def test_a_blob_over_two_people_is_split_into_them(group):
-    detector = PeopleDetector()
+    splitter = PeopleSplitter()
     merged = recovered = pieces = pieces_on_people = 0
     for k in range(group.num_frames):
         blobs, mask, view = truth_blobs(group, k)
         truth = people_in(group, k)
-        out = split_people(blobs, group.frames[k], mask, view, detector)
+        out = splitter.split(blobs, group.frames[k], mask, view)
         new = [b for b in out if b not in blobs]
         pieces += len(new)
         pieces_on_people += sum(max(b.bbox.iou(t) for t in truth) >= 0.5 for b in new)
@@ -82,11 +76,28 @@ def test_a_blob_over_two_people_is_split_into_them(group):
 
 
 def test_people_walking_alone_are_never_split():
-    detector = PeopleDetector()
+    splitter = PeopleSplitter()
     scene = street(walkers=4, seed=1)
     for k in range(scene.num_frames):
         blobs, mask, view = truth_blobs(scene, k)
-        assert split_people(blobs, scene.frames[k], mask, view, detector) == blobs, k
+        assert splitter.split(blobs, scene.frames[k], mask, view) == blobs, k
+
+
+def test_a_split_is_held_while_hog_misses_its_people_then_let_go(group):
+    splitter = PeopleSplitter()
+    for k in range(group.num_frames):
+        blobs, mask, view = truth_blobs(group, k)
+        out = splitter.split(blobs, group.frames[k], mask, view)
+        if len(out) > len(blobs):
+            break
+    else:
+        pytest.fail("no split in the group scene")
+    blank = np.full_like(group.frames[k], 128)  # nothing for HOG to find
+    for _ in range(HOLD_FRAMES):
+        assert splitter.split(blobs, blank, mask, view) == out
+    assert splitter.split(blobs, blank, mask, view) == blobs
+    splitter.reset()
+    assert splitter.split(blobs, blank, mask, view) == blobs
 
 
 def _inside(person: Rect, box: Rect) -> float:

@@ -63,7 +63,7 @@ from tracker_detect.motion import (
     paste_map,
     presence_test,
 )
-from tracker_detect.people import PeopleDetector, split_people
+from tracker_detect.people import PeopleSplitter
 from tracker_detect.registration import View, phase_correlation_shift
 from tracker_detect.side_by_side import cut_side_by_side
 from tracker_detect.ssim import SsimParams, auto_downsample_factor, ssim_map
@@ -190,7 +190,7 @@ class BackgroundDetector:
         # the scene before anything stopped in it: learns only where the view is background
         self.long_term = SceneMosaic(self.config.warmup_observations, self.config.flicker_memory)
         self._change = MotionDetector(self._change_config(self.config))
-        self._people = PeopleDetector()
+        self._people = PeopleSplitter()
         self._last_stamp: int | None = None
         self._size: tuple[int, int] | None = None
 
@@ -218,6 +218,7 @@ class BackgroundDetector:
         self.mosaic.clear()
         self.long_term.clear()
         self._change.reset()
+        self._people.reset()
         self._last_stamp = None
         self._size = None
 
@@ -288,7 +289,7 @@ class BackgroundDetector:
             excluded = self._clean(different.astype(np.uint8)) & (mask == 0)
             blobs = [_with_legs(b, excluded, view) for b in blobs]
         if c.split_people:
-            blobs = split_people(blobs, frame.image, mask, view, self._people)
+            blobs = self._people.split(blobs, frame.image, mask, view)
         compared = int(np.count_nonzero(judged))
         present = presence_test(sum(b.pixel_count for b in blobs), compared, c.presence_fraction)
         return Detection(

@@ -51,6 +51,8 @@ SEPARATION = 0.5  # x their mean width: centres of people in one blob lie at lea
 INSIDE = 0.7  # share of a person's box that lies inside the blob's box
 MIN_PIECE_WIDTH = 0.6  # x the person's box: the mask pixels in it are as wide as a body
 MIN_PIXELS = 0.15  # share of a person's box the blob's mask fills for a piece to stand
+HOLD_FRAMES = 5  # a split is held this many frames after HOG last found its people
+HOLD_IOU = 0.5  # ... on the blob that overlaps the split one this much (scene boxes)
 COVER = 0.7  # the people found span at least this share of the blob's width
 
 
@@ -125,22 +127,65 @@ def _same_person(a: Rect, b: Rect) -> bool:
     return common >= NMS_IOU * (a.area + b.area - common) or common >= NESTED * min(a.area, b.area)
 
 
-def split_people(
-    blobs: list[Blob],
-    image: np.ndarray,
-    mask: np.ndarray,
-    view: View,
-    detector: PeopleDetector,
-) -> list[Blob]:
-    """`blobs` with each that holds two or more people replaced by one blob per person (module
-    doc). `image` and `mask` (uint8, nonzero = foreground) are the camera's, in image px."""
-    result: list[Blob] = []
-    for blob in blobs:
-        box = _image_box(blob.bbox, view)
-        pieces = _pieces(blob, box, image, mask, view, detector)
-        result.extend(pieces if len(pieces) >= 2 else [blob])
-    result.sort(key=lambda b: (-b.pixel_count, b.centroid_y, b.centroid_x))
-    return result
+class PeopleSplitter:
+    """Replaces each blob that holds two or more people by one blob per person (module doc).
+
+    A split is held: when HOG no longer finds the people of a blob it split in the last
+    `HOLD_FRAMES` frames (the one half behind is found in some frames and not in others), the
+    blob that overlaps that one most (IoU >= HOLD_IOU, scene px) is split at the same people's
+    boxes, moved with the blob's centre. Tracks of the people then see them every frame instead
+    of flickering between one blob and two.
+    """
+
+    def __init__(self, detector: PeopleDetector | None = None) -> None:
+        self.detector = detector or PeopleDetector()
+        self._splits: list[_Split] = []
+
+    def reset(self) -> None:
+        """Forget the splits held."""
+        self._splits = []
+
+    def split(
+        self, blobs: list[Blob], image: np.ndarray, mask: np.ndarray, view: View
+    ) -> list[Blob]:
+        """`blobs` with the people in them apart; `image` and `mask` (uint8, nonzero =
+        foreground) are the camera's, in image px."""
+        result: list[Blob] = []
+        splits: list[_Split] = []
+        for blob in blobs:
+            box = _image_box(blob.bbox, view)
+            people, age = _people_in(box, image, self.detector), 0
+            if not people:
+                people, age = self._held(blob.bbox, view)
+            pieces = [_piece(blob, box, person, mask, view) for person in people]
+            kept = [piece for piece in pieces if piece is not None]
+            if len(people) >= 2 and len(kept) == len(people):
+                result.extend(kept)
+                scene_boxes = [view.rect_to_scene(p.x, p.y, p.width, p.height) for p in people]
+                splits.append(_Split(blob.bbox, scene_boxes, age))
+            else:
+                result.append(blob)
+        self._splits = [s for s in splits if s.age < HOLD_FRAMES]
+        result.sort(key=lambda b: (-b.pixel_count, b.centroid_y, b.centroid_x))
+        return result
+
+    def _held(self, box: Rect, view: View) -> tuple[list[Rect], int]:
+        """The people (image px) of the held split that overlaps `box` (scene px) most, moved
+        with it, and the frames since HOG found them; ([], 0) when none overlaps enough."""
+        best = max(self._splits, key=lambda s: s.blob.iou(box), default=None)
+        if best is None or best.blob.iou(box) < HOLD_IOU:
+            return [], 0
+        dx = box.x + box.width / 2.0 - (best.blob.x + best.blob.width / 2.0)
+        dy = box.y + box.height / 2.0 - (best.blob.y + best.blob.height / 2.0)
+        moved = [Rect(p.x + dx, p.y + dy, p.width, p.height) for p in best.people]
+        return [_image_box(p, view) for p in moved], best.age + 1
+
+
+@dataclass(frozen=True)
+class _Split:
+    blob: Rect  # scene px: the blob's box when it was split
+    people: list[Rect]  # scene px: the people's boxes in it
+    age: int  # frames since HOG found them
 
 
 def _image_box(box: Rect, view: View) -> Rect:
@@ -152,10 +197,9 @@ def _image_box(box: Rect, view: View) -> Rect:
     )
 
 
-def _pieces(
-    blob: Blob, box: Rect, image: np.ndarray, mask: np.ndarray, view: View, detector: PeopleDetector
-) -> list[Blob]:
-    """The blobs of the people in `blob` (its box in image px), or [] to keep it whole."""
+def _people_in(box: Rect, image: np.ndarray, detector: PeopleDetector) -> list[Rect]:
+    """The boxes (image px) of the people HOG finds in a blob's `box` (image px) when there are
+    two or more that pass the module doc's tests, else []."""
     edge = EDGE * image.shape[0]
     if (
         box.height < MIN_BLOB_HEIGHT
@@ -177,8 +221,7 @@ def _pieces(
     right = max(p.box.x + p.box.width for p in inside)
     if min(right, box.x + box.width) - max(left, box.x) < COVER * box.width:
         return []  # people found in a part of it: a bush or a sign that HOG took for people
-    pieces = [_piece(blob, box, p.box, mask, view) for p in inside]
-    return [p for p in pieces if p is not None]
+    return [p.box for p in inside]
 
 
 def _apart(people: list[Person]) -> bool:
