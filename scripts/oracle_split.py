@@ -58,7 +58,7 @@ class GroundTruthSplit:
         replaced_before = self.replaced
         for i in range(len(found)):
             box = Rect(*(float(v) for v in found.bboxes[i]))
-            held = [p for p in people if _overlap(box, p) >= 0.5 * p.area]
+            held = [p for p in people if box.intersection_area(p) >= 0.5 * p.area]
             if len(held) >= 2 and max(box.iou(p) for p in held) < 0.5:
                 self.replaced += 1
                 for person in held:
@@ -79,11 +79,6 @@ class GroundTruthSplit:
             np.array(boxes, dtype=float),
             np.array(scores, dtype=float),
         )
-
-
-def _overlap(a: Rect, b: Rect) -> float:
-    common = a.intersection(b)
-    return 0.0 if common is None else common.area
 
 
 def install(oracle: GroundTruthSplit) -> None:

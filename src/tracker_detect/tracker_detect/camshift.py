@@ -246,19 +246,8 @@ def _clip(box: tuple[int, int, int, int], width: int, height: int) -> tuple[int,
     return x0, y0, max(x1 - x0, 0), max(y1 - y0, 0)
 
 
-def _to_image(view: View, rect: Rect) -> tuple[float, float, float, float]:
-    """A scene rectangle as image px x, y, w, h."""
-    return (
-        (rect.x - view.rect.x) / view.scale_x,
-        (rect.y - view.rect.y) / view.scale_y,
-        rect.width / view.scale_x,
-        rect.height / view.scale_y,
-    )
-
-
-def _round(box: tuple[float, float, float, float]) -> tuple[int, int, int, int]:
-    x, y, w, h = box
-    return round(x), round(y), max(round(w), 1), max(round(h), 1)
+def _round(box: Rect) -> tuple[int, int, int, int]:
+    return round(box.x), round(box.y), max(round(box.width), 1), max(round(box.height), 1)
 
 
 @dataclass(frozen=True, eq=False)
@@ -303,12 +292,14 @@ class CamShiftTracker:
         if not (region.width > 0 and region.height > 0):
             return f"the region must have a positive size, got {region}"
         view = frame.view or View.identity(*frame.size)
-        inner = _clip(_round(_to_image(view, region)), *frame.size)
+        inner = _clip(_round(view.rect_to_image(region)), *frame.size)
         if inner[2] < 2 or inner[3] < 2:
             return f"the region {region} lies outside the camera view {view.rect}"
         m = self.config.background_margin
         x, y, w, h = inner
-        outer = _clip(_round((x - m * w, y - m * h, (1 + 2 * m) * w, (1 + 2 * m) * h)), *frame.size)
+        outer = _clip(
+            _round(Rect(x - m * w, y - m * h, (1 + 2 * m) * w, (1 + 2 * m) * h)), *frame.size
+        )
         ox, oy, ow, oh = outer
         context = np.ascontiguousarray(frame.bgr[oy : oy + oh, ox : ox + ow])
         selection = Selection(cv2.cvtColor(context, cv2.COLOR_BGR2HSV), (x - ox, y - oy, w, h))
@@ -385,7 +376,7 @@ class CamShiftTracker:
         if self.model is None:
             return 0.0
         view = frame.view or View.identity(*frame.size)
-        x, y, w, h = _clip(_round(_to_image(view, region)), *frame.size)
+        x, y, w, h = _clip(_round(view.rect_to_image(region)), *frame.size)
         if w < 1 or h < 1:
             return 0.0
         patch = np.ascontiguousarray(frame.bgr[y : y + h, x : x + w])
@@ -450,7 +441,7 @@ class CamShiftTracker:
             (1 + 2 * m) * window.width,
             (1 + 2 * m) * window.height,
         )
-        return _clip(_round(_to_image(view, grown)), *frame.size)
+        return _clip(_round(view.rect_to_image(grown)), *frame.size)
 
     def _track(
         self, frame: CameraFrame, view: View, window: Rect, model: ColourModel
@@ -461,7 +452,7 @@ class CamShiftTracker:
         if rw < 2 or rh < 2:
             return None, searched  # the window left the view
         prob = self._back_projection(frame, (rx, ry, rw, rh), model)
-        x, y, w, h = _round(_to_image(view, window))
+        x, y, w, h = _round(view.rect_to_image(window))
         start = _clip((x - rx, y - ry, w, h), rw, rh)
         if start[2] < 1 or start[3] < 1:
             return None, searched

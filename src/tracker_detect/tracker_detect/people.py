@@ -123,7 +123,7 @@ def _suppress(people: list[Person]) -> list[Person]:
 
 
 def _same_person(a: Rect, b: Rect) -> bool:
-    common = _overlap(a, b)
+    common = a.intersection_area(b)
     return common >= NMS_IOU * (a.area + b.area - common) or common >= NESTED * min(a.area, b.area)
 
 
@@ -153,7 +153,7 @@ class PeopleSplitter:
         result: list[Blob] = []
         splits: list[_Split] = []
         for blob in blobs:
-            box = _image_box(blob.bbox, view)
+            box = view.rect_to_image(blob.bbox)
             people, age = _people_in(box, image, self.detector), 0
             if not people:
                 people, age = self._held(blob.bbox, view)
@@ -178,7 +178,7 @@ class PeopleSplitter:
         dx = box.x + box.width / 2.0 - (best.blob.x + best.blob.width / 2.0)
         dy = box.y + box.height / 2.0 - (best.blob.y + best.blob.height / 2.0)
         moved = [Rect(p.x + dx, p.y + dy, p.width, p.height) for p in best.people]
-        return [_image_box(p, view) for p in moved], best.age + 1
+        return [view.rect_to_image(p) for p in moved], best.age + 1
 
 
 @dataclass(frozen=True)
@@ -186,15 +186,6 @@ class _Split:
     blob: Rect  # scene px: the blob's box when it was split
     people: list[Rect]  # scene px: the people's boxes in it
     age: int  # frames since HOG found them
-
-
-def _image_box(box: Rect, view: View) -> Rect:
-    return Rect(
-        (box.x - view.rect.x) / view.scale_x,
-        (box.y - view.rect.y) / view.scale_y,
-        box.width / view.scale_x,
-        box.height / view.scale_y,
-    )
 
 
 def _people_in(box: Rect, image: np.ndarray, detector: PeopleDetector) -> list[Rect]:
@@ -211,7 +202,7 @@ def _people_in(box: Rect, image: np.ndarray, detector: PeopleDetector) -> list[R
     margin = MARGIN * box.height
     region = Rect(box.x - margin, box.y - margin, box.width + 2 * margin, box.height + 2 * margin)
     people = detector.find(image, region, (MIN_SHARE * box.height, MAX_SHARE * box.height))
-    inside = [p for p in people if _overlap(p.box, box) >= INSIDE * p.box.area]
+    inside = [p for p in people if p.box.intersection_area(box) >= INSIDE * p.box.area]
     if inside:
         tallest = max(p.box.height for p in inside)
         inside = [p for p in inside if p.box.height >= SIMILAR_HEIGHT * tallest]
@@ -232,11 +223,6 @@ def _apart(people: list[Person]) -> bool:
         b[0] - a[0] >= SEPARATION * (a[1] + b[1]) / 2.0
         for a, b in zip(centres, centres[1:], strict=False)
     )
-
-
-def _overlap(a: Rect, b: Rect) -> float:
-    common = a.intersection(b)
-    return 0.0 if common is None else common.area
 
 
 def _piece(blob: Blob, box: Rect, person: Rect, mask: np.ndarray, view: View) -> Blob | None:

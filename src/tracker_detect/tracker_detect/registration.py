@@ -75,6 +75,15 @@ class View:
             height * self.scale_y,
         )
 
+    def rect_to_image(self, rect: Rect) -> Rect:
+        """A scene rectangle in image px (the inverse of `rect_to_scene`)."""
+        return Rect(
+            (rect.x - self.rect.x) / self.scale_x,
+            (rect.y - self.rect.y) / self.scale_y,
+            rect.width / self.scale_x,
+            rect.height / self.scale_y,
+        )
+
     def translated(self, dx: float, dy: float) -> View:
         """The same view moved by (dx, dy) image px."""
         r = self.rect

@@ -47,6 +47,11 @@ class Rect:
             return None
         return Rect(x0, y0, x1 - x0, y1 - y0)
 
+    def intersection_area(self, other: Rect) -> float:
+        """The area of the overlap of two rectangles, 0 when they do not overlap."""
+        inter = self.intersection(other)
+        return 0.0 if inter is None else inter.area
+
     def iou(self, other: Rect) -> float:
         """Intersection over union, 0 when disjoint."""
         inter = self.intersection(other)
