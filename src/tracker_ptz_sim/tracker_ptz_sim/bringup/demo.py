@@ -782,6 +782,7 @@ def main(argv: list[str] | None = None) -> int:
     video, note = resolve_video(args.video)
     print(note, flush=True)
     overrides = parse_overrides(args.set)
+    requested = dict.fromkeys(overrides)  # the nodes --set names, before the runner adds its own
     if args.frames_in_flight is not None:
         try:
             in_flight = pipelined(args.frames_in_flight)
@@ -791,8 +792,11 @@ def main(argv: list[str] | None = None) -> int:
             overrides.setdefault(node, {}).update(values)
     if args.mode:
         overrides.setdefault("ptz_controller", {})["mode"] = args.mode
-    args.out.mkdir(parents=True, exist_ok=True)
     graph = load_graph(args.graph)
+    problem = unknown_override_nodes(requested, [with_live_view(graph) if args.live else graph])
+    if problem:
+        parser.error(problem)
+    args.out.mkdir(parents=True, exist_ok=True)
     unknown = set(args.external) - {node.name for node in graph.nodes}
     if unknown:
         parser.error(f"--external: no node {sorted(unknown)} in the {graph.name} graph")
@@ -801,10 +805,6 @@ def main(argv: list[str] | None = None) -> int:
     graph = without_nodes(graph, set(args.external))
     if args.live:
         graph = with_live_view(graph)
-    problem = unknown_override_nodes(parse_overrides(args.set), [graph])
-    if problem:
-        parser.error(problem)
-    if args.live:
         port = overrides.get("live_view", {}).get("port", 8765)
         print(f"live view: open ws://127.0.0.1:{port} in Foxglove (Open connection)", flush=True)
     run = run_graph(
