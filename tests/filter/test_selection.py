@@ -142,3 +142,58 @@ def test_a_target_coasting_too_long_is_let_go():
     assert strict.update(coasting).track_id == 2  # its prediction has strayed: follow the other
     alone = track_set(5.0, [1], [[0, 0]], status=[K])
     assert strict.update(dataclasses.replace(alone, misses=np.array([3]))) is None
+
+
+def _walking(time, ids, positions, misses, velocity=(20.0, 0.0), status=None):
+    tracks = track_set(time, ids, positions, status=status, ages=[9.0] * len(ids), box=40.0)
+    means = tracks.means.copy()
+    means[:, 2:] = velocity
+    return dataclasses.replace(tracks, means=means, misses=np.asarray(misses))
+
+
+def test_a_hidden_target_is_waited_for_not_swapped_for_the_person_beside_it():
+    """A walker (track 1) passes behind the one beside them (track 2) for 0.5 s: without a
+    reacquire time the camera moves on to track 2 at once and stays there; with one it holds
+    (no target) and takes track 1 back when it is seen again."""
+
+    def frames():
+        for k in range(20):
+            t = 5.0 + 0.1 * k
+            hidden = 3 <= k < 8
+            yield _walking(
+                t,
+                [1, 2],
+                [[100 + 2 * k, 50], [110 + 2 * k, 50]],
+                [k - 2 if hidden else 0, 0],
+                status=[K if hidden else C, C],
+            )
+
+    at_once = TargetSelector(SelectionPolicy.LONGEST_LIVED, max_misses=2)
+    waiting = TargetSelector(SelectionPolicy.LONGEST_LIVED, max_misses=2, reacquire_time=2.0)
+    followed_at_once = [getattr(at_once.update(f), "track_id", None) for f in frames()]
+    followed_waiting = [getattr(waiting.update(f), "track_id", None) for f in frames()]
+    assert followed_at_once[:5] == [1] * 5 and set(followed_at_once[5:]) == {2}
+    assert followed_waiting[:5] == [1] * 5
+    assert followed_waiting[5:8] == [None] * 3  # coasting past max_misses: the camera scans
+    assert followed_waiting[8:] == [1] * 12
+    assert waiting.selection is not None and waiting.selection.since == 5.0  # one lock
+
+
+def test_a_lost_target_is_taken_up_by_a_new_track_where_it_was_heading():
+    selector = TargetSelector(SelectionPolicy.LONGEST_LIVED, reacquire_time=2.0)
+    assert selector.update(_walking(1.0, [1, 2], [[100, 50], [300, 50]], [0, 0])).track_id == 1
+    # track 1 deleted; 0.5 s later a new track 3 starts 10 px ahead of where 1 was heading
+    assert selector.update(_walking(1.1, [2], [[300, 50]], [0])) is None
+    later = _walking(1.6, [2, 3], [[300, 50], [120, 50]], [0, 0])
+    assert selector.update(later).track_id == 3
+    # a new track far from where the lost one was heading is not them: wait, then move on
+    selector = TargetSelector(SelectionPolicy.LONGEST_LIVED, reacquire_time=2.0)
+    selector.update(_walking(1.0, [1, 2], [[100, 50], [300, 50]], [0, 0]))
+    assert selector.update(_walking(1.1, [2, 3], [[300, 50], [200, 50]], [0, 0])) is None
+    assert selector.update(_walking(2.9, [2, 3], [[300, 50], [200, 50]], [0, 0])) is None
+    assert selector.update(_walking(3.1, [2, 3], [[300, 50], [200, 50]], [0, 0])).track_id == 2
+
+
+def test_reacquire_time_is_validated():
+    with pytest.raises(ValueError, match="reacquire_time"):
+        TargetSelector(reacquire_time=-1.0)

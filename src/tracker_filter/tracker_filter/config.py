@@ -97,6 +97,7 @@ _MULTI: dict[str, Any] = {
     "switch_margin": 0.2,
     "lead_time": SEED_CYCLE,
     "target_max_misses": 10000,
+    "reacquire_time": 0.0,
 }
 
 
@@ -245,6 +246,13 @@ SELECTION_PARAMETERS: tuple[ParamSpec, ...] = (
         0,
         10000,
     ),
+    _spec(
+        "reacquire_time",
+        "s, after losing the target wait this long for the same person (their track again, or a "
+        "new track where they were heading) before selecting another (0: at once)",
+        0.0,
+        60.0,
+    ),
 )
 
 #: The target selection's defaults, whatever the tracker.
@@ -254,9 +262,21 @@ SELECTION_DEFAULTS: dict[str, Any] = {spec.name: spec.default for spec in SELECT
 PARAMETERS: tuple[ParamSpec, ...] = TRACKING_PARAMETERS + SELECTION_PARAMETERS
 
 #: Parameters that take effect without rebuilding the tracker (the others clear its tracks).
-LIVE_PARAMETERS = frozenset(
-    {"selection_policy", "min_lock_time", "switch_margin", "lead_time", "target_max_misses"}
-)
+LIVE_PARAMETERS = frozenset({spec.name for spec in SELECTION_PARAMETERS})
+
+
+def selector_settings(
+    params: Mapping[str, Any],
+) -> tuple[SelectionPolicy, float, float, int, float]:
+    """`TargetSelector`'s arguments (and `configure`'s) from the selection parameters."""
+    return (
+        AUTOMATIC_POLICIES[params["selection_policy"]],
+        params["min_lock_time"],
+        params["switch_margin"],
+        params["target_max_misses"],
+        params["reacquire_time"],
+    )
+
 
 _SEED000 = _MULTI | {
     "filter": "alpha_beta",
@@ -308,6 +328,7 @@ class TrackerConfig:
     switch_margin: float
     lead_time: float
     target_max_misses: int
+    reacquire_time: float
 
     @classmethod
     def from_params(cls, params: Mapping[str, Any]) -> TrackerConfig:
@@ -351,6 +372,7 @@ class TrackerConfig:
             switch_margin=params["switch_margin"],
             lead_time=params["lead_time"],
             target_max_misses=params["target_max_misses"],
+            reacquire_time=params["reacquire_time"],
         )
 
     @classmethod
@@ -390,5 +412,9 @@ class TrackerConfig:
 
     def build_selector(self) -> TargetSelector:
         return TargetSelector(
-            self.selection_policy, self.min_lock_time, self.switch_margin, self.target_max_misses
+            self.selection_policy,
+            self.min_lock_time,
+            self.switch_margin,
+            self.target_max_misses,
+            self.reacquire_time,
         )

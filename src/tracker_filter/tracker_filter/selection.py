@@ -12,10 +12,16 @@ COASTING) every frame:
   flickers in place however long it lives and however far its blob wanders.
 
 Hysteresis: once locked, the selector keeps its track for at least `min_lock_time` seconds (scene
-time) and afterwards switches only to a track scoring better by `switch_margin` x |current score|;
-it re-selects at once when its track is lost. The manual modes come from the select_target service:
-a track id (kept until that track is deleted, then back to the automatic policy) or a rectangle
-(the track whose box overlaps it best, or else the next track initiated inside it).
+time) and afterwards switches only to a track scoring better by `switch_margin` x |current score|.
+When its track is lost (deleted, or coasting past `max_misses`) it re-selects at once, or, with a
+`reacquire_time`, waits that long for the same person first: their track found again, or a track
+started after the loss where the lost one was heading (`LostTarget.taken_up_by`). Meanwhile
+nothing is selected (the camera scans where the target was), so a person hidden for a moment
+behind the one beside them is not swapped for that one.
+
+The manual modes come from the select_target service: a track id (kept until that track is
+deleted, then back to the automatic policy) or a rectangle (the track whose box overlaps it best,
+or else the next track initiated inside it).
 """
 
 from __future__ import annotations
@@ -57,6 +63,37 @@ class Selection:
 
 
 @dataclass(frozen=True)
+class LostTarget:
+    """The automatic selection's track while the selector waits for it to come back."""
+
+    track_id: int
+    since: float  # s, scene time the lock on it started
+    lost_at: float  # s, scene time it stopped being followable
+    box: Rect  # its last box while followed (scene px)
+    velocity: tuple[float, float]  # px/s, its velocity then
+    newest_id: int  # the highest track id at the loss: tracks above it started since
+
+    def taken_up_by(self, tracks: TrackSet, candidates: np.ndarray, now: float) -> int | None:
+        """The candidate row that is this person again: their own track, else the oldest track
+        started after the loss whose position lies in the lost box carried on at its velocity
+        and grown by half its size each way."""
+        own = tracks.index_of(self.track_id)
+        if own is not None and own in candidates:
+            return own
+        elapsed = now - self.lost_at
+        box = self.box
+        cx = box.x + box.width / 2.0 + self.velocity[0] * elapsed
+        cy = box.y + box.height / 2.0 + self.velocity[1] * elapsed
+        for row in candidates:
+            if tracks.ids[row] <= self.newest_id:
+                continue
+            x, y = tracks.positions[row]
+            if abs(x - cx) <= box.width and abs(y - cy) <= box.height:
+                return int(row)
+        return None
+
+
+@dataclass(frozen=True)
 class SelectResult:
     success: bool
     message: str
@@ -76,8 +113,9 @@ class TargetSelector:
         min_lock_time: float = 2.0,
         switch_margin: float = 0.2,
         max_misses: int = 10000,
+        reacquire_time: float = 0.0,
     ) -> None:
-        self.configure(policy, min_lock_time, switch_margin, max_misses)
+        self.configure(policy, min_lock_time, switch_margin, max_misses, reacquire_time)
         self.reset()
 
     def configure(
@@ -86,6 +124,7 @@ class TargetSelector:
         min_lock_time: float,
         switch_margin: float,
         max_misses: int = 10000,
+        reacquire_time: float = 0.0,
     ) -> None:
         policy = SelectionPolicy(policy)
         if policy not in AUTOMATIC_POLICIES.values():
@@ -98,8 +137,10 @@ class TargetSelector:
             raise ValueError(f"switch_margin must be >= 0, got {switch_margin}")
         if max_misses < 0:
             raise ValueError(f"max_misses must be >= 0, got {max_misses}")
+        if not (math.isfinite(reacquire_time) and reacquire_time >= 0.0):
+            raise ValueError(f"reacquire_time must be >= 0 s, got {reacquire_time}")
         self.policy, self.min_lock_time, self.switch_margin = policy, min_lock_time, switch_margin
-        self.max_misses = max_misses
+        self.max_misses, self.reacquire_time = max_misses, reacquire_time
 
     def reset(self) -> None:
         """Back to the automatic policy with nothing locked."""
@@ -108,6 +149,9 @@ class TargetSelector:
         self._pending_rect: Rect | None = None
         self._pending_after_id = 0  # a pending rectangle takes tracks with ids above this one
         self._last_tracks: TrackSet | None = None
+        self._lost: LostTarget | None = None  # the automatic target waited for
+        # the followed track's last box and velocity, and the newest track id then
+        self._followed: tuple[Rect, tuple[float, float], int] | None = None
 
     @property
     def mode(self) -> SelectionPolicy:
@@ -217,17 +261,63 @@ class TargetSelector:
             tracks.status == TrackStatus.COASTING
         )
         candidates = np.flatnonzero(confirmed & (tracks.misses <= self.max_misses))
-        if candidates.size == 0:
-            self.selection = None
-            return None
-        scores = self._scores(tracks, view_centre)
-        best = int(candidates[np.argmax(scores[candidates])])  # ties: the oldest (lowest) row
         current = self.selection
         incumbent = tracks.index_of(current.track_id) if current is not None else None
-        if current is None or incumbent is None or incumbent not in candidates:
+        if current is not None and (incumbent is None or incumbent not in candidates):
+            self._lose(current, tracks.time)
+        if self._lost is not None:
+            self._wait_for_lost(tracks, candidates)
+            if self._lost is not None:
+                return None
+        if self.selection is not None:
+            self._switch_if_better(tracks, candidates, view_centre)
+        elif candidates.size:
+            scores = self._scores(tracks, view_centre)
+            best = int(candidates[np.argmax(scores[candidates])])  # ties: the oldest (lowest) row
             self.selection = Selection(int(tracks.ids[best]), self.policy, tracks.time)
-        elif best != incumbent and tracks.time - current.since >= self.min_lock_time:
-            threshold = scores[incumbent] + self.switch_margin * abs(scores[incumbent])
-            if scores[best] > threshold:
-                self.selection = Selection(int(tracks.ids[best]), self.policy, tracks.time)
+        self._remember(tracks)
         return self.selection
+
+    def _switch_if_better(
+        self, tracks: TrackSet, candidates: np.ndarray, view_centre: tuple[float, float] | None
+    ) -> None:
+        current = self.selection
+        assert current is not None, "called only with a selection"
+        incumbent = tracks.index_of(current.track_id)
+        assert incumbent is not None, "a selection that left the tracks was lost first"
+        if tracks.time - current.since < self.min_lock_time:
+            return
+        scores = self._scores(tracks, view_centre)
+        best = int(candidates[np.argmax(scores[candidates])])  # ties: the oldest (lowest) row
+        threshold = scores[incumbent] + self.switch_margin * abs(scores[incumbent])
+        if best != incumbent and scores[best] > threshold:
+            self.selection = Selection(int(tracks.ids[best]), self.policy, tracks.time)
+
+    def _lose(self, current: Selection, now: float) -> None:
+        """The selected track can no longer be followed: wait for it, or re-select at once."""
+        self.selection = None
+        if self.reacquire_time > 0.0 and self._followed is not None:
+            box, velocity, newest_id = self._followed
+            self._lost = LostTarget(current.track_id, current.since, now, box, velocity, newest_id)
+
+    def _wait_for_lost(self, tracks: TrackSet, candidates: np.ndarray) -> None:
+        lost = self._lost
+        assert lost is not None, "called only while waiting"
+        row = lost.taken_up_by(tracks, candidates, tracks.time)
+        if row is not None:
+            self.selection = Selection(int(tracks.ids[row]), self.policy, lost.since)
+            self._lost = None
+        elif tracks.time - lost.lost_at >= self.reacquire_time:
+            self._lost = None  # waited long enough: anyone may be chosen
+
+    def _remember(self, tracks: TrackSet) -> None:
+        """The selected track's box and velocity, and the newest track id, for `_lose`."""
+        row = None
+        if self.reacquire_time > 0.0 and self.selection is not None:
+            row = tracks.index_of(self.selection.track_id)
+        if row is None:
+            self._followed = None
+            return
+        vx, vy = (float(v) for v in tracks.velocities[row])
+        newest_id = int(tracks.ids.max())
+        self._followed = (_box(tracks.bboxes[row]), (vx, vy), newest_id)

@@ -20,10 +20,10 @@ import numpy as np
 from sensor_msgs.msg import Image
 from std_msgs.msg import Header
 
-from tracker_filter.config import SELECTION_DEFAULTS, SELECTION_PARAMETERS
+from tracker_filter.config import SELECTION_DEFAULTS, SELECTION_PARAMETERS, selector_settings
 from tracker_filter.models import extrapolate_positions
 from tracker_filter.observation import Detections, Need, Observation
-from tracker_filter.selection import AUTOMATIC_POLICIES, SelectionPolicy, TargetSelector
+from tracker_filter.selection import SelectionPolicy, TargetSelector
 from tracker_filter.trackers import PLUGIN_GROUP, TRACKERS
 from tracker_filter.tracking import Tracker, TrackSet
 from tracker_msgs.msg import BlobArray, PtzState, Rect, Target, Track, TrackArray
@@ -202,7 +202,7 @@ class TrackerNode(SuiteNode):
         self._tracker: Tracker = self._build_tracker(first_id=1)
         if self._method.warm_up is not None:
             self._method.warm_up()
-        self._selector = TargetSelector(*self._selection_settings())
+        self._selector = TargetSelector(*selector_settings(self._params))
         self._epoch_ns: int | None = None  # stamp of the first frame: keeps float seconds exact
         self._view_centre: tuple[float, float] | None = None
         self._last_frame: tuple[int, int | None] = (0, None)  # tracks, followed track id
@@ -243,15 +243,6 @@ class TrackerNode(SuiteNode):
     def _build_tracker(self, first_id: int) -> Tracker:
         return self._method.build(self._method_values(self._params), first_id)
 
-    def _selection_settings(self) -> tuple[SelectionPolicy, float, float, int]:
-        params = self._params
-        return (
-            AUTOMATIC_POLICIES[params["selection_policy"]],
-            params["min_lock_time"],
-            params["switch_margin"],
-            params["target_max_misses"],
-        )
-
     def _check_parameters(self, values: dict[str, Any]) -> str | None:
         method_values = self._method_values(values)
         reason = self._method.problems(method_values)
@@ -271,7 +262,7 @@ class TrackerNode(SuiteNode):
         return None
 
     def _on_parameters(self, changed: dict[str, Any]) -> None:
-        self._selector.configure(*self._selection_settings())
+        self._selector.configure(*selector_settings(self._params))
         rebuilt = set(changed) - LIVE_PARAMETERS
         if rebuilt:
             cleared = self._forget_tracks()

@@ -35,10 +35,10 @@ from tracker_detect.seeding import (
     SeedingConfig,
     initial_region,
 )
-from tracker_filter.config import SELECTION_DEFAULTS
+from tracker_filter.config import SELECTION_DEFAULTS, selector_settings
 from tracker_filter.models import extrapolate_positions
 from tracker_filter.observation import Detections, Need, Observation
-from tracker_filter.selection import AUTOMATIC_POLICIES, TargetSelector
+from tracker_filter.selection import TargetSelector
 from tracker_filter.trackers import TRACKERS
 from tracker_filter.tracking import Tracker, TrackSet, TrackStatus
 from tracker_msgs_py.codec import NS_PER_S
@@ -190,12 +190,7 @@ class TrackingStage:
             settings.tracker_values, 1
         )
         selection = settings.selection
-        self.selector = TargetSelector(
-            AUTOMATIC_POLICIES[selection["selection_policy"]],
-            selection["min_lock_time"],
-            selection["switch_margin"],
-            selection["target_max_misses"],
-        )
+        self.selector = TargetSelector(*selector_settings(selection))
         self.lead_time = float(selection["lead_time"])
         self._epoch_ns: int | None = None
 
