@@ -40,6 +40,15 @@ def test_a_hit_nested_in_a_stronger_one_or_overlapping_it_is_the_same_person():
     assert kept == [person, behind]
 
 
+def test_hits_of_equal_margin_are_suppressed_the_same_whatever_their_order():
+    """OpenCV hands the pyramid levels' hits back in the order its threads finish: two windows
+    of one margin (the same content at two levels) must not leave the choice to that order."""
+    small = Person(Rect(100, 64, 46, 138), 1.5)
+    large = Person(Rect(104, 64, 50, 152), 1.5)  # nested in part: the same person, one level up
+    other = Person(Rect(160, 60, 40, 120), 1.2)
+    assert _suppress([small, large, other]) == _suppress([other, large, small]) == [small, other]
+
+
 def test_people_in_one_blob_stand_apart_across():
     left = Person(Rect(100, 50, 40, 120), 1.0)
     beside = Person(Rect(122, 50, 40, 120), 1.0)  # centres 22 px apart: over half a width

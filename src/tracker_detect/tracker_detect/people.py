@@ -90,19 +90,42 @@ class PeopleDetector:
         if size[0] < WINDOW[0] or size[1] < WINDOW[1]:
             return []
         scaled = cv2.resize(patch, size, interpolation=cv2.INTER_LINEAR)
-        rects, weights = self._hog.detectMultiScale(
-            scaled,
-            hitThreshold=self.hit_threshold,
-            winStride=(8, 8),
-            padding=(0, 0),
-            scale=SCALE_STEP,
-            groupThreshold=0,
-        )
         found = [
-            Person(_person_box(rect, zoom, u0, v0), float(w))
-            for rect, w in zip(rects, np.ravel(weights), strict=True)
+            Person(_person_box(window, zoom, u0, v0), weight)
+            for window, weight in self._windows(scaled)
         ]
         return _suppress(found)
+
+    def _windows(self, image: np.ndarray) -> list[tuple[tuple[int, int, int, int], float]]:
+        """The SVM's hits (window x, y, width, height in `image` px; margin) over an image
+        pyramid of step SCALE_STEP, as OpenCV's detectMultiScale without grouping finds them.
+
+        One level after another in this thread: detectMultiScale runs its levels in OpenCV's
+        worker threads, and now and then (about one replay in ten, more often on a busy
+        machine) returned other hits for the same image, so a replay's tracks changed from
+        one run to the next."""
+        rows, cols = image.shape[:2]
+        hits: list[tuple[tuple[int, int, int, int], float]] = []
+        scale = 1.0
+        for _ in range(self._hog.nlevels):
+            size = (round(cols / scale), round(rows / scale))  # cvRound: half to even
+            if size[0] < WINDOW[0] or size[1] < WINDOW[1]:
+                break
+            level = (
+                image
+                if size == (cols, rows)
+                else cv2.resize(image, size, interpolation=cv2.INTER_LINEAR_EXACT)
+            )
+            corners, weights = self._hog.detect(
+                level, hitThreshold=self.hit_threshold, winStride=(8, 8), padding=(0, 0)
+            )
+            window = (round(WINDOW[0] * scale), round(WINDOW[1] * scale))
+            for (x, y), weight in zip(
+                np.asarray(corners).reshape(-1, 2), np.ravel(weights), strict=True
+            ):
+                hits.append(((round(x * scale), round(y * scale), *window), float(weight)))
+            scale *= SCALE_STEP
+        return hits
 
 
 def _person_box(window: Sequence[int], zoom: float, u0: int, v0: int) -> Rect:
@@ -114,9 +137,15 @@ def _person_box(window: Sequence[int], zoom: float, u0: int, v0: int) -> Rect:
 
 def _suppress(people: list[Person]) -> list[Person]:
     """Greedy non-maximum suppression: the strongest of hits that overlap by NMS_IOU or of which
-    one lies NESTED inside the other (a person's upper body or legs, found at a smaller scale)."""
+    one lies NESTED inside the other (a person's upper body or legs, found at a smaller scale).
+
+    Hits of equal margin (the same window content at two pyramid levels scores to the last bit)
+    go smallest first, then top to bottom and left to right: OpenCV returns the levels in the
+    order its threads finish them, and a tie broken by that order changed the tracks from one
+    run of a replay to the next."""
     kept: list[Person] = []
-    for person in sorted(people, key=lambda p: -p.weight):
+    order = sorted(people, key=lambda p: (-p.weight, p.box.height, p.box.y, p.box.x, p.box.width))
+    for person in order:
         if all(not _same_person(person.box, other.box) for other in kept):
             kept.append(person)
     return kept
