@@ -204,8 +204,8 @@ class PeopleSplitter:
         best = max(self._splits, key=lambda s: s.blob.iou(box), default=None)
         if best is None or best.blob.iou(box) < HOLD_IOU:
             return [], 0
-        dx = box.x + box.width / 2.0 - (best.blob.x + best.blob.width / 2.0)
-        dy = box.y + box.height / 2.0 - (best.blob.y + best.blob.height / 2.0)
+        (x, y), (split_x, split_y) = box.center, best.blob.center
+        dx, dy = x - split_x, y - split_y
         moved = [Rect(p.x + dx, p.y + dy, p.width, p.height) for p in best.people]
         return [view.rect_to_image(p) for p in moved], best.age + 1
 

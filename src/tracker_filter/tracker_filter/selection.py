@@ -81,9 +81,8 @@ class LostTarget:
         if own is not None and own in candidates:
             return own
         elapsed = now - self.lost_at
-        box = self.box
-        cx = box.x + box.width / 2.0 + self.velocity[0] * elapsed
-        cy = box.y + box.height / 2.0 + self.velocity[1] * elapsed
+        box, (cx, cy) = self.box, self.box.center
+        cx, cy = cx + self.velocity[0] * elapsed, cy + self.velocity[1] * elapsed
         for row in candidates:
             if tracks.ids[row] <= self.newest_id:
                 continue
