@@ -264,12 +264,13 @@ class TargetSelector:
         incumbent = tracks.index_of(current.track_id) if current is not None else None
         if current is not None and (incumbent is None or incumbent not in candidates):
             self._lose(current, tracks.time)
+            incumbent = None
         if self._lost is not None:
-            self._wait_for_lost(tracks, candidates)
+            incumbent = self._wait_for_lost(tracks, candidates)
             if self._lost is not None:
                 return None
-        if self.selection is not None:
-            self._switch_if_better(tracks, candidates, view_centre)
+        if incumbent is not None:
+            self._switch_if_better(tracks, candidates, incumbent, view_centre)
         elif candidates.size:
             scores = self._scores(tracks, view_centre)
             best = int(candidates[np.argmax(scores[candidates])])  # ties: the oldest (lowest) row
@@ -278,12 +279,16 @@ class TargetSelector:
         return self.selection
 
     def _switch_if_better(
-        self, tracks: TrackSet, candidates: np.ndarray, view_centre: tuple[float, float] | None
+        self,
+        tracks: TrackSet,
+        candidates: np.ndarray,
+        incumbent: int,
+        view_centre: tuple[float, float] | None,
     ) -> None:
+        """Hysteresis: leave the selected track (row `incumbent`) only after `min_lock_time`
+        and for a track scoring better by `switch_margin` x |its score|."""
         current = self.selection
         assert current is not None, "called only with a selection"
-        incumbent = tracks.index_of(current.track_id)
-        assert incumbent is not None, "a selection that left the tracks was lost first"
         if tracks.time - current.since < self.min_lock_time:
             return
         scores = self._scores(tracks, view_centre)
@@ -299,7 +304,8 @@ class TargetSelector:
             box, velocity, newest_id = self._followed
             self._lost = LostTarget(current.track_id, current.since, now, box, velocity, newest_id)
 
-    def _wait_for_lost(self, tracks: TrackSet, candidates: np.ndarray) -> None:
+    def _wait_for_lost(self, tracks: TrackSet, candidates: np.ndarray) -> int | None:
+        """The row that took the lost target's lock up, if one did this frame."""
         lost = self._lost
         assert lost is not None, "called only while waiting"
         row = lost.taken_up_by(tracks, candidates, tracks.time)
@@ -308,6 +314,7 @@ class TargetSelector:
             self._lost = None
         elif tracks.time - lost.lost_at >= self.reacquire_time:
             self._lost = None  # waited long enough: anyone may be chosen
+        return row
 
     def _remember(self, tracks: TrackSet) -> None:
         """The selected track's box and velocity, and the newest track id, for `_lose`."""
