@@ -104,13 +104,28 @@ def test_a_track_pulled_off_course_before_the_blob_hides_it_is_still_taken_as_hi
     the crossing with its label."""
     case = phd_scenarios.scenario(2)
 
-    def missed() -> int:
-        tracker = gm_phd_scan_tracker(scenario_parameters(case))
+    def missed(**changes: bool) -> int:
+        tracker = gm_phd_scan_tracker(scenario_parameters(case) | changes)
         return phd_scenarios.run(case, seed, tracker).scores.missed_occlusions
 
     assert missed() == 0
+    assert missed(bridge_missed=False) == 0  # the rule alone keeps it (a bridged miss also does)
     monkeypatch.setattr(GmPhdTracker, "_begin_reckoned", lambda *_: [])
-    assert missed() >= 1
+    assert missed(bridge_missed=False) >= 1
+
+
+def test_a_target_missed_once_before_the_crossing_keeps_its_label_through_it():
+    """Scenario 1, draw 9: one crossing target went undetected (p_D 0.98) six steps before
+    the blob, and its Gaussian faded to 1 - p_D of its weight; found again only inside the
+    crossing, as a new track, it had no label in the three steps before it. Bridging that one
+    missed detection keeps its track, and its label comes through the crossing."""
+    case = phd_scenarios.scenario(1)
+
+    def missed(bridge: bool) -> int:
+        values = scenario_parameters(case) | {"bridge_missed": bridge}
+        return phd_scenarios.run(case, 9, gm_phd_scan_tracker(values)).scores.missed_occlusions
+
+    assert missed(bridge=False) == 1 and missed(bridge=True) == 0
 
 
 def test_the_benchmark_scores_the_seeds_it_is_given(tmp_path):

@@ -12,11 +12,16 @@ A `tracking.Tracker` (method `gm_phd`). Each frame:
    another's possible-occlusion circle (at its predicted position, or at
    its dead reckoning when it had come near another track), or inside an unidentified-object
    region, becomes occluded; an occluded track hit again ends its occlusion;
-4. bookkeeping by `tracking.TrackBook`: confirmed after `confirm_hits` hits, LOST after more than
+4. a confirmed track with a fitted line whose detection is missed for one frame away from any
+   occlusion and from the view's borders keeps its Gaussian's whole weight for that frame
+   (`bridge_missed`; not the thesis's): its missed-detection term is 1 instead of 1 - p_D, so
+   the next detection near its prediction continues it (else one miss in 50 drops a target's
+   weight to 0.02 and it is found again only as a new birth two frames later);
+5. bookkeeping by `tracking.TrackBook`: confirmed after `confirm_hits` hits, LOST after more than
    `max_misses` frames without a state of its own (without a hit, when it is not occluded); a
    confirmed track lost without an occlusion away from the view's borders marks an unidentified
    object there;
-5. stitching: for `stitch_frames` frames after a track leaves an occlusion region or a confirmed
+6. stitching: for `stitch_frames` frames after a track leaves an occlusion region or a confirmed
    track is lost, its label goes to the confirmed track that best fits its dead reckoning
    (`_stitch`).
 
@@ -149,6 +154,7 @@ class GmPhdTracker:
         birth_sites: BirthSites | None = None,
         first_id: int = 1,
         stitch_frames: int = 5,
+        bridge_missed: bool = True,
     ) -> None:
         self.config = filter_config
         self.filter = GmPhdFilter(
@@ -160,6 +166,7 @@ class GmPhdTracker:
         self.window_area = window_area
         self.continue_threshold = continue_threshold
         self.stitch_frames = stitch_frames
+        self.bridge_missed = bridge_missed
         self.book = TrackBook(first_id)
         self._clear()
 
@@ -273,6 +280,7 @@ class GmPhdTracker:
         self.weights[rows] = estimates.weights[cols]
         self.unassigned += 1
         self.unassigned[rows] = 0
+        predicted_weights = self.weights.copy()
         self.weights[self.unassigned > 0] = 0.0  # no Gaussian of its own: a prediction
         hit_rows = np.flatnonzero(hit)
         sources = np.full(len(book), -1, np.int64)
@@ -282,6 +290,8 @@ class GmPhdTracker:
         window = observation.window
         bounds = None if window is None else (window.x, window.y, window.width, window.height)
         self._occlusions(t, hit, detections.bboxes)
+        if self.bridge_missed:
+            self._bridge_missed(bounds, predicted_weights)
         self._note_exits()
         lost = self._lost(bounds)
         self._update_anchors()
@@ -468,6 +478,35 @@ class GmPhdTracker:
         means, covariances = self._since_hit(rows, t)
         self.pending = Mixture.of(np.ones(len(rows)), means, covariances, labels[rows])
         self.weights[begun] = np.maximum(self.weights[begun], 1.0)
+
+    def _bridge_missed(
+        self, bounds: tuple[float, float, float, float] | None, predicted_weights: np.ndarray
+    ) -> None:
+        """Give back the share p_D of their predicted weight that the PHD update took from the
+        Gaussians of confirmed, lined tracks missed for the first time this frame, away from
+        occlusions and the view's borders (module doc, 4.): injected at their predicted states
+        for the next frame, beside the (1 - p_D) share the filter kept."""
+        lined = np.isfinite(self.history_times).sum(axis=1) >= LINE_HITS
+        in_regions = set(self.monitor.occluded) | self.monitor.partners()
+        positions = LAYOUT.positions(self.states)
+        candidates = np.flatnonzero(
+            self.book.confirmed
+            & lined
+            & (self.unassigned == 1)
+            & ~np.isin(self.book.ids, list(in_regions))
+        )
+        rows = np.array(
+            [row for row in candidates if self.monitor.away_from_border(positions[row], bounds)],
+            dtype=np.int64,
+        )
+        if not len(rows):
+            return
+        kept = Mixture.of(
+            self.config.detection * np.minimum(predicted_weights[rows], 1.0),
+            self.states[rows],
+            self.covariances[rows],
+        )
+        self.pending = Mixture.concatenate([self.pending, kept])
 
     def _note_exits(self) -> None:
         """Track which labels are inside an occlusion region; those that just left one open
@@ -707,6 +746,13 @@ PARAMETERS: tuple[ParamSpec, ...] = (
         0,
         1000,
     ),
+    ParamSpec(
+        "bridge_missed",
+        True,
+        "a confirmed track missed for one frame (away from occlusions and the view's borders) "
+        "keeps its Gaussian's weight for that frame: missed-detection term 1, not 1 - p_D "
+        "(not the thesis's)",
+    ),
     ParamSpec("confirm_hits", 2, "hits before a track is confirmed", 1, 1000),
     ParamSpec("max_misses", 3, "frames without its own state after which a track is lost", 0, 1000),
 )
@@ -752,6 +798,7 @@ def build(values: Mapping[str, Any], first_id: int = 1) -> GmPhdTracker:
         birth_sites=BirthSites.from_values(values),
         first_id=first_id,
         stitch_frames=values["stitch_frames"],
+        bridge_missed=values["bridge_missed"],
     )
 
 
