@@ -11,7 +11,9 @@ A `tracking.Tracker` (method `gm_phd`). Each frame:
    track with at least `LINE_HITS` hits (a fitted line to dead-reckon by) not hit inside
    another's possible-occlusion circle (at its predicted position, or at
    its dead reckoning when it had come near another track), or inside an unidentified-object
-   region, becomes occluded; an occluded track hit again ends its occlusion;
+   region, becomes occluded; an occluded track hit again ends its occlusion, and its visible
+   partner, when its state has strayed from its own dead reckoning with the blob, is placed by
+   that in the next frame's labelling;
 4. a confirmed track with a fitted line whose detection is missed for one frame away from any
    occlusion and from the view's borders keeps its Gaussian's whole weight for that frame
    (`bridge_missed`; not the thesis's): its missed-detection term is 1 instead of 1 - p_D, so
@@ -126,6 +128,9 @@ VELOCITY_HISTORY = 10
 LINE_HITS = 3
 #: Std of an occluded track's velocity, as a share of its speed.
 OCCLUDED_SPEED_SPREAD = 0.1
+#: x the measurement noise: a visible partner this far off its dead reckoning when the track it
+#: hid comes out followed the blob, not its target (`_reckon_partners`)
+PARTNER_OFF_COURSE = 2.0
 
 
 def _dead_reckoning(state: np.ndarray, gap: float) -> tuple[np.ndarray, float]:
@@ -192,6 +197,8 @@ class GmPhdTracker:
         # labels inside an occlusion region, each with the book's next id when it went in
         self._involved: dict[int, int] = {}
         self.exits: dict[int, OcclusionExit] = {}
+        # labels of visible partners placed by dead reckoning in the next frame's labelling
+        self.reckon_next: set[int] = set()
 
     @property
     def next_id(self) -> int:
@@ -385,12 +392,12 @@ class GmPhdTracker:
             occlusion = self.monitor.occluded.get(label)
             if occlusion is not None:
                 centres[row] = occlusion.centre
-            if occlusion is None and label not in partners:
+            if occlusion is None and label not in partners and label not in self.reckon_next:
                 continue
             state, time = self._anchor(row)
             positions[row], variances[row] = _dead_reckoning(state, self._now - time)
             velocities[row] = state[2:]
-            if occlusion is None:  # a partner: the region is its hidden partner's
+            if label in partners and occlusion is None:  # the region is its hidden partner's
                 hiding = [o for o in self.monitor.occluded.values() if o.partner == label]
                 centres[row] = hiding[0].centre
         hidden = np.isin(self.book.ids, list(self.monitor.occluded))
@@ -450,7 +457,9 @@ class GmPhdTracker:
         boxes: np.ndarray,
     ) -> None:
         labels = self.book.ids
-        self.monitor.advance(labels, hit)
+        hiding = {label: o.partner for label, o in self.monitor.occluded.items() if o.partner}
+        back = self.monitor.advance(labels, hit)
+        self._reckon_partners(t, [hiding[label] for label in back if label in hiding])
         in_regions = set(self.monitor.occluded) | self.monitor.partners()
         mixture = self.filter.mixture
         done = (mixture.tags > 0) & ~np.isin(mixture.tags, list(in_regions))
@@ -478,6 +487,24 @@ class GmPhdTracker:
         means, covariances = self._since_hit(rows, t)
         self.pending = Mixture.of(np.ones(len(rows)), means, covariances, labels[rows])
         self.weights[begun] = np.maximum(self.weights[begun], 1.0)
+
+    def _reckon_partners(self, t: float, partners: list[int]) -> None:
+        """The visible partners of tracks that came out of hiding this frame, no longer in an
+        occlusion region, whose states lie more than PARTNER_OFF_COURSE x the measurement noise
+        off their own dead reckoning, are placed by it in the next frame's labelling (as inside
+        the region): their states followed the blob, and the blob may still hold another target
+        (scenario 1's, born in the crossing) that goes on where the blob goes."""
+        still = set(self.monitor.occluded) | self.monitor.partners()
+        rows = {label: row for row, label in enumerate(self.book.ids.tolist())}
+        chosen = [rows[p] for p in partners if p in rows and p not in still]
+        self.reckon_next = set()
+        if not chosen:
+            return
+        reckoned = self._since_hit(np.array(chosen), t)[0][:, :2]
+        gaps = np.hypot(*(reckoned - self.states[chosen, :2]).T)
+        limit = PARTNER_OFF_COURSE * self.config.measurement_noise
+        off_course = np.array(chosen)[gaps > limit]
+        self.reckon_next = set(self.book.ids[off_course].tolist())
 
     def _bridge_missed(
         self, bounds: tuple[float, float, float, float] | None, predicted_weights: np.ndarray
