@@ -131,6 +131,9 @@ OCCLUDED_SPEED_SPREAD = 0.1
 #: x the measurement noise: a visible partner this far off its dead reckoning when the track it
 #: hid comes out followed the blob, not its target (`_reckon_partners`)
 PARTNER_OFF_COURSE = 2.0
+#: squared Mahalanobis units such a partner pays to take an estimate by its own state instead (its
+#: target may simply have turned: the line is a guess)
+PARTNER_STATE_COST = 4.0
 
 
 def _dead_reckoning(state: np.ndarray, gap: float) -> tuple[np.ndarray, float]:
@@ -232,9 +235,18 @@ class GmPhdTracker:
         clutter point near a target almost the target's whole weight; that is one target, not
         two)."""
         tracks = self._labelled_states()
-        costs = labelling_costs(
-            tracks, estimates, self.config.measurement_noise**2, self.impulse, self.label_gate
-        )
+        noise = self.config.measurement_noise**2
+        costs = labelling_costs(tracks, estimates, noise, self.impulse, self.label_gate)
+        if self.reckon_next:
+            by_state = labelling_costs(
+                self._labelled_states(reckon_partners=False),
+                estimates,
+                noise,
+                self.impulse,
+                self.label_gate,
+            )
+            rows = np.flatnonzero(np.isin(self.book.ids, list(self.reckon_next)))
+            costs[rows] = np.minimum(costs[rows], by_state[rows] + PARTNER_STATE_COST)
         self._explained = np.asarray((costs <= self.label_gate).any(axis=0))
         rows, cols = assign(costs, self.label_gate)
         hit = np.zeros(len(self.book), dtype=bool)
@@ -377,11 +389,14 @@ class GmPhdTracker:
         if stray.any():
             self.filter.mixture = mixture.subset(np.flatnonzero(~stray))
 
-    def _labelled_states(self) -> LabelledStates:
+    def _labelled_states(self, reckon_partners: bool = True) -> LabelledStates:
         """The tracks as labelling sees them. A track inside an occlusion region -- hidden, or
         the visible one whose blob hides another -- is placed by dead reckoning from its last
         clean hit with its mean velocity (the thesis's kept speed and heading), with the spread
-        of that guess: the blob it follows is where both targets are not."""
+        of that guess: the blob it follows is where both targets are not. So are, with
+        `reckon_partners`, the partners of tracks that came out of hiding at the last frame
+        (`_reckon_partners`)."""
+        reckoned = self.reckon_next if reckon_partners else set()
         count = len(self.book)
         positions, velocities = self.states[:, :2].copy(), self.states[:, 2:].copy()
         variances = np.zeros(count)
@@ -392,7 +407,7 @@ class GmPhdTracker:
             occlusion = self.monitor.occluded.get(label)
             if occlusion is not None:
                 centres[row] = occlusion.centre
-            if occlusion is None and label not in partners and label not in self.reckon_next:
+            if occlusion is None and label not in partners and label not in reckoned:
                 continue
             state, time = self._anchor(row)
             positions[row], variances[row] = _dead_reckoning(state, self._now - time)
@@ -493,7 +508,8 @@ class GmPhdTracker:
         occlusion region, whose states lie more than PARTNER_OFF_COURSE x the measurement noise
         off their own dead reckoning, are placed by it in the next frame's labelling (as inside
         the region): their states followed the blob, and the blob may still hold another target
-        (scenario 1's, born in the crossing) that goes on where the blob goes."""
+        (scenario 1's, born in the crossing) that goes on where the blob goes. An estimate by its
+        state stays open to such a partner at PARTNER_STATE_COST more (`_label`)."""
         still = set(self.monitor.occluded) | self.monitor.partners()
         rows = {label: row for row, label in enumerate(self.book.ids.tolist())}
         chosen = [rows[p] for p in partners if p in rows and p not in still]
