@@ -107,14 +107,17 @@ def test_a_track_pulled_off_course_before_the_blob_hides_it_is_still_taken_as_hi
     the crossing with its label."""
     case = phd_scenarios.scenario(2)
 
-    def missed(**changes: bool) -> int:
+    def missed(**changes: float) -> int:
         tracker = gm_phd_scan_tracker(scenario_parameters(case) | changes)
         return phd_scenarios.run(case, seed, tracker).scores.missed_occlusions
 
+    # on the tracker's default 10-hit line (the benchmark's 15-hit line keeps this draw anyway);
+    # the rule alone keeps it (a bridged miss also does)
+    plain = {"bridge_missed": False, "velocity_history": 10}
     assert missed() == 0
-    assert missed(bridge_missed=False) == 0  # the rule alone keeps it (a bridged miss also does)
+    assert missed(**plain) == 0
     monkeypatch.setattr(GmPhdTracker, "_begin_reckoned", lambda *_: [])
-    assert missed(bridge_missed=False) >= 1
+    assert missed(**plain) >= 1
 
 
 def test_a_target_missed_once_before_the_crossing_keeps_its_label_through_it():
@@ -137,12 +140,13 @@ def test_a_partner_that_followed_the_blob_is_labelled_by_its_own_line_when_it_co
     """Scenario 1, draw 10: the hidden track came out while its partner's target and the one
     born in the crossing were still one blob; the partner's state followed that blob, which went
     on as the newborn target, and its label went with it. Placed by its dead reckoning for the
-    next frame's labelling, the partner takes its own target's measurement."""
+    next frame's labelling, the partner takes its own target's measurement (on the tracker's
+    default 10-hit line; the benchmark's 15-hit line keeps this draw anyway)."""
     case = phd_scenarios.scenario(1)
 
     def missed() -> int:
-        tracker = gm_phd_scan_tracker(scenario_parameters(case))
-        return phd_scenarios.run(case, 10, tracker).scores.missed_occlusions
+        values = scenario_parameters(case) | {"velocity_history": 10}
+        return phd_scenarios.run(case, 10, gm_phd_scan_tracker(values)).scores.missed_occlusions
 
     assert missed() == 0
     monkeypatch.setattr(GmPhdTracker, "_reckon_partners", lambda *_: None)

@@ -122,8 +122,6 @@ _ROW_FIELDS = (
     "history_times",
     "history_points",
 )
-#: Hits (time, measured position) a track's mean velocity is fitted to.
-VELOCITY_HISTORY = 10
 #: Hits a fitted line needs: fewer give no kept speed and heading to dead-reckon by.
 LINE_HITS = 3
 #: Std of an occluded track's velocity, as a share of its speed.
@@ -163,6 +161,7 @@ class GmPhdTracker:
         first_id: int = 1,
         stitch_frames: int = 5,
         bridge_missed: bool = True,
+        velocity_history: int = 10,
     ) -> None:
         self.config = filter_config
         self.filter = GmPhdFilter(
@@ -175,6 +174,8 @@ class GmPhdTracker:
         self.continue_threshold = continue_threshold
         self.stitch_frames = stitch_frames
         self.bridge_missed = bridge_missed
+        # hits (time, position) the mean velocity is fitted to
+        self.velocity_history = velocity_history
         self.book = TrackBook(first_id)
         self._clear()
 
@@ -189,8 +190,9 @@ class GmPhdTracker:
         # pulled off course)
         self.mean_velocities = np.zeros((0, 2))  # px/s
         self.mean_positions = np.zeros((0, 2))  # px, the fitted line at the last hit
-        self.history_times = np.zeros((0, VELOCITY_HISTORY))  # NaN: no hit; the last is the latest
-        self.history_points = np.zeros((0, VELOCITY_HISTORY, 2))
+        history = self.velocity_history
+        self.history_times = np.zeros((0, history))  # NaN: no hit; the last is the latest
+        self.history_points = np.zeros((0, history, 2))
         self.pending = Mixture.empty()  # Gaussians of tracks occluded at the last frame
         self._epsilon_now = self.monitor.config.object_size  # px, this frame's occlusion radius
         self._now = 0.0  # s, the step being processed
@@ -430,7 +432,9 @@ class GmPhdTracker:
             # the speed is known to within a share of itself (the line through its hits is
             # steadier than the filter's young covariance): where the hidden target comes out
             r2 = self.config.measurement_noise**2
-            speed_var = (OCCLUDED_SPEED_SPREAD * np.hypot(*last[2:])) ** 2 + r2 / VELOCITY_HISTORY
+            speed_var = (
+                OCCLUDED_SPEED_SPREAD * np.hypot(*last[2:])
+            ) ** 2 + r2 / self.velocity_history
             anchored = np.diag([r2, r2, speed_var, speed_var])
             means[i] = transition @ last
             covariances[i] = transition @ anchored @ transition.T
@@ -695,10 +699,12 @@ class GmPhdTracker:
             "mean_velocities": estimates.means[cols][:, 2:],
             "mean_positions": detections.positions[estimates.sources[cols]],
             "history_times": np.column_stack(
-                [np.full((len(cols), VELOCITY_HISTORY - 1), np.nan), np.full(len(cols), t)]
+                [np.full((len(cols), self.velocity_history - 1), np.nan), np.full(len(cols), t)]
             ),
             "history_points": np.repeat(
-                detections.positions[estimates.sources[cols]][:, None, :], VELOCITY_HISTORY, axis=1
+                detections.positions[estimates.sources[cols]][:, None, :],
+                self.velocity_history,
+                axis=1,
             ),
         }
         for name in _ROW_FIELDS:
@@ -796,6 +802,14 @@ PARAMETERS: tuple[ParamSpec, ...] = (
         "keeps its Gaussian's weight for that frame: missed-detection term 1, not 1 - p_D "
         "(not the thesis's)",
     ),
+    ParamSpec(
+        "velocity_history",
+        10,
+        "hits a track's kept speed and heading (the line it is dead-reckoned by) are fitted over: "
+        "longer is steadier on straight paths and lags a target that turns",
+        LINE_HITS,
+        1000,
+    ),
     ParamSpec("confirm_hits", 2, "hits before a track is confirmed", 1, 1000),
     ParamSpec("max_misses", 3, "frames without its own state after which a track is lost", 0, 1000),
 )
@@ -842,6 +856,7 @@ def build(values: Mapping[str, Any], first_id: int = 1) -> GmPhdTracker:
         first_id=first_id,
         stitch_frames=values["stitch_frames"],
         bridge_missed=values["bridge_missed"],
+        velocity_history=values["velocity_history"],
     )
 
 

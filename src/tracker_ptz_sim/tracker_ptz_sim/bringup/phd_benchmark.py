@@ -79,6 +79,8 @@ def scenario_parameters(
             "max_components": 100,
             "object_size": OBJECT_SIZE,
             "border_margin": 50.0,
+            # the scenarios' targets go straight: a longer line is a steadier kept heading
+            "velocity_history": 15,
             "occlusion_handling": occlusion_handling,
         }
     )
