@@ -432,9 +432,8 @@ class GmPhdTracker:
             # the speed is known to within a share of itself (the line through its hits is
             # steadier than the filter's young covariance): where the hidden target comes out
             r2 = self.config.measurement_noise**2
-            speed_var = (
-                OCCLUDED_SPEED_SPREAD * np.hypot(*last[2:])
-            ) ** 2 + r2 / self.velocity_history
+            speed_spread = OCCLUDED_SPEED_SPREAD * np.hypot(*last[2:])
+            speed_var = speed_spread**2 + r2 / self.velocity_history
             anchored = np.diag([r2, r2, speed_var, speed_var])
             means[i] = transition @ last
             covariances[i] = transition @ anchored @ transition.T
@@ -462,7 +461,7 @@ class GmPhdTracker:
             np.fill_diagonal(gaps, np.inf)
             close = gaps <= 2.0 * self._epsilon_now
             near = (close & confirmed[None, :]).any(axis=1) & confirmed
-        in_regions = set(self.monitor.occluded) | self.monitor.partners()
+        in_regions = self.monitor.involved()
         for row, label in enumerate(labels):
             if near[row] and label not in self.anchors:
                 self.anchors[label] = self._anchor(row)
@@ -479,7 +478,7 @@ class GmPhdTracker:
         hiding = {label: o.partner for label, o in self.monitor.occluded.items() if o.partner}
         back = self.monitor.advance(labels, hit)
         self._reckon_partners(t, [hiding[label] for label in back if label in hiding])
-        in_regions = set(self.monitor.occluded) | self.monitor.partners()
+        in_regions = self.monitor.involved()
         mixture = self.filter.mixture
         done = (mixture.tags > 0) & ~np.isin(mixture.tags, list(in_regions))
         if done.any():  # their occlusions ended: ordinary Gaussians again
@@ -487,7 +486,7 @@ class GmPhdTracker:
         self._epsilon_now = self._epsilon(boxes)
         # only a track with a fitted line can be dead-reckoned while hidden: a younger one
         # (often born of false alarms) that goes undetected beside a target is just lost
-        lined = np.isfinite(self.history_times).sum(axis=1) >= LINE_HITS
+        lined = self._lined()
         hidden = ~hit & self.book.confirmed & lined
         positions = LAYOUT.positions(self.states)
         begun = self.monitor.begin(labels, positions, hidden, self._epsilon_now)
@@ -507,6 +506,11 @@ class GmPhdTracker:
         self.pending = Mixture.of(np.ones(len(rows)), means, covariances, labels[rows])
         self.weights[begun] = np.maximum(self.weights[begun], 1.0)
 
+    def _lined(self) -> np.ndarray:
+        """Per track, whether it has a fitted line (LINE_HITS hits) to dead-reckon by."""
+        lined: np.ndarray = np.isfinite(self.history_times).sum(axis=1) >= LINE_HITS
+        return lined
+
     def _reckon_partners(self, t: float, partners: list[int]) -> None:
         """The visible partners of tracks that came out of hiding this frame, no longer in an
         occlusion region, whose states lie more than PARTNER_OFF_COURSE x the measurement noise
@@ -514,7 +518,7 @@ class GmPhdTracker:
         the region): their states followed the blob, and the blob may still hold another target
         (scenario 1's, born in the crossing) that goes on where the blob goes. An estimate by its
         state stays open to such a partner at PARTNER_STATE_COST more (`_label`)."""
-        still = set(self.monitor.occluded) | self.monitor.partners()
+        still = self.monitor.involved()
         rows = {label: row for row, label in enumerate(self.book.ids.tolist())}
         chosen = [rows[p] for p in partners if p in rows and p not in still]
         self.reckon_next = set()
@@ -533,8 +537,8 @@ class GmPhdTracker:
         Gaussians of confirmed, lined tracks missed for the first time this frame, away from
         occlusions and the view's borders (module doc, 4.): injected at their predicted states
         for the next frame, beside the (1 - p_D) share the filter kept."""
-        lined = np.isfinite(self.history_times).sum(axis=1) >= LINE_HITS
-        in_regions = set(self.monitor.occluded) | self.monitor.partners()
+        lined = self._lined()
+        in_regions = self.monitor.involved()
         positions = LAYOUT.positions(self.states)
         candidates = np.flatnonzero(
             self.book.confirmed
@@ -558,7 +562,7 @@ class GmPhdTracker:
     def _note_exits(self) -> None:
         """Track which labels are inside an occlusion region; those that just left one open
         an `OcclusionExit`."""
-        now = set(self.monitor.occluded) | self.monitor.partners()
+        now = self.monitor.involved()
         for label in now - set(self._involved):
             self._involved[label] = self.book.next_id
         rows = {label: row for row, label in enumerate(self.book.ids.tolist())}

@@ -162,6 +162,10 @@ class OcclusionMonitor:
         region too, their own measurements are merged blobs until the hidden one is back."""
         return {o.partner for o in self.occluded.values() if o.partner}
 
+    def involved(self) -> set[int]:
+        """Labels inside an occlusion region: the occluded tracks and their visible partners."""
+        return set(self.occluded) | self.partners()
+
     def away_from_border(
         self, position: np.ndarray, window: tuple[float, float, float, float] | None
     ) -> bool:
