@@ -30,7 +30,9 @@ from tracker_filter.colour_particle import (
     corrected_weights,
     in_perspective,
     resample,
+    seen_part,
     static_noise_share,
+    top_parts,
 )
 from tracker_filter.foreground_cue import ForegroundCue, ForegroundMask
 from tracker_filter.object_scale import ExpectedHeight
@@ -279,6 +281,8 @@ def test_bad_start_boxes_and_parameters_are_refused():
         ParticleFilterConfig(coast_noise=1.5)
     with pytest.raises(ValueError, match="settle_frames"):
         ParticleFilterConfig(settle_frames=-1)
+    with pytest.raises(ValueError, match="upper_share"):
+        ParticleFilterConfig(upper_share=1.0)
 
 
 def test_background_weighting_tells_a_thin_person_from_the_street_around_them():
@@ -625,3 +629,101 @@ def test_a_hidden_target_reappears_only_where_the_mask_moves():
     assert all(hidden_after_the_board(config, moving=False))
     assert not all(hidden_after_the_board(config, moving=True))
     assert not all(hidden_after_the_board(replace(config, reappear_in_mask=False), moving=False))
+
+
+def low_board_scene(seed: int = 0):
+    """The textured scene's person walking right at 4 px/frame, who slows to 2 px/frame behind a
+    low board that hides all but their top 30 px (of 80) from x 130 to 230; images, foreground
+    masks (the person's visible pixels), their whole boxes and the visible ones."""
+    rng = np.random.default_rng(seed)
+    background = rng.integers(60, 160, size=(200, 320, 3), dtype=np.uint8)
+    images, masks, whole, visible = [], [], [], []
+    x = 10.0
+    for _ in range(60):
+        x += 4.0 if x < 130 else 2.0
+        xi, y = round(x), 40
+        image = background.copy()
+        person = np.zeros(image.shape[:2], bool)
+        draw_person(image, xi, y)
+        person[y : y + 80, xi : xi + 30] = True
+        image[70:200, 130:230] = (150, 150, 150)  # the board, up to the person's chest
+        person[70:200, 130:230] = False
+        images.append(with_sensor_noise(image, rng))
+        masks.append(ForegroundMask.of(person))
+        whole.append(np.array([xi, y, 30.0, 80.0]))
+        rows, columns = np.nonzero(person)
+        width, height = columns.max() + 1 - columns.min(), rows.max() + 1 - rows.min()
+        visible.append(np.array([columns.min(), rows.min(), width, height], dtype=float))
+    return images, masks, whole, visible
+
+
+@pytest.mark.parametrize("upper_share", [0.0, 0.4])
+def test_a_person_behind_a_low_board_is_followed_by_the_top_of_their_box(upper_share: float):
+    """Behind a board up to their chest, the whole box no longer matches: without `upper_share`
+    the target is taken as hidden and coasts at the 4 px/frame it went in at, ahead of the
+    person, who slowed to 2. With it, the top part (shirt) still matches its own reference in
+    the mask: the filter follows it, and reports the part in sight."""
+    images, masks, whole, visible = low_board_scene()
+    config = replace(QUIET_COASTING_WITH_MASK, upper_share=upper_share)
+    behind = range(35, 50)  # frames wholly behind the board (the top part in sight)
+    for seed in range(3):
+        f = ColourParticleFilter(
+            images[0], whole[0], HistogramAppearance(), config, np.random.default_rng(seed)
+        )
+        steps = zip(images[1:], masks[1:], strict=True)
+        estimates = [None, *(f.step(image, foreground=mask) for image, mask in steps)]
+        errors = [abs(estimates[k].box[0] - whole[k][0]) for k in behind]
+        if upper_share:
+            assert not any(estimates[k].hidden for k in behind)
+            assert all(estimates[k].partial for k in behind)
+            assert max(errors) < 6, "on the person's shirt"
+            assert min(iou(estimates[k].box, visible[k]) for k in behind) > 0.6, "the part seen"
+        else:
+            assert all(estimates[k].hidden for k in behind)
+            assert errors[-1] > 20, "coasting ahead of the person"
+
+
+def test_a_part_alone_finds_a_hidden_target_only_at_its_usual_match():
+    """After a full occlusion, the top part brings a hidden target back when it matches as well
+    as it did while the target was seen whole; at 0.7 of that (enough for a target in sight) a
+    part alone is not taken: a part is less telling than the whole."""
+    images, masks, truth = displaced_scene(drop=0)
+    f = ColourParticleFilter(
+        images[0],
+        truth[0],
+        HistogramAppearance(),
+        replace(QUIET_COASTING_WITH_MASK, upper_share=0.4),
+        np.random.default_rng(0),
+    )
+    for image, mask in zip(images[1:41], masks[1:41], strict=True):
+        f.step(image, foreground=mask)
+    assert f.estimate.hidden and f.level and f.upper_level and f.upper
+    boxes, image, mask = np.array([truth[50]]), images[50], masks[50]  # in sight again
+    match = float(f.upper.similarities(image, top_parts(boxes, 0.4))[0])
+    assert match > 0.5
+    f.upper_level = 0.9 * match
+    assert f._upper_scores(image, boxes, mask, best=0.0) is not None
+    f.upper_level = 1.2 * match
+    assert f._upper_scores(image, boxes, mask, best=0.0) is None
+    f.estimate = replace(f.estimate, hidden=False)  # a target seen the frame before
+    assert f._upper_scores(image, boxes, mask, best=0.0) is not None
+    # not in the mask: a part that does not move is the board's, or a poster's
+    empty = ForegroundMask.of(np.zeros(image.shape[:2], np.uint8))
+    assert f._upper_scores(image, boxes, empty, best=0.0) is None
+
+
+def test_top_parts_and_the_part_in_sight():
+    boxes = np.array([[10.0, 20.0, 30.0, 80.0]])
+    np.testing.assert_allclose(top_parts(boxes, 0.4), [[10.0, 20.0, 30.0, 32.0]])
+    mask = np.zeros((200, 200), np.uint8)
+    mask[20:70, 10:40] = 1  # the top 50 px of the box in sight
+    np.testing.assert_allclose(
+        seen_part(ForegroundMask.of(mask), boxes[0], 0.3, 0.4), [10, 20, 30, 50]
+    )
+    mask[:] = 0
+    mask[20:25, 10:40] = 1  # a sliver: at least the top share is kept
+    np.testing.assert_allclose(
+        seen_part(ForegroundMask.of(mask), boxes[0], 0.3, 0.4), [10, 20, 30, 32]
+    )
+    empty = ForegroundMask.of(np.zeros((200, 200), np.uint8))
+    np.testing.assert_allclose(seen_part(empty, boxes[0], 0.3, 0.4), boxes[0])

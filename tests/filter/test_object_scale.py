@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from tracker_filter.config import TrackerConfig
-from tracker_filter.object_scale import ExpectedHeight, HeightByRow, robust_line
+from tracker_filter.object_scale import NARROWEST, ExpectedHeight, HeightByRow, robust_line
 from tracker_filter.observation import Detections, Observation
 from tracker_filter.tracking import TrackStatus
 
@@ -172,15 +172,19 @@ def test_the_usual_aspect_is_a_low_quantile_of_the_boxes_width_over_height():
     assert scale.aspect is None
 
 
-def test_the_aspect_prior_is_one_sided():
-    """A box narrower than the usual aspect (mid-stride, partly hidden) costs nothing; a wider one
-    falls on a log scale; without a known aspect, or with the spread 0, only the height counts."""
+def test_the_aspect_prior_spares_narrow_boxes_down_to_a_quarter_of_the_usual_aspect():
+    """A box narrower than the usual aspect (mid-stride, partly hidden) costs nothing down to
+    NARROWEST of it; a wider one, or one narrower still (a post), falls on a log scale; without a
+    known aspect, or with the spread 0, only the height counts."""
     expected = ExpectedHeight(60.0, 0.0, aspect=0.4)
-    widths = [12.0, 24.0, 24.0 * math.exp(0.15), 48.0]
+    quarter = 60.0 * 0.4 * NARROWEST
+    widths = [quarter, 12.0, 24.0, 24.0 * math.exp(0.15), 48.0, quarter * math.exp(-0.15), 2.0]
     boxes = np.array([[0.0, 0.0, w, 60.0] for w in widths])
     weights = expected.likelihood(boxes, spread=0.1, aspect_spread=0.15)
-    np.testing.assert_allclose(weights[:3], [1.0, 1.0, math.exp(-0.5)])
-    assert weights[3] < 1e-4  # twice as wide: two people
+    np.testing.assert_allclose(weights[:4], [1.0, 1.0, 1.0, math.exp(-0.5)])
+    assert weights[4] < 1e-4  # twice as wide: two people
+    np.testing.assert_allclose(weights[5], math.exp(-0.5))
+    assert weights[6] < 1e-4  # 2 px wide: a post
     np.testing.assert_allclose(expected.likelihood(boxes, spread=0.1), 1.0)
     unknown = ExpectedHeight(60.0, 0.0)
     np.testing.assert_allclose(unknown.likelihood(boxes, spread=0.1, aspect_spread=0.15), 1.0)

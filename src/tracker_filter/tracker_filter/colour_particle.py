@@ -44,6 +44,20 @@ was twice their width when they did. `height_before_line`: until a ground line i
 step is given no `height`), the height prior expects the target's start height wherever a box
 stands (a flat line through the start box): early in a scene a person whose legs the mask loses,
 or who walks behind a low board, would otherwise be followed by a box shrinking onto their head.
+`upper_share` u > 0: a person behind a board up to their chest, or coming out over one, shows
+only head and shoulders; the whole box's match falls below the hidden test's share of its level,
+and the cloud either coasts (on at the speed they went in, while they slow, turn or stop in
+sight) or, matched by the background-weighted colours above the board, climbs off them. The
+filter also keeps a reference of the start box's top u (taken the same way, by a copy of the
+appearance) and the level of the estimate's top part while the target is seen whole. On a frame
+that would take the target as hidden, the particles' top parts are scored against it (only
+those the foreground mask holds, when there is one: a part in sight moves, the board in front of
+the rest does not); if the best reaches `occlusion_ratio` x that level (the level itself for a
+target hidden the frame before: a part is less telling than the whole), the frame is weighed and
+resampled by the top parts instead (without the foreground cue, which would shrink the box onto
+the part in the mask; the height prior keeps the whole box's size). The estimate is then
+`partial`: its box is the part in sight (cut where its blobs in the mask end, at least the top
+u), its similarity the top part's on the whole's scale (x the whole's level over the part's).
 
 Scale (not the thesis's; off by default): `foreground` (`foreground_cue`) multiplies each weight by
 how well the particle's box bounds the motion detector's foreground mask, on the frames whose step
@@ -68,6 +82,7 @@ draw comes from the filter's own `numpy.random.Generator`, so a run is reproduci
 
 from __future__ import annotations
 
+import copy
 import math
 from dataclasses import dataclass
 from enum import StrEnum
@@ -85,7 +100,7 @@ from tracker_filter.colour_histograms import (
     histogram,
     ring_coefficients,
 )
-from tracker_filter.foreground_cue import ForegroundCue, ForegroundMask
+from tracker_filter.foreground_cue import ForegroundCue, ForegroundMask, blob_box
 from tracker_filter.object_scale import ExpectedHeight
 from tracker_filter.region_covariance import (
     forstner_distances,
@@ -162,6 +177,10 @@ class ParticleFilterConfig:
     # not the thesis's: with the height prior, before a ground line is known the target's start
     # height is expected wherever its box stands
     height_before_line: bool = False
+    # not the thesis's: a target whose whole box matches worse than the top `upper_share` of it
+    # does (someone behind a low board, or coming out over one) is followed by that part, with
+    # a reference of its own (0 = off)
+    upper_share: float = 0.0
 
     def problems(self) -> list[str]:
         """What is wrong with these values (empty when usable)."""
@@ -182,6 +201,7 @@ class ParticleFilterConfig:
             "probes must be >= 0": self.probes >= 0,
             "probe_reach must be > 0": math.isfinite(self.probe_reach) and self.probe_reach > 0,
             "settle_frames must be >= 0": self.settle_frames >= 0,
+            "upper_share must be in [0, 1)": 0.0 <= self.upper_share < 1.0,
         }
         return [message for message, ok in checks.items() if not ok]
 
@@ -366,6 +386,24 @@ class HistogramAppearance:
         return clip_bounds(grown, shape)
 
 
+def top_parts(boxes: np.ndarray, share: float) -> np.ndarray:
+    """The top `share` of each box (N, 4: x, y, w, h)."""
+    tops = np.array(boxes, dtype=float)
+    tops[:, 3] *= share
+    return tops
+
+
+def seen_part(mask: ForegroundMask, box: np.ndarray, margin: float, share: float) -> np.ndarray:
+    """`box` (x, y, w, h) cut at the bottom where its blobs in the foreground `mask` end, but
+    keeping at least its top `share`: the part in sight of a target followed by its top part;
+    `box` when no blob is its."""
+    blobs = blob_box(mask.mask, box, margin)
+    if blobs is None:
+        return box
+    bottom = min(box[1] + box[3], max(blobs[1] + blobs[3], box[1] + share * box[3]))
+    return np.array([box[0], box[1], box[2], max(bottom - box[1], MIN_SIDE)])
+
+
 def _covering(bounds: np.ndarray) -> tuple[int, int, int, int]:
     """The smallest [x0, y0, x1, y1) holding all `bounds` (at least one pixel)."""
     x0, y0 = int(bounds[:, 0].min()), int(bounds[:, 1].min())
@@ -425,6 +463,8 @@ class ParticleEstimate:
     velocity: np.ndarray  # vx, vy, vw, vh (px per frame)
     similarity: float  # of the estimate's rectangle to the reference
     hidden: bool = False  # taken as occluded this frame: the estimate is the coasting cloud's mean
+    # followed by the top part of its box (`upper_share`): `box` is the part the mask shows
+    partial: bool = False
     # the cloud's own box when `box` was fitted to the foreground mask (None: `box` is that)
     unfitted: np.ndarray | None = None
 
@@ -473,7 +513,12 @@ class ColourParticleFilter:
         box = np.asarray(box, dtype=float)
         if box.shape != (4,) or not np.all(np.isfinite(box)) or min(box[2], box[3]) < MIN_SIDE:
             raise ValueError(f"a start box is x, y, width, height with sides >= {MIN_SIDE} px")
-        appearance.reference(image, view.to_image(box[None])[0])
+        # the top part's appearance: the same kind, with its own reference
+        self.upper = copy.deepcopy(appearance) if config.upper_share > 0 else None
+        in_image = view.to_image(box[None])
+        appearance.reference(image, in_image[0])
+        if self.upper is not None:
+            self.upper.reference(image, top_parts(in_image, config.upper_share)[0])
         self.appearance, self.config, self.rng = appearance, config, rng
         self.base_sigma = np.array(config.sigma)
         start = np.concatenate([box, np.zeros(4)])
@@ -481,6 +526,7 @@ class ColourParticleFilter:
         self.estimate = ParticleEstimate(box, np.zeros(4), 1.0)
         self.start_height = ExpectedHeight(float(box[3]), 0.0)  # a flat ground line through it
         self.level: float | None = None  # the best particle's score while the target is seen
+        self.upper_level: float | None = None  # the estimate's top part's score while seen whole
         # the estimate's velocity while seen: a plain mean over the first frames, then running
         self.seen_velocity = np.zeros(4)
         self.frames_seen = 0
@@ -525,13 +571,19 @@ class ColourParticleFilter:
             particles = np.vstack([particles, self._probes(particles, mask, view)])
         in_image = view.to_image(particles[:, :4])
         raw = self.appearance.similarities(image, in_image)
-        hidden = self._hidden(float(self._reappearing(raw, mask, in_image).max()))
+        best = float(self._reappearing(raw, mask, in_image).max())
+        upper = self._upper_scores(image, in_image, mask, best)
+        partial = upper is not None
+        if upper is not None:
+            raw, hidden = upper, False
+        else:
+            hidden = self._hidden(best)
         if hidden and len(particles) > self.config.particles:  # no probe found the target
             kept = self.config.particles
             particles, in_image, raw = particles[:kept], in_image[:kept], raw[:kept]
         # hidden: the scores say nothing about the target, every particle counts the same
         weights = np.ones(len(raw)) if hidden else corrected_weights(raw, self.config)
-        if mask is not None and not hidden:
+        if mask is not None and not hidden and not partial:  # the mask holds only the part seen
             factor = cue.weights(mask, in_image)
             if factor is not None:
                 weights = weights * factor
@@ -545,7 +597,7 @@ class ColourParticleFilter:
             state = weights @ particles
         else:
             state = particles[int(np.argmax(weights))]
-        similarity = float(self.appearance.similarities(image, view.to_image(state[None, :4]))[0])
+        similarity = self._similarity(image, view.to_image(state[None, :4]), partial, hidden)
         if hidden and not self.estimate.hidden:
             # the last frames, half hidden, slowed the cloud: coast at the velocity seen before,
             # the particles' spread about it narrowed as the noise is
@@ -560,15 +612,61 @@ class ColourParticleFilter:
             gain = max(LEVEL_GAIN, 1.0 / self.frames_seen)
             self.seen_velocity += gain * (state[4:] - self.seen_velocity)
         box, unfitted = state[:4].copy(), None
-        if mask is not None and not hidden and cue.fit > 0:
+        if partial and mask is not None:
+            unfitted = box
+            part = seen_part(mask, view.to_image(box[None])[0], cue.margin, self.config.upper_share)
+            box = view.to_scene(part[None])[0]
+        elif mask is not None and not hidden and cue.fit > 0:
             unfitted = box
             box = view.to_scene(cue.fitted(mask, view.to_image(box[None])[0])[None])[0]
-        self.estimate = ParticleEstimate(box, state[4:].copy(), similarity, hidden, unfitted)
+        self.estimate = ParticleEstimate(
+            box, state[4:].copy(), similarity, hidden, unfitted=unfitted, partial=partial
+        )
         if not hidden:
             drawn = resample(weights, self.config.resampling, self.rng, self.config.particles)
             particles = particles[drawn]
         self.particles = particles
         return self.estimate
+
+    def _upper_scores(
+        self,
+        image: np.ndarray,
+        boxes: np.ndarray,
+        mask: ForegroundMask | None,
+        best: float,
+    ) -> np.ndarray | None:
+        """On a frame that would take the target as hidden (the best whole box, `best`, below
+        `occlusion_ratio` x its level), the scores of the boxes' top parts (`upper_share`) when
+        the best of them that the mask holds is not below that share of the top part's own
+        level, or, for a target hidden the frame before, not below that level itself (a part
+        is less telling than the whole); else None."""
+        ratio = self.config.occlusion_ratio
+        if self.upper is None or self.level is None or self.upper_level is None:
+            return None
+        if self.frames_seen < self.config.settle_frames or best >= ratio * self.level:
+            return None
+        tops = top_parts(boxes, self.config.upper_share)
+        scores = self.upper.similarities(image, tops)
+        if mask is not None:  # a part in sight moves: the board in front of the rest does not
+            cue = self.config.foreground
+            scores = np.where(cue.scores(mask, tops) >= cue.min_best, scores, 0.0)
+        needed = self.upper_level if self.estimate.hidden else ratio * self.upper_level
+        return scores if float(scores.max()) >= needed else None
+
+    def _similarity(self, image: np.ndarray, box: np.ndarray, partial: bool, hidden: bool) -> float:
+        """The match of the estimate's box (1, 4 in image px): of the whole box, and, while it is
+        seen, the top part's level learned from the same box; when it is followed by its top
+        part, that part's match on the whole box's scale (x the whole's level over the part's),
+        which Ext 2's noise and a tracker's "is this a hit" read as they read a whole match."""
+        share = self.config.upper_share
+        if partial and self.upper is not None and self.level and self.upper_level:
+            top = float(self.upper.similarities(image, top_parts(box, share))[0])
+            return top * self.level / self.upper_level
+        if self.upper is not None and not hidden:
+            top = float(self.upper.similarities(image, top_parts(box, share))[0])
+            level = self.upper_level
+            self.upper_level = top if level is None else level + LEVEL_GAIN * (top - level)
+        return float(self.appearance.similarities(image, box)[0])
 
     def _reappearing(
         self, raw: np.ndarray, mask: ForegroundMask | None, boxes: np.ndarray

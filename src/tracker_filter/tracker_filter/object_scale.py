@@ -29,6 +29,9 @@ import numpy as np
 HUBER_K = 1.345  # residuals beyond this many robust standard deviations are down-weighted
 MAD_TO_STD = 1.4826
 FIT_ITERATIONS = 4
+#: the narrowest a box of one object is, as a share of its usual aspect (a person 100 px tall and
+#: 40 px wide seen sideways, legs together: 0.3 of it)
+NARROWEST = 0.25
 #: the quantile of the observed boxes' width / height taken as one object's aspect (see above)
 ASPECT_QUANTILE = 0.3
 
@@ -197,11 +200,14 @@ class ExpectedHeight:
         0.61 one `spread` (a relative deviation, 0.1 = about 10 %) away; with `aspect_spread` > 0
         and a known `aspect`, times exp(-(max(ln(a / aspect), 0) / aspect_spread)^2 / 2) for the
         box's aspect a = w / h: one-sided, a narrow box is a person mid-stride or partly hidden,
-        a wide one holds someone else too."""
+        a wide one holds someone else too; and the same below `NARROWEST` x `aspect`, where a
+        box is no longer a person but a post or the edge of a sign."""
         heights = np.maximum(boxes[:, 3], 1.0)
         deviation = (np.log(heights / self.heights(boxes)) / spread) ** 2
         if aspect_spread > 0 and self.aspect is not None and self.aspect > 0:
-            wider = np.maximum(np.log(np.maximum(boxes[:, 2], 1.0) / heights / self.aspect), 0.0)
-            deviation = deviation + (wider / aspect_spread) ** 2
+            log_aspect = np.log(np.maximum(boxes[:, 2], 1.0) / heights / self.aspect)
+            wider = np.maximum(log_aspect, 0.0)
+            narrower = np.maximum(math.log(NARROWEST) - log_aspect, 0.0)
+            deviation = deviation + ((wider + narrower) / aspect_spread) ** 2
         result: np.ndarray = np.exp(-0.5 * deviation)
         return result

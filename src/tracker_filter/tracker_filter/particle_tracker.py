@@ -329,6 +329,9 @@ ASPECT_SPREAD = 0.15
 #: in-view MOTA over 12 scenes of `occluded` from 0.31 to 0.23 and of `shaky` from 0.16 to 0.13
 #: (`groups` 0.21 -> 0.29)
 SETTLE_FRAMES = 10
+#: the share of a target's box whose top part follows it while only that part matches (someone
+#: behind a low board shows head and shoulders)
+UPPER_SHARE = 0.4
 #: a target's height (over the ground line's) is the median over its start box and the boxes of
 #: the last detections that overlapped it: a track often starts on a person half in view or on
 #: a blob that lost its legs, so the prior waits for a few
@@ -394,7 +397,7 @@ PARAMETERS: tuple[ParamSpec, ...] = (
         ASPECT_SPREAD,
         "aspect prior, with the height prior: a particle's weight also x exp(-(max(ln(box width / "
         "height / a person's usual width / height), 0) / spread)^2 / 2), that aspect learned "
-        "from confirmed targets (0: off; not the thesis's)",
+        "from confirmed targets, and the same below a quarter of it (0: off; not the thesis's)",
         0.0,
         10.0,
     ),
@@ -434,6 +437,15 @@ PARAMETERS: tuple[ParamSpec, ...] = (
         "with the height prior: until a target's expected height is known (a ground line "
         "learned and 3 of its boxes measured), its start height is expected wherever its box "
         "stands (not the thesis's)",
+    ),
+    ParamSpec(
+        "upper_share",
+        0.0,
+        "share of a target's box whose top part follows it on a frame that would take it as "
+        "hidden, while that part, in the motion mask, matches a reference of its own (someone "
+        "behind a low board; 0: off; not the thesis's)",
+        0.0,
+        0.99,
     ),
     ParamSpec(
         "probes",
@@ -522,6 +534,7 @@ def build(values: Mapping[str, Any], first_id: int = 1) -> ColourParticleTracker
         settle_frames=values["settle_frames"],
         coast_perspective=values["coast_perspective"],
         height_before_line=values["height_before_line"],
+        upper_share=values["upper_share"],
     )
     return ColourParticleTracker(
         config,

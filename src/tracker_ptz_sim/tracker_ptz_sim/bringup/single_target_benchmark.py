@@ -34,7 +34,9 @@ defaults), and that with its box held no wider than one person usually is for th
 first second (`settle_frames` 10; not the tracker's default: in the graph it made `occluded`
 worse), and that with a hidden person's boxes rescaled by the ground line as they coast
 (`coast_perspective`; the tracker's default since 2026-11-28), and that expecting the person's
-start height until a ground line is learned (`height_before_line`). With --runs R every
+start height until a ground line is learned (`height_before_line`), and that followed by the
+top of its box on a frame it would be taken as hidden while only that part matches
+(`upper_share`: someone behind a low board shows head and shoulders). With --runs R every
 particle filter runs R times per person with different seeds (person id + 1000 r) and the table
 gives the mean over runs and sigma_Q, the standard deviation of a run's Q over the runs (the
 thesis's 10 runs). --sweep runs instead the best particle filter with 100 / 500 / 750 / 2000
@@ -89,6 +91,7 @@ from tracker_filter.particle_tracker import (
     OCCLUSION_RATIO,
     SETTLE_FRAMES,
     SIZE_NOISE,
+    UPPER_SHARE,
 )
 from tracker_filter.robust_kalman import LambdaRule, RobustKalmanConfig, seed001_uncertainty
 from tracker_filter.trackers import TRACKERS
@@ -212,6 +215,8 @@ SETTLED = replace(SHAPED, settle_frames=SETTLE_FRAMES)
 PERSPECTIVE = replace(SETTLED, coast_perspective=True)
 #: ... and, until the suite has learned a ground line, the target's start height expected
 BEFORE_LINE = replace(PERSPECTIVE, height_before_line=True)
+#: ... and a target seen only in part followed by the top of its box (`upper_share`)
+UPPER = replace(BEFORE_LINE, upper_share=UPPER_SHARE)
 
 
 def contrasted() -> HistogramAppearance:
@@ -303,6 +308,12 @@ VARIANTS: dict[str, Variant | ParticleVariant] = {
     f"{QUIET}, probes, fitted, aspect, settled, perspective, start height, camera pose": (
         ParticleVariant(contrasted, BEFORE_LINE, posed=True)
     ),
+    # ... and followed by the top of its box while only that part matches
+    f"{QUIET}, probes, fitted, aspect, settled, perspective, start height, upper part": (
+        ParticleVariant(contrasted, UPPER)
+    ),
+    f"{QUIET}, probes, fitted, aspect, settled, perspective, start height, upper part, "
+    "camera pose": ParticleVariant(contrasted, UPPER, posed=True),
 }
 
 
