@@ -463,10 +463,10 @@ class ParticleEstimate:
     velocity: np.ndarray  # vx, vy, vw, vh (px per frame)
     similarity: float  # of the estimate's rectangle to the reference
     hidden: bool = False  # taken as occluded this frame: the estimate is the coasting cloud's mean
-    # followed by the top part of its box (`upper_share`): `box` is the part the mask shows
-    partial: bool = False
     # the cloud's own box when `box` was fitted to the foreground mask (None: `box` is that)
     unfitted: np.ndarray | None = None
+    # followed by the top part of its box (`upper_share`): `box` is the part the mask shows
+    partial: bool = False
 
     @property
     def cloud_box(self) -> np.ndarray:
@@ -597,7 +597,10 @@ class ColourParticleFilter:
             state = weights @ particles
         else:
             state = particles[int(np.argmax(weights))]
-        similarity = self._similarity(image, view.to_image(state[None, :4]), partial, hidden)
+        in_image_box = view.to_image(state[None, :4])
+        similarity = self._similarity(image, in_image_box, partial)
+        if not hidden and not partial:
+            self._learn_upper_level(image, in_image_box)
         if hidden and not self.estimate.hidden:
             # the last frames, half hidden, slowed the cloud: coast at the velocity seen before,
             # the particles' spread about it narrowed as the noise is
@@ -648,25 +651,31 @@ class ColourParticleFilter:
         tops = top_parts(boxes, self.config.upper_share)
         scores = self.upper.similarities(image, tops)
         if mask is not None:  # a part in sight moves: the board in front of the rest does not
-            cue = self.config.foreground
-            scores = np.where(cue.scores(mask, tops) >= cue.min_best, scores, 0.0)
+            scores = self._held_by_mask(scores, mask, tops)
         needed = self.upper_level if self.estimate.hidden else ratio * self.upper_level
         return scores if float(scores.max()) >= needed else None
 
-    def _similarity(self, image: np.ndarray, box: np.ndarray, partial: bool, hidden: bool) -> float:
-        """The match of the estimate's box (1, 4 in image px): of the whole box, and, while it is
-        seen, the top part's level learned from the same box; when it is followed by its top
-        part, that part's match on the whole box's scale (x the whole's level over the part's),
-        which Ext 2's noise and a tracker's "is this a hit" read as they read a whole match."""
-        share = self.config.upper_share
+    def _similarity(self, image: np.ndarray, box: np.ndarray, partial: bool) -> float:
+        """The match of the estimate's box (1, 4 in image px): of the whole box; when it is
+        followed by its top part, that part's match on the whole box's scale (x the whole's
+        level over the part's), which Ext 2's noise and a tracker's "is this a hit" read as they
+        read a whole match."""
         if partial and self.upper is not None and self.level and self.upper_level:
-            top = float(self.upper.similarities(image, top_parts(box, share))[0])
+            top = self._upper_match(image, box)
             return top * self.level / self.upper_level
-        if self.upper is not None and not hidden:
-            top = float(self.upper.similarities(image, top_parts(box, share))[0])
-            level = self.upper_level
-            self.upper_level = top if level is None else level + LEVEL_GAIN * (top - level)
         return float(self.appearance.similarities(image, box)[0])
+
+    def _learn_upper_level(self, image: np.ndarray, box: np.ndarray) -> None:
+        """On a frame the target is seen whole, the running level of its box's top part."""
+        if self.upper is None:
+            return
+        top, level = self._upper_match(image, box), self.upper_level
+        self.upper_level = top if level is None else level + LEVEL_GAIN * (top - level)
+
+    def _upper_match(self, image: np.ndarray, box: np.ndarray) -> float:
+        """The top part's match of one box (1, 4 in image px)."""
+        assert self.upper is not None, "called only with upper_share > 0"
+        return float(self.upper.similarities(image, top_parts(box, self.config.upper_share))[0])
 
     def _reappearing(
         self, raw: np.ndarray, mask: ForegroundMask | None, boxes: np.ndarray
@@ -676,8 +685,15 @@ class ColourParticleFilter:
         target, or the street behind it, can match the reference well enough, but never moves."""
         if not (self.config.reappear_in_mask and self.estimate.hidden and mask is not None):
             return raw
+        return self._held_by_mask(raw, mask, boxes)
+
+    def _held_by_mask(
+        self, scores: np.ndarray, mask: ForegroundMask, boxes: np.ndarray
+    ) -> np.ndarray:
+        """`scores` where the foreground mask holds the box (the cue's F_beta at least its
+        `min_best`), 0 elsewhere."""
         cue = self.config.foreground
-        held: np.ndarray = np.where(cue.scores(mask, boxes) >= cue.min_best, raw, 0.0)
+        held: np.ndarray = np.where(cue.scores(mask, boxes) >= cue.min_best, scores, 0.0)
         return held
 
     def _probes(
