@@ -473,3 +473,36 @@ def test_the_compiled_blend_is_the_update_rule_in_float32(with_chroma):
     )  # fmt: skip
     for a, b in zip(got, expected, strict=True):
         assert a.dtype == np.float32 and np.array_equal(a, b)
+
+
+def test_learning_after_the_detections_are_out_changes_nothing(scene):
+    """A node lets the background learn a frame after publishing its detections
+    (`learn_last_frame`); left to the next `process`, or done at once, every frame gives the same
+    blobs and masks, also across a reconfiguration (learned with the config it was detected
+    with), and the models end up the same. `reset` forgets a frame not learned yet."""
+    config = BackgroundConfig(min_aspect=0.5, stopped_heal_rate=0.005, register_reach=4)
+    changed = replace(config, learning_rate=0.2, heal_rate=0.1)
+    n = scene.num_frames
+    xs = (140 + 140 * np.sin(np.arange(n) / 8.0)).astype(int)
+    lazy, eager = BackgroundDetector(config), BackgroundDetector(config)
+    for k, x in enumerate(xs):
+        image = scene.frames[k, 40:280, x : x + 200]
+        frame = CameraFrame(k * NS, image, View(Rect(int(x), 40, 200, 240), 200, 240))
+        if k == n // 2:
+            lazy.reconfigure(changed)
+            eager.reconfigure(changed)
+        left, done = lazy.process(frame), eager.process(frame)
+        eager.learn_last_frame()
+        assert [b.bbox for b in left.blobs] == [b.bbox for b in done.blobs], f"frame {k}"
+        assert np.array_equal(left.mask, done.mask)
+    lazy.learn_last_frame()
+    whole = View(Rect(0, 0, 480, 320), 480, 320)
+    for learned, model in ((lazy.mosaic, eager.mosaic), (lazy.long_term, eager.long_term)):
+        assert np.array_equal(learned.sample(whole).mean, model.sample(whole).mean)
+        assert np.array_equal(learned.sample(whole).flicker, model.sample(whole).flicker)
+    eager.process(
+        CameraFrame(n * NS, scene.frames[-1, 40:280, 0:200], View(Rect(0, 40, 200, 240), 200, 240))
+    )
+    eager.reset()
+    eager.learn_last_frame()
+    assert not eager.mosaic.sample(whole).observations.any()

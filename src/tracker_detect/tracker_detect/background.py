@@ -41,6 +41,11 @@ silhouettes:
    background (a second mosaic that learns only where the view matches the background: the
    scene before anything stopped in it), which a stopped person still differs from and a ghost
    does not.
+
+Steps 2 and 5 only teach the models (nothing of them reaches the frame's own blobs), so they run
+after the detections are made: `learn_last_frame`, which the detector node calls once it has
+published them (about a third of the detector's time out of the image-to-command latency), and
+which the next `process` does first when nobody called it; the detections are the same either way.
 """
 
 from __future__ import annotations
@@ -175,6 +180,19 @@ class BackgroundConfig:
         return found
 
 
+@dataclass(frozen=True)
+class _Lesson:
+    """What one frame teaches the background models (step 5), kept until they learn it."""
+
+    stamp_ns: int
+    view: View  # the view as detected (aligned, with register_reach)
+    gray: np.ndarray
+    different: np.ndarray  # bool: SSIM against the background at or below the threshold
+    mask: np.ndarray  # the cleaned foreground, before any cut between people
+    background: MosaicSample  # the background the view was compared with
+    chroma: np.ndarray | None
+
+
 class BackgroundDetector:
     """`Detector`: SSIM of each view against the scene's background mosaic (module doc).
 
@@ -193,6 +211,7 @@ class BackgroundDetector:
         self._people = PeopleSplitter()
         self._last_stamp: int | None = None
         self._size: tuple[int, int] | None = None
+        self._lesson: _Lesson | None = None  # the last frame, until the models learn it
 
     @staticmethod
     def _change_config(config: BackgroundConfig) -> DetectorConfig:
@@ -207,6 +226,7 @@ class BackgroundDetector:
 
     def reconfigure(self, config: BackgroundConfig) -> None:
         """Use `config` from the next frame on, keeping the mosaic."""
+        self.learn_last_frame()  # with the config it was detected with
         self.config = config
         for mosaic in (self.mosaic, self.long_term):
             mosaic.warmup_observations = config.warmup_observations
@@ -221,6 +241,7 @@ class BackgroundDetector:
         self._people.reset()
         self._last_stamp = None
         self._size = None
+        self._lesson = None
 
     def process(self, frame: CameraFrame) -> Detection:
         c = self.config
@@ -229,6 +250,7 @@ class BackgroundDetector:
             raise ValueError(f"expected a grey uint8 (H, W) image, got {gray.dtype} {gray.shape}")
         height, width = gray.shape
         view = checked_view(frame, self._last_stamp)
+        self.learn_last_frame()  # the frame before's step 5, when the caller left it
         history_reset = self._size is not None and self._size != (width, height)
         if history_reset and frame.view is None:
             # a static camera's mosaic is the image: a new size, a new scene
@@ -246,7 +268,6 @@ class BackgroundDetector:
                 aligned_judged = aligned.observations >= c.min_observations
                 if _fits_better(grey, aligned.mean, background.mean, aligned_judged & judged):
                     view, background, judged = moved, aligned, aligned_judged
-        changing = self._changing(gray, frame.stamp_ns, view)
         chroma = (
             _chromaticity(frame.image) if c.shadow_ratio > 0 and frame.image.ndim == 3 else None
         )
@@ -260,23 +281,10 @@ class BackgroundDetector:
         if chroma is not None and background.chroma is not None:
             foreground &= ~self._shadow(gray, chroma, background)
         mask = self._clean(foreground.astype(np.uint8))
-        movers = different & changing
-        heal, learn = np.float32(c.heal_rate), np.float32(c.learning_rate)
-        rate = np.where(different, np.where(changing, np.float32(0.0), heal), learn)
-        holds_stopped = c.stopped_heal_rate < c.heal_rate
-        if holds_stopped and (different & ~changing).any():
-            # the whole blob, also where its flat inside looks like the ground to SSIM (its
-            # movers keep their rate 0: the minimum)
-            long_term = self._long_term_view(view, gray)
-            still = _stopped_objects(mask, movers, gray, background, long_term, c.connectivity)
-            rate[still] = np.minimum(rate[still], np.float32(c.stopped_heal_rate))
-        # The flicker rate follows whole moving regions, not single pixels: SSIM of two
-        # textures is noisy pixel by pixel, a fluttering patch is moving as a region.
-        moving = self._clean(movers.astype(np.uint8), shrink=False)
-        self.mosaic.update(view, gray, rate, moving, None if chroma is None else chroma[..., :2])
-        if holds_stopped:
-            seen = np.where(different, np.float32(0.0), learn)
-            self.long_term.update(view, gray, seen, np.zeros_like(moving))
+        # copies: the caller owns the image and the Detection's mask until the models learn
+        self._lesson = _Lesson(
+            frame.stamp_ns, view, gray.copy(), different, mask.copy(), background, chroma
+        )
         if c.split_depth > 0:
             mask = cut_side_by_side(mask, c.split_depth, c.connectivity)
         found = [
@@ -303,6 +311,43 @@ class BackgroundDetector:
             mask=mask,
             history_reset=history_reset,
         )
+
+    def learn_last_frame(self) -> None:
+        """Step 5 (module doc) for the last frame `process`ed, if not done yet: the background
+        models learn its view. Nothing of it reaches that frame's detections, so a node calls
+        it after publishing them (the detections go out ~2 ms sooner); `process` does it first
+        thing otherwise. Either way every frame gives the same detections."""
+        lesson, self._lesson = self._lesson, None
+        if lesson is None:
+            return
+        c = self.config
+        view, gray, different, background = (
+            lesson.view,
+            lesson.gray,
+            lesson.different,
+            lesson.background,
+        )
+        changing = self._changing(gray, lesson.stamp_ns, view)
+        movers = different & changing
+        heal, learn = np.float32(c.heal_rate), np.float32(c.learning_rate)
+        rate = np.where(different, np.where(changing, np.float32(0.0), heal), learn)
+        holds_stopped = c.stopped_heal_rate < c.heal_rate
+        if holds_stopped and (different & ~changing).any():
+            # the whole blob, also where its flat inside looks like the ground to SSIM (its
+            # movers keep their rate 0: the minimum)
+            long_term = self._long_term_view(view, gray)
+            still = _stopped_objects(
+                lesson.mask, movers, gray, background, long_term, c.connectivity
+            )
+            rate[still] = np.minimum(rate[still], np.float32(c.stopped_heal_rate))
+        # The flicker rate follows whole moving regions, not single pixels: SSIM of two
+        # textures is noisy pixel by pixel, a fluttering patch is moving as a region.
+        moving = self._clean(movers.astype(np.uint8), shrink=False)
+        chroma = lesson.chroma
+        self.mosaic.update(view, gray, rate, moving, None if chroma is None else chroma[..., :2])
+        if holds_stopped:
+            seen = np.where(different, np.float32(0.0), learn)
+            self.long_term.update(view, gray, seen, np.zeros_like(moving))
 
     def _long_term_view(self, view: View, gray: np.ndarray) -> np.ndarray:
         """The long-term background seen through `view`; the view itself where it has not

@@ -129,6 +129,17 @@ class Detector(Protocol):
 
 
 @runtime_checkable
+class DeferredLearning(Protocol):
+    """A detector whose models learn from a frame after its detections are made
+    (`background.BackgroundDetector`): a node calls `learn_last_frame` once it has published
+    them, so the learning is not in the latency; otherwise the next `process` does it first."""
+
+    def learn_last_frame(self) -> None:
+        """Let the models learn the last processed frame, if they have not yet."""
+        ...
+
+
+@runtime_checkable
 class SeededDetector(Detector, Protocol):
     """A detector started from a rectangle the user draws over its target (CamShift-style)."""
 

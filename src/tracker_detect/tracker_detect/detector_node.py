@@ -26,6 +26,7 @@ from std_msgs.msg import Header
 from tracker_detect.detector import (
     Blob,
     CameraFrame,
+    DeferredLearning,
     Detection,
     Detector,
     SeededDetector,
@@ -437,6 +438,8 @@ class DetectorNode(SuiteNode):
             self.counters.registration_fallbacks += 1
         self.detections_pub.publish(self._blob_array(detection, image.token))
         self._publish_debug(detection, image.token)
+        if isinstance(self.detector, DeferredLearning):  # off the image -> detections latency
+            self.detector.learn_last_frame()
 
     # --- seeded detectors: start, hand-over, guidance (seeding.SeededSession) ------------------
 

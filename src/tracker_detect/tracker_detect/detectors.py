@@ -335,6 +335,9 @@ class SsimBackground:
     def process(self, frame: CameraFrame) -> Detection:
         return self.detector.process(frame)
 
+    def learn_last_frame(self) -> None:
+        self.detector.learn_last_frame()
+
     def reset(self) -> None:
         self.detector.reset()
 
