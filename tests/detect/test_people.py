@@ -6,7 +6,14 @@ import numpy as np
 import pytest
 
 from tracker_detect.motion import find_blobs
-from tracker_detect.people import HOLD_FRAMES, PeopleSplitter, Person, _apart, _suppress
+from tracker_detect.people import (
+    HOLD_FRAMES,
+    PeopleDetector,
+    PeopleSplitter,
+    Person,
+    _apart,
+    _suppress,
+)
 from tracker_detect.registration import View
 from tracker_msgs_py.geometry import Rect
 from tracker_ptz_sim.simulation.street import StreetConfig, generate_street
@@ -112,3 +119,19 @@ def test_a_split_is_held_while_hog_misses_its_people_then_let_go(group):
 def _inside(person: Rect, box: Rect) -> float:
     """Share of `person`'s box inside `box`."""
     return person.intersection_area(box) / person.area
+
+
+def test_the_levels_on_two_threads_find_what_one_thread_finds(group):
+    """The pyramid's levels shared with a worker thread give the same hits in the same order."""
+    one, two = PeopleDetector(threads=1), PeopleDetector(threads=2)
+    found = 0
+    for k in range(0, group.num_frames, 3):
+        for box in people_in(group, k):
+            region = Rect(box.x - 40, box.y - 40, box.width + 80, box.height + 80)
+            heights = (0.6 * box.height, 1.1 * box.height)
+            alone = one.find(group.frames[k], region, heights)
+            assert two.find(group.frames[k], region, heights) == alone, k
+            found += len(alone)
+    assert found > 0
+    with pytest.raises(ValueError, match="threads"):
+        PeopleDetector(threads=3)
