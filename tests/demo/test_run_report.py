@@ -85,6 +85,7 @@ def test_bag_round_trips_every_type(bag):
     targets = [msg for topic, _, msg in read_bag(bag, {"/target"})]
     assert [t.locked for t in targets] == [k >= 2 for k in range(FRAMES)]
     assert targets[3].track.id == 7 and targets[3].predicted_x == 39.0
+    assert list(read_bag(bag, {"/diagnostics"})) == []  # a topic the bag lacks: no message
 
 
 def test_images_recorded_as_jpeg_are_read_under_their_raw_names(tmp_path):

@@ -151,6 +151,10 @@ def test_demo_outputs_bag_mot_and_video(one_walker, servo_run):
         assert counts[topic] == frames, (topic, counts[topic])
     status = [m for _, _, m in read_bag(out / "bag", {"/replay/status"})][-1]
     assert status.frames_published == frames and status.lockstep_timeouts == 0
+    # the camera timed every image out to its command in
+    latency = json.loads((out / "summary.json").read_text())["run"]["camera_latency_ms"]
+    assert latency["count"] == frames and 0.0 < latency["p50"] <= latency["p95"] <= latency["max"]
+    assert "at ptz_camera: camera image -> command" in stdout
     published = {}
     numbers = run_report.frame_numbers(run_report.collect(out / "bag"))
     for _, _, msg in read_bag(out / "bag", {"/tracks"}):

@@ -15,7 +15,8 @@ the output directory:
     contact_sheet.png  the followed target every 2 s, cropped from the scene
     tracks.txt      confirmed tracks, MOTChallenge format
     summary.json    frames, throughput, per-hop latency, lock share, centring error (also
-                    printed), and the run's account: complete or not, and why
+                    printed), and the run's account: complete or not, and why; the camera
+                    image -> command latency timed by ptz_camera itself (run.camera_latency_ms)
     logs/           one log per node
 
 A node that dies is reported with its last log lines; with --respawn it is restarted (video_source
@@ -89,6 +90,7 @@ from tracker_ptz_sim.simulation.camera_model import (
     PtzCameraModel,
     PtzConfig,
 )
+from tracker_ptz_sim.simulation.command_latency import from_diagnostics
 from tracker_ptz_sim.simulation.frame_sources import open_source
 from tracker_ptz_sim.simulation.video_source_node import STATUS_QOS
 
@@ -164,6 +166,8 @@ class Recorder(Node):
         self._recorded_pub = self.create_publisher(Header, RECORDED_TOPIC, 10)
         self.readers: dict[str, int] = {}  # per topic, the readers its publisher has matched
         self.writers: dict[str, dict[str, int]] = {}  # per node and topic, its reader's writers
+        # the camera's own image-to-command latency, from its latest diagnostics
+        self.camera_latency: dict[str, float] = {}
         self.create_subscription(DiagnosticArray, "/diagnostics", self._on_diagnostics, 50)
 
     def _incompatible(self, topic: str, _event: object) -> None:
@@ -212,9 +216,25 @@ class Recorder(Node):
                 return
             stop_signals.wait(0.05)
 
+    def wait_for_camera_latency(self, frames: int, limit: float = 2.5) -> None:
+        """Until the camera's diagnostics (once a second) have timed `frames` commands, `limit`
+        s at most; at once when the camera reports none (a real unit's drivers)."""
+        deadline = time.monotonic() + limit
+        while (
+            self.camera_latency
+            and self.camera_latency.get("count", 0) < frames
+            and time.monotonic() < deadline
+            and not stop_signals.requested()
+        ):
+            stop_signals.wait(0.05)
+
     def _on_diagnostics(self, array: DiagnosticArray) -> None:
         self.readers.update(matched_readers(array))
         self.writers.update(matched_writers(array))
+        for status in array.status:
+            latency = from_diagnostics((v.key, v.value) for v in status.values)
+            if latency:
+                self.camera_latency = latency
 
     def readers_matched(self, topic: str) -> int:
         """The graph's readers of `topic` (this recorder's included) that have matched a writer."""
@@ -280,6 +300,8 @@ class RunResult:
     restarts: dict[str, int] = field(default_factory=dict)  # by node (--respawn)
     interrupted_by: str | None = None  # "SIGINT" when the user stopped the run
     replay: dict[str, Any] = field(default_factory=dict)  # the last ReplayStatus
+    # ptz_camera's own image-out -> command-in latency (ms: p50, p95, max; count)
+    camera_latency: dict[str, float] = field(default_factory=dict)
 
     def fail(self, problem: str) -> None:
         self.complete = False
@@ -294,6 +316,7 @@ class RunResult:
             "interrupted_by": self.interrupted_by,
             "exit_codes": self.exit_codes,
             "replay": self.replay,
+            "camera_latency_ms": self.camera_latency,
         }
 
 
@@ -597,6 +620,9 @@ def _supervise(
     result.wall_seconds = time.monotonic() - started
     if watch is Watch.ENDED:
         recorder.wait_until_quiet()  # the last frames' messages
+        if recorder.status is not None:
+            recorder.wait_for_camera_latency(recorder.status.frames_published)
+        result.camera_latency = dict(recorder.camera_latency)
     progress.done()
     result.cpu_seconds = {**nodes.cpu_seconds(), "recorder": time.process_time() - recorder_cpu}
 
@@ -834,6 +860,8 @@ def main(argv: list[str] | None = None) -> int:
             f"{replay['lockstep_timeouts']} lockstep timeouts"
             + (f" ({replay['message']})" if replay["message"] else "")
         )
+    if run.camera_latency:
+        print(f"  {camera_latency_line(run.camera_latency)}")
     products = "bag/, tracks.txt, summary.json, logs/" + (
         "" if args.no_video or not summary.frames else ", annotated.mp4, contact_sheet.png"
     )
@@ -870,3 +898,11 @@ def install_space() -> Path:
 
 if __name__ == "__main__":
     raise SystemExit(main())
+
+
+def camera_latency_line(latency: dict[str, float]) -> str:
+    """The camera's own image-to-command latency as run_demo prints it."""
+    return (
+        f"at ptz_camera: camera image -> command p50 {latency['p50']:.1f} ms, "
+        f"p95 {latency['p95']:.1f} ms (image out to command in, {int(latency['count'])} frames)"
+    )

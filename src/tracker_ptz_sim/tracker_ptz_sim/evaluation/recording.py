@@ -110,6 +110,8 @@ def read_bag(path: Path, topics: set[str] | None = None) -> Iterator[tuple[str, 
             if wanted or alias:
                 names[topic] = raw if alias else topic
         connections = [c for c in reader.connections if c.topic in names]
+        if not connections:  # rosbags reads every connection when given none
+            return
         for connection, timestamp, data in reader.messages(connections=connections):
             message = store.deserialize_cdr(data, connection.msgtype)
             yield names[connection.topic], timestamp, message

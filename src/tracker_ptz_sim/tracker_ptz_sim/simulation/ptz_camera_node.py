@@ -53,6 +53,7 @@ from tracker_ptz_sim.simulation.camera_model import (
     PtzSnapshot,
     view_size,
 )
+from tracker_ptz_sim.simulation.command_latency import CommandLatency, diagnostics_values
 
 _D = PtzConfig()
 MODES = {
@@ -169,6 +170,7 @@ class PtzCameraNode(SuiteNode):
         self.processed_ns: deque[int] = deque(maxlen=self.params["command_delay_frames"])
         self.early_commands: list[PtzCommand] = []
         self.last_snapshot: PtzSnapshot | None = None
+        self.latency = CommandLatency()  # camera image out -> its command in
         qos = image_qos(self.params["reliable_images"])
         self.view_pub = self.create_publisher(Image, "camera/image_raw", qos)
         self.info_pub = self.create_publisher(CameraInfo, "camera/camera_info", qos)
@@ -213,6 +215,7 @@ class PtzCameraNode(SuiteNode):
             shot = self.last_snapshot
             details |= {"pan [rad]": f"{shot.pan:.4f}", "tilt [rad]": f"{shot.tilt:.4f}"}
             details["zoom"] = f"{shot.zoom:.3f}"
+        details |= diagnostics_values(self.latency)
         return state, details
 
     def _on_command(self, msg: PtzCommandMsg) -> None:
@@ -222,6 +225,7 @@ class PtzCameraNode(SuiteNode):
         self._apply(self._joint_command_from(msg), stamp_to_ns(msg.header.stamp))
 
     def _apply(self, command: PtzCommand | None, stamp: int) -> None:
+        self.latency.command_received(stamp, time.monotonic_ns())
         self.commands_received += 1
         if command is not None and self.last_image_ns is not None and stamp > self.last_image_ns:
             self.problems.report(
@@ -328,6 +332,7 @@ class PtzCameraNode(SuiteNode):
         )
         self.pending.clear()
         self.processed_ns.clear()
+        self.latency.forget_pending()
         self.last_image_ns = None
         self.last_command_ns = -1
         self.early_commands.clear()
@@ -412,6 +417,7 @@ class PtzCameraNode(SuiteNode):
         assert model is not None, "published only after the model exists"
         fx, fy, cx, cy = model.intrinsics()
         height, width = view.shape[:2]
+        self.latency.image_sent(stamp_to_ns(stamp), time.monotonic_ns())
         self.view_pub.publish(array_to_image(view, scene_msg.encoding, stamp, camera_frame))
         self.info_pub.publish(camera_info(width, height, fx, fy, cx, cy, stamp, camera_frame))
         state = PtzState(
