@@ -367,3 +367,27 @@ def test_a_restarted_source_resumes_after_the_frames_whose_statuses_were_lost():
     recorded = [k * 100_000_000 for k in range(60, 67)]  # 6.0 ... 6.6 s
     assert resume_frame(status, recorded) == 67
     assert resume_frame(status, recorded[:4]) == 64  # nothing recorded beyond the status
+
+
+def test_the_recorder_writes_at_a_lower_priority_than_the_graph():
+    """Its JPEG encoding must not take a core from the node a lockstep frame waits for."""
+    import os
+    import threading
+
+    from tracker_ptz_sim.bringup.demo import WRITER_NICENESS, _lower_priority
+
+    seen = []
+
+    def writer() -> None:
+        _lower_priority(WRITER_NICENESS)
+        seen.append(os.getpriority(os.PRIO_PROCESS, threading.get_native_id()))
+
+    thread = threading.Thread(target=writer)
+    thread.start()
+    thread.join()
+    assert WRITER_NICENESS > 0 and seen == [
+        min(os.getpriority(os.PRIO_PROCESS, 0) + WRITER_NICENESS, 19)
+    ]
+    assert os.getpriority(os.PRIO_PROCESS, threading.get_native_id()) == os.getpriority(
+        os.PRIO_PROCESS, 0
+    )  # the calling thread keeps its own
