@@ -122,8 +122,8 @@ CLOCK_QOS = QoSProfile(
 )
 
 
-# The recorder's writer encodes and writes this many nice levels below the graph: on a machine with few cores its
-# JPEG encoding otherwise takes a core from the node the frame waits for (vtest.avi, 2 cores,
+# The recorder's writer encodes and writes this many nice levels below the graph: on a machine
+# with few cores its JPEG encoding otherwise takes a core from the node the frame waits for (2 cores,
 # 3 runs each way: 65-67 -> 68-74 frames/s, image -> command p95 16.3-17.5 -> 15.1-16.9 ms).
 # It still gets the cores whenever the lockstep's chain leaves one idle; pipelined with 3
 # frames in flight (both cores busy) its queue held at most 72 messages (~7 frames).
