@@ -3,6 +3,8 @@ same tracks, windows and targets as the separate processes, frame for frame."""
 
 from __future__ import annotations
 
+import json
+
 import pytest
 from demo_runs import run_demo
 
@@ -30,6 +32,10 @@ def test_one_process_tracks_exactly_as_separate_processes(tmp_path):
         assert "0 lockstep timeouts" in stdout
         traces[name] = scoring.trace_from_frames(run_report.collect(out / "bag"))
         traces[name + "_mot"] = (out / "tracks.txt").read_text()
+        # the camera's latency covers every frame: in one process its last report is the one
+        # each node publishes as it is torn down with the stream's end
+        latency = json.loads((out / "summary.json").read_text())["run"]["camera_latency_ms"]
+        assert latency["count"] == 100, name
     assert (tmp_path / "one_process/logs/graph_host.log").exists()
     separate, single = traces["processes"], traces["one_process"]
     assert len(single.windows) == 100 and single.target_ids

@@ -76,8 +76,8 @@ class SuiteNode(Node):
     `self.stopping` before it publishes, and must return soon after `stopping` is set.
     `finish(code)` ends the node from inside (a replay that reached its end).
     `problems.report(cause, detail)` logs the first of each cause of dropped input and counts the
-    rest. Once a second the node publishes on `/diagnostics` (diagnostic_msgs/DiagnosticArray) a
-    status "<node>: state" (`diagnostic_state()`, which nodes override: what it is doing) and a
+    rest. Once a second, and once more as it is torn down, the node publishes on `/diagnostics`
+    (diagnostic_msgs/DiagnosticArray) a status "<node>: state" (`diagnostic_state()`, which nodes override: what it is doing) and a
     status "<node>: input": the dropped input by cause, and per subscribed topic the message rate,
     the time its callback took (mean/max) and the data's age on arrival (the node's clock minus
     the header stamp: on a live camera how old the image is; in a replay, on the replay's clock);
@@ -159,6 +159,7 @@ class SuiteNode(Node):
         self.stop_workers()
         if self.problems.total:
             self.get_logger().info(f"dropped input: {self.problems.summary()}")
+        self._publish_diagnostics()  # a last report: what the node did up to its end
         super().destroy_node()
 
     # --- QoS ------------------------------------------------------------------------------------
