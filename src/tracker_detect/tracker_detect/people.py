@@ -112,17 +112,18 @@ class PeopleDetector:
         one run to the next."""
         scales = _level_scales(image.shape[1], image.shape[0], self._hogs[0].nlevels)
         if self._worker is None or len(scales) < 2:
-            levels = self._levels(self._hogs[0], image, scales)
+            by_level = self._levels(self._hogs[0], image, scales)
         else:  # every other level to the worker: the largest and the smallest spread over both
             theirs = self._worker.submit(self._levels, self._hogs[1], image, scales[1::2])
-            levels = self._levels(self._hogs[0], image, scales[0::2]) + theirs.result()
-        by_level = dict(levels)
-        return [hit for scale in scales for hit in by_level[scale]]
+            by_level = [[] for _ in scales]
+            by_level[0::2] = self._levels(self._hogs[0], image, scales[0::2])
+            by_level[1::2] = theirs.result()
+        return [hit for hits in by_level for hit in hits]
 
     def _levels(
         self, hog: cv2.HOGDescriptor, image: np.ndarray, scales: list[float]
-    ) -> list[tuple[float, list[tuple[tuple[int, int, int, int], float]]]]:
-        """Per pyramid level (its scale), the hits found in `image` shrunk by that scale."""
+    ) -> list[list[tuple[tuple[int, int, int, int], float]]]:
+        """Per pyramid level, the hits found in `image` shrunk by that level's scale."""
         rows, cols = image.shape[:2]
         found = []
         for scale in scales:
@@ -142,7 +143,7 @@ class PeopleDetector:
                     np.asarray(corners).reshape(-1, 2), np.ravel(weights), strict=True
                 )
             ]
-            found.append((scale, hits))
+            found.append(hits)
         return found
 
 

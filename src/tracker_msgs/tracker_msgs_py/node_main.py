@@ -77,10 +77,11 @@ class SuiteNode(Node):
     `finish(code)` ends the node from inside (a replay that reached its end).
     `problems.report(cause, detail)` logs the first of each cause of dropped input and counts the
     rest. Once a second, and once more as it is torn down, the node publishes on `/diagnostics`
-    (diagnostic_msgs/DiagnosticArray) a status "<node>: state" (`diagnostic_state()`, which nodes override: what it is doing) and a
-    status "<node>: input": the dropped input by cause, and per subscribed topic the message rate,
-    the time its callback took (mean/max) and the data's age on arrival (the node's clock minus
-    the header stamp: on a live camera how old the image is; in a replay, on the replay's clock);
+    (diagnostic_msgs/DiagnosticArray) a status "<node>: state" (`diagnostic_state()`, which
+    nodes override: what it is doing) and a status "<node>: input": the dropped input by cause,
+    and per subscribed topic the message rate, the time its callback took (mean/max) and the
+    data's age on arrival (the node's clock minus the header stamp: on a live camera how old the
+    image is; in a replay, on the replay's clock);
     and the writers its subscription has matched (`WRITERS_SUFFIX`); and a status
     "<node>: output": per published topic, the readers its publisher has matched
     (`READERS_SUFFIX`). A runner waits on both before frame 0 (`matched_readers`,
