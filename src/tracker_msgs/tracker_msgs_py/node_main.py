@@ -76,7 +76,7 @@ class SuiteNode(Node):
     `self.stopping` before it publishes, and must return soon after `stopping` is set.
     `finish(code)` ends the node from inside (a replay that reached its end).
     `problems.report(cause, detail)` logs the first of each cause of dropped input and counts the
-    rest. Once a second, and once more as it is torn down, the node publishes on `/diagnostics`
+    rest. Once a second, and once more as its process ends, the node publishes on `/diagnostics`
     (diagnostic_msgs/DiagnosticArray) a status "<node>: state" (`diagnostic_state()`, which
     nodes override: what it is doing) and a status "<node>: input": the dropped input by cause,
     and per subscribed topic the message rate, the time its callback took (mean/max) and the
@@ -160,7 +160,6 @@ class SuiteNode(Node):
         self.stop_workers()
         if self.problems.total:
             self.get_logger().info(f"dropped input: {self.problems.summary()}")
-        self._publish_diagnostics()  # a last report: what the node did up to its end
         super().destroy_node()
 
     # --- QoS ------------------------------------------------------------------------------------
@@ -242,6 +241,11 @@ class SuiteNode(Node):
     def diagnostic_state(self) -> tuple[str, dict[str, str]]:
         """What the node is doing (e.g. "tracking track 3", "search"), and figures about it."""
         return "running", {}
+
+    def publish_last_report(self) -> None:
+        """The node's diagnostics once more as its process ends (what it did up to its end: a
+        graph in one process ends with its replay, before the next report was due)."""
+        self._publish_diagnostics()
 
     def _publish_diagnostics(self) -> None:
         revision = self.problems.revision
@@ -375,6 +379,7 @@ def run_nodes(
         deadline = ExitDeadline(TEARDOWN_S, code)
         group.executor.shutdown(timeout_sec=0.0)
         for node in reversed(group.nodes):
+            node.publish_last_report()
             node.destroy_node()
         rclpy.try_shutdown()
         deadline.cancel()
