@@ -314,9 +314,10 @@ class BackgroundDetector:
 
     def learn_last_frame(self) -> None:
         """Steps 2 and 5 (module doc) for the last frame `process`ed, if not done yet: which of
-        its pixels change, and the background models learn its view. Nothing of it reaches that frame's detections, so a node calls
-        it after publishing them (the detections go out ~2 ms sooner); `process` does it first
-        thing otherwise. Either way every frame gives the same detections."""
+        its pixels change, and the background models learn its view. Nothing of it reaches that
+        frame's detections, so a node calls it after publishing them (the detections go out ~2 ms
+        sooner); `process` does it first thing otherwise. Either way every frame gives the same
+        detections."""
         lesson, self._lesson = self._lesson, None
         if lesson is None:
             return
