@@ -41,7 +41,9 @@ MIN_SHARE = 0.6  # smallest person looked for, x the blob's height
 MAX_SHARE = 1.1  # largest ...
 MARGIN = 0.25  # the region around a blob, x its height on every side
 MIN_BLOB_HEIGHT = 40  # image px: smaller blobs are left alone
-MIN_ASPECT = 0.4  # width / height: narrower blobs hold one person (pairs: ~0.53, one: ~0.41)
+# width / height: narrower blobs hold one person. One walker ~0.41, two side by side ~0.53, but
+# two who walk one half behind the other make a blob as narrow as 0.36
+MIN_ASPECT = 0.3
 EDGE = 0.05  # x the image height: a blob this close to its top or bottom is cut by it
 MIN_MARGIN = 0.5  # SVM margin every person of a split needs (a walker's stride or a post: lower)
 SCALE_STEP = 1.1  # between pyramid levels (1.05: twice the time, no more people found)
