@@ -19,9 +19,9 @@ scenes of its kind (`Configuration.scenes`). On street scenes: `suite` is the su
 shipped; `seed000` is seed 000's own mode (SSIM of frame k against k-3, the seed's tracker preset,
 the camera jumping straight to the target); `colour` is the colour graph (seed 001: motion hands its
 target over to CamShift, which the camera follows; one track, so its MOT scores count one person);
-`particles` is the surveillance graph with seed 003's `colour_particles` tracker; `occupancy` the
-same with seed 002's `occupancy_particles` (its detector without the side-by-side cut and with
-stopped people healing at the usual rate; `gmphd_ssim` with seed 004's GM-PHD). On small-object
+`particles` is the surveillance graph with seed 003's `colour_particles` tracker, `occupancy` with
+seed 002's `occupancy_particles` (its detector without the side-by-side cut, stopped people
+healing at the usual rate), `gmphd_ssim` with seed 004's GM-PHD. On small-object
 scenes: `gmphd` is the small-objects graph (seed 004: a fixed camera over the whole scene, MOG2,
 the GM-PHD tracker with occlusion handling); `gmphd_plain` the same without occlusion handling.
 
