@@ -96,6 +96,9 @@ from tracker_ptz_sim.simulation.frame_sources import open_source
 from tracker_ptz_sim.simulation.video_source_node import STATUS_QOS
 
 SCENE_TOPIC = "/scene/image_raw"
+#: What a lockstep video_source sends once more when a frame's acknowledgement is late (its
+#: `_wait_for_ack`); the recorder keeps the first of each stamp, as every node does.
+REPEATED_TOPICS = frozenset({SCENE_TOPIC, "/scene/camera_info"})
 #: The recorder says here which scene images it has received (std_msgs/Header with the image's
 #: stamp); a lockstep video_source waits for it too (its `recorder_topic`).
 RECORDED_TOPIC = "/replay/recorded"
@@ -137,6 +140,24 @@ def _lower_priority(by: int) -> None:
         os.setpriority(
             os.PRIO_PROCESS, thread, min(os.getpriority(os.PRIO_PROCESS, thread) + by, 19)
         )
+
+
+class RepeatFilter:
+    """Which messages repeat one already taken: the same stamp again on a topic of `topics`,
+    among the last `memory` stamps there."""
+
+    def __init__(self, topics: Iterable[str], memory: int) -> None:
+        self._seen: dict[str, deque[int]] = {topic: deque(maxlen=memory) for topic in topics}
+
+    def repeats(self, topic: str, stamp_ns: int) -> bool:
+        """Whether `stamp_ns` was taken on `topic` before; if not, it is now."""
+        seen = self._seen.get(topic)
+        if seen is None:
+            return False
+        if stamp_ns in seen:
+            return True
+        seen.append(stamp_ns)
+        return False
 
 
 class Recorder(Node):
@@ -181,6 +202,7 @@ class Recorder(Node):
         self.create_subscription(ReplayStatus, "/replay/status", self._on_status, STATUS_QOS)
         # the newest scene images' stamps (a restarted source resumes after them)
         self.scene_stamps: deque[int] = deque(maxlen=MAX_COMMAND_DELAY_FRAMES + 2)
+        self._repeats = RepeatFilter(REPEATED_TOPICS, MAX_COMMAND_DELAY_FRAMES + 2)
         self._recorded_pub = self.create_publisher(Header, RECORDED_TOPIC, 10)
         self.readers: dict[str, int] = {}  # per topic, the readers its publisher has matched
         self.writers: dict[str, dict[str, int]] = {}  # per node and topic, its reader's writers
@@ -196,20 +218,26 @@ class Recorder(Node):
         )
 
     def _record(self, topic: str, data: bytes) -> None:
-        self._pending.put((topic, time.time_ns(), data, False))
-        self._received(topic, data)
+        self._take(topic, data, jpeg=False)
 
     def _record_jpeg(self, topic: str, data: bytes) -> None:
-        self._pending.put((topic, time.time_ns(), data, True))  # the receive time
-        self._received(topic, data)
+        self._take(topic, data, jpeg=True)
 
-    def _received(self, topic: str, data: bytes) -> None:
-        topic = topic.removesuffix(COMPRESSED)
-        self.received[topic] += 1
-        self.received_at = time.monotonic()
-        if topic == SCENE_TOPIC:
+    def _take(self, topic: str, data: bytes, jpeg: bool) -> None:
+        """Queue a message for the bag (with its receive time) unless it repeats one taken, and
+        acknowledge scene images, repeats too (the first acknowledgement may be what was late)."""
+        graph_topic = topic.removesuffix(COMPRESSED)
+        repeat = graph_topic in REPEATED_TOPICS and self._repeats.repeats(
+            graph_topic, header_stamp_ns(data)
+        )
+        if not repeat:
+            self._pending.put((topic, time.time_ns(), data, jpeg))
+            self.received[graph_topic] += 1
+            self.received_at = time.monotonic()
+        if graph_topic == SCENE_TOPIC:
             stamp = header_stamp_ns(data)
-            self.scene_stamps.append(stamp)
+            if not repeat:
+                self.scene_stamps.append(stamp)
             self._recorded_pub.publish(Header(stamp=ns_to_stamp(stamp)))
 
     def _write(self) -> None:
