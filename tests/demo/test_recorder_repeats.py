@@ -24,3 +24,11 @@ def test_the_memory_holds_the_newest_stamps() -> None:
         assert not repeats.repeats(SCENE_TOPIC, stamp)
     assert repeats.repeats(SCENE_TOPIC, 3) and repeats.repeats(SCENE_TOPIC, 2)
     assert not repeats.repeats(SCENE_TOPIC, 1)  # forgotten: a restarted source never goes back
+
+
+def test_the_stamps_taken_are_kept_oldest_first_without_repeats() -> None:
+    repeats = RepeatFilter([SCENE_TOPIC], memory=3)
+    for stamp in (1, 2, 2, 3, 4):
+        repeats.repeats(SCENE_TOPIC, stamp)
+    assert repeats.taken(SCENE_TOPIC) == (2, 3, 4)
+    assert repeats.taken("/tracks") == ()

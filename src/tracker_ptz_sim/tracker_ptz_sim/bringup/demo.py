@@ -159,6 +159,10 @@ class RepeatFilter:
         seen.append(stamp_ns)
         return False
 
+    def taken(self, topic: str) -> tuple[int, ...]:
+        """The newest stamps taken on `topic`, oldest first."""
+        return tuple(self._seen.get(topic, ()))
+
 
 class Recorder(Node):
     """Records the graph's topics (serialized, as received; images as JPEG on `<topic>/compressed`
@@ -200,8 +204,7 @@ class Recorder(Node):
                 ),
             )
         self.create_subscription(ReplayStatus, "/replay/status", self._on_status, STATUS_QOS)
-        # the newest scene images' stamps (a restarted source resumes after them)
-        self.scene_stamps: deque[int] = deque(maxlen=MAX_COMMAND_DELAY_FRAMES + 2)
+        # the newest stamps of the scene images (a restarted source resumes after them)
         self._repeats = RepeatFilter(REPEATED_TOPICS, MAX_COMMAND_DELAY_FRAMES + 2)
         self._recorded_pub = self.create_publisher(Header, RECORDED_TOPIC, 10)
         self.readers: dict[str, int] = {}  # per topic, the readers its publisher has matched
@@ -223,21 +226,21 @@ class Recorder(Node):
     def _record_jpeg(self, topic: str, data: bytes) -> None:
         self._take(topic, data, jpeg=True)
 
+    @property
+    def scene_stamps(self) -> tuple[int, ...]:
+        """The newest scene images' stamps recorded, oldest first."""
+        return self._repeats.taken(SCENE_TOPIC)
+
     def _take(self, topic: str, data: bytes, jpeg: bool) -> None:
         """Queue a message for the bag (with its receive time) unless it repeats one taken, and
         acknowledge scene images, repeats too (the first acknowledgement may be what was late)."""
         graph_topic = topic.removesuffix(COMPRESSED)
-        repeat = graph_topic in REPEATED_TOPICS and self._repeats.repeats(
-            graph_topic, header_stamp_ns(data)
-        )
-        if not repeat:
+        stamp = header_stamp_ns(data) if graph_topic in REPEATED_TOPICS else None
+        if stamp is None or not self._repeats.repeats(graph_topic, stamp):
             self._pending.put((topic, time.time_ns(), data, jpeg))
             self.received[graph_topic] += 1
             self.received_at = time.monotonic()
-        if graph_topic == SCENE_TOPIC:
-            stamp = header_stamp_ns(data)
-            if not repeat:
-                self.scene_stamps.append(stamp)
+        if graph_topic == SCENE_TOPIC and stamp is not None:
             self._recorded_pub.publish(Header(stamp=ns_to_stamp(stamp)))
 
     def _write(self) -> None:
