@@ -319,7 +319,7 @@ VARIANTS: dict[str, Variant | ParticleVariant] = {
 
 def _best(particles: int = 750, bins: int = 16) -> ParticleVariant:
     """The sweep's filter: the best before the scale cues (final, 8 x sigma, background-weighted,
-    coasting), on which the README's particle-count and bins table was measured."""
+    coasting), on which docs/results/seed003.md's particle-count and bins table was measured."""
     return ParticleVariant(
         lambda: HistogramAppearance(bins=bins, background_weighting=True),
         replace(COASTING, particles=particles),
