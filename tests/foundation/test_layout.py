@@ -81,3 +81,20 @@ def test_the_functional_core_imports_no_rclpy():
         if uses_rclpy and path.name != "codec.py":  # codec: QoS profiles, inside image_qos()
             offenders.append(str(path.relative_to(SRC)))
     assert offenders == []
+
+
+def test_main_guard_comes_last() -> None:
+    """`python -m package.module` runs the module's `if __name__ == "__main__"` block as it is
+    reached: a function defined below it is not defined yet (run_demo's summary line once
+    failed that way). Only the console-script entry point imported the whole module first."""
+    late = []
+    for path in python_modules() + sorted((SRC.parent / "scripts").glob("*.py")):
+        body = ast.parse(path.read_text(), str(path)).body
+        guards = [
+            i
+            for i, node in enumerate(body)
+            if isinstance(node, ast.If) and "__main__" in ast.unparse(node.test)
+        ]
+        if guards and guards[-1] != len(body) - 1:
+            late.append(f"{path.relative_to(SRC.parent)}: line {body[guards[-1]].lineno}")
+    assert not late, f"statements after the __main__ guard: {late}"

@@ -946,13 +946,13 @@ def install_space() -> Path:
     )  # .../install/<pkg>/lib/pythonX/site-packages/tracker_ptz_sim/bringup/demo.py
 
 
-if __name__ == "__main__":
-    raise SystemExit(main())
-
-
 def camera_latency_line(latency: dict[str, float]) -> str:
     """The camera's own image-to-command latency as run_demo prints it."""
     return (
         f"at ptz_camera: camera image -> command p50 {latency['p50']:.1f} ms, "
         f"p95 {latency['p95']:.1f} ms (image out to command in, {int(latency['count'])} frames)"
     )
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
