@@ -391,3 +391,22 @@ def test_the_recorder_writes_at_a_lower_priority_than_the_graph():
     assert os.getpriority(os.PRIO_PROCESS, threading.get_native_id()) == os.getpriority(
         os.PRIO_PROCESS, 0
     )  # the calling thread keeps its own
+
+
+def test_the_nodes_warnings_are_collected_from_their_logs(tmp_path):
+    from tracker_ptz_sim.bringup.demo import node_warnings
+
+    (tmp_path / "tracker.log").write_text(
+        "[INFO] [1795998000.934146527] [tracker]: tracker ready\n"
+        "[WARN] [1795998000.937324377] [tracker]: ignored parameter(s) lead_tme: ...\n"
+        "[WARN] [1795998001.000000000] [tracker]: ignored parameter(s) lead_tme: ...\n"
+        "Traceback (most recent call last):\n"
+    )
+    (tmp_path / "video_source.log").write_text(
+        "[ERROR] [1795997803.195329155] [video_source]: replay of x failed: no frame\n"
+    )
+    assert node_warnings(tmp_path) == [
+        "tracker: ignored parameter(s) lead_tme: ...",
+        "video_source: replay of x failed: no frame",
+    ]
+    assert node_warnings(tmp_path, limit=1) == ["tracker: ignored parameter(s) lead_tme: ..."]

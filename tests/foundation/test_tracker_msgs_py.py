@@ -70,6 +70,66 @@ class TestConversions:
         mono = array_to_image(gray, "mono8", stamp, "cam")
         assert np.array_equal(image_to_gray(mono), gray)
 
+    @pytest.mark.parametrize(
+        ("encoding", "red_at"),
+        [
+            ("bayer_rggb8", (0, 0)),
+            ("bayer_bggr8", (1, 1)),
+            ("bayer_gbrg8", (1, 0)),
+            ("bayer_grbg8", (0, 1)),
+        ],
+    )
+    def test_bayer_mosaics_are_demosaiced(self, encoding, red_at):
+        from sensor_msgs.msg import Image
+
+        from tracker_msgs_py.codec import image_to_bgr, image_to_gray
+
+        # A camera's raw mosaic of a uniform colour: each pixel keeps one channel, R at `red_at`
+        # of every 2x2 block, B diagonally opposite, G on the other two.
+        bgr = np.array([40, 120, 220], dtype=np.uint8)
+        height, width = 8, 10
+        rows, cols = np.indices((height, width))
+        at_red = (rows % 2 == red_at[0]) & (cols % 2 == red_at[1])
+        at_blue = (rows % 2 != red_at[0]) & (cols % 2 != red_at[1])
+        mosaic = np.where(at_red, bgr[2], np.where(at_blue, bgr[0], bgr[1])).astype(np.uint8)
+        padded = np.zeros((height, width + 2), dtype=np.uint8)
+        padded[:, :width] = mosaic
+        msg = Image(height=height, width=width, encoding=encoding, step=width + 2)
+        msg.data = padded.tobytes()
+        pixels = image_to_bgr(msg)
+        assert pixels.shape == (height, width, 3)
+        assert np.abs(pixels[2:-2, 2:-2].astype(int) - bgr).max() <= 1
+        gray = image_to_gray(msg)
+        assert abs(int(gray[4, 4]) - round(0.299 * 220 + 0.587 * 120 + 0.114 * 40)) <= 1
+
+    @pytest.mark.parametrize("encoding", ["yuv422", "uyvy", "yuv422_yuy2", "yuyv"])
+    def test_yuv422_is_read_in_its_byte_order(self, encoding):
+        from sensor_msgs.msg import Image
+
+        from tracker_msgs_py.codec import image_to_bgr
+
+        # No chroma (U = V = 128) and the luma alternating dark / bright: read in the wrong byte
+        # order, the luma would be taken as chroma and the pixels come out coloured.
+        height, width = 2, 6
+        luma = np.tile([60, 200], (height, width // 2))
+        chroma = np.full((height, width), 128)
+        first, second = (chroma, luma) if encoding in ("yuv422", "uyvy") else (luma, chroma)
+        packed = np.stack([first, second], axis=2).astype(np.uint8)
+        msg = Image(height=height, width=width, encoding=encoding, step=width * 2)
+        msg.data = packed.tobytes()
+        pixels = image_to_bgr(msg).astype(int)
+        assert pixels.shape == (height, width, 3)
+        assert np.abs(pixels - pixels[:, :, 1:2]).max() <= 2  # neutral
+        assert (pixels[:, 1::2, 1] - pixels[:, 0::2, 1] > 100).all()  # bright after dark
+
+    def test_yuv422_of_odd_width_is_named(self):
+        from sensor_msgs.msg import Image
+
+        from tracker_msgs_py.codec import UnsupportedEncodingError, image_to_bgr
+
+        with pytest.raises(UnsupportedEncodingError, match="odd width"):
+            image_to_bgr(Image(height=1, width=3, encoding="yuv422", step=6, data=b"\x80" * 6))
+
     def test_padded_rows_are_read_correctly(self):
         from sensor_msgs.msg import Image
 
@@ -84,7 +144,7 @@ class TestConversions:
 
         from tracker_msgs_py.codec import UnsupportedEncodingError, image_to_array
 
-        with pytest.raises(UnsupportedEncodingError, match="'16UC1'"):
+        with pytest.raises(UnsupportedEncodingError, match="'16UC1'.*bayer_rggb8"):
             image_to_array(Image(height=1, width=1, encoding="16UC1", step=2, data=b"\0\0"))
         with pytest.raises(UnsupportedEncodingError, match="malformed"):
             image_to_array(Image(height=2, width=2, encoding="bgr8", step=6, data=b"\0" * 6))
@@ -154,6 +214,44 @@ def test_parameters_are_validated_at_startup_and_on_change():
                 Node("bad", context=context, parameter_overrides=[Parameter("mode", value="slow")]),
                 [specs[2]],
             )
+        node.destroy_node()
+    finally:
+        rclpy.shutdown(context=context)
+
+
+def test_parameters_given_to_every_node_are_read_from_the_ros_arguments(tmp_path):
+    from tracker_msgs_py.params import parameters_for_every_node, ros_sections
+
+    params = tmp_path / "graph.yaml"
+    params.write_text(
+        "/**:\n  ros__parameters:\n    reliable_images: true\n    qos: {depth: 5}\n"
+        "/**/tracker:\n  ros__parameters:\n    lead_time: 0.1\n"
+    )
+    argv = ["prog", "-p", "not_ros:=1", "--ros-args", "--params-file", str(params)]
+    argv += ["-p", "use_sim_time:=true", "-p", "tracker:lead_tme:=0.2", "--", "-p", "x:=1"]
+    assert ros_sections(argv)[:2] == ["--params-file", str(params)]
+    assert parameters_for_every_node(argv) == {"reliable_images", "qos.depth", "use_sim_time"}
+    assert parameters_for_every_node(["--ros-args", "--params-file", str(tmp_path / "no")]) == set()
+
+
+def test_a_node_names_the_parameters_it_was_given_but_does_not_declare(tmp_path):
+    import rclpy
+
+    from tracker_msgs_py.node_main import SuiteNode
+
+    params = tmp_path / "graph.yaml"
+    params.write_text(
+        "/**:\n  ros__parameters:\n    reliable_images: true\n"
+        "/**/probe:\n  ros__parameters:\n    lead_time: 0.1\n    lead_tme: 0.2\n"
+    )
+    context = rclpy.Context()
+    rclpy.init(context=context, args=[])
+    try:
+        arguments = ["--ros-args", "--params-file", str(params), "-p", "probe:gap_typo:=3"]
+        node = SuiteNode("probe", context=context, cli_args=arguments)
+        node.declare_parameter("lead_time", 0.0)
+        # the misspelt ones given to it by name; not those every node gets (reliable_images)
+        assert node.unused_overrides() == ["gap_typo", "lead_tme"]
         node.destroy_node()
     finally:
         rclpy.shutdown(context=context)

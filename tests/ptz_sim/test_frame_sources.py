@@ -304,3 +304,43 @@ def test_an_unreadable_file_names_the_cause(case, tmp_path):
     with pytest.raises(SourceError) as error:
         open_source(path)
     assert str(error.value).startswith(expected)
+
+
+def write_image_bag(path, encoding, rows, step, frames=2):
+    """A rosbag2 of `frames` sensor_msgs/Image messages holding the bytes `rows` (H, step)."""
+    from rclpy.serialization import serialize_message
+    from sensor_msgs.msg import Image
+
+    from tracker_msgs_py.codec import ns_to_stamp
+    from tracker_ptz_sim.evaluation.recording import BagWriter
+
+    writer = BagWriter(path, {"/camera/image_raw": "sensor_msgs/msg/Image"})
+    for k in range(frames):
+        stamp = 1_000_000_000 + k * 100_000_000
+        width = rows.shape[1] // (2 if encoding == "16UC1" else 1)
+        msg = Image(height=rows.shape[0], width=width, encoding=encoding, step=step)
+        msg.header.stamp = ns_to_stamp(stamp)
+        msg.data = rows.tobytes()
+        writer.write("/camera/image_raw", stamp, serialize_message(msg))
+    writer.close()
+
+
+@pytest.mark.ros
+def test_a_bag_of_raw_bayer_images_is_read_in_colour(tmp_path):
+    # bayer_rggb8 of an orange scene: R at the even rows' even columns, B at the odd ones' odd
+    rows, cols = np.indices((8, 12))
+    mosaic = np.where((rows % 2 == 0) & (cols % 2 == 0), 230, 130)
+    mosaic = np.where((rows % 2 == 1) & (cols % 2 == 1), 30, mosaic).astype(np.uint8)
+    write_image_bag(tmp_path / "bag", "bayer_rggb8", mosaic, step=12)
+    frames = list(open_source(tmp_path / "bag").frames())
+    assert len(frames) == 2
+    assert np.abs(frames[0].image[2:-2, 2:-2].astype(int) - [30, 130, 230]).max() <= 1
+
+
+@pytest.mark.ros
+def test_a_bag_image_that_cannot_be_read_is_skipped_with_its_cause(tmp_path):
+    write_image_bag(tmp_path / "bag", "16UC1", np.zeros((4, 8), np.uint8), step=8)
+    source = open_source(tmp_path / "bag")
+    assert list(source.frames()) == []
+    assert source.skipped == 2
+    assert "/camera/image_raw: unsupported image encoding '16UC1'" in source.skip_cause

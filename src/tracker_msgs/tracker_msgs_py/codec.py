@@ -1,8 +1,10 @@
 """The suite's one codec between messages and plain values, as cv_bridge is for C++ (no node logic).
 
-- pixels: `image_to_array` / `image_to_bgr` / `image_to_gray` read an Image (mono8, bgr8, rgb8,
-  bgra8, rgba8; anything else raises `UnsupportedEncodingError`), `decode_image` also a
-  CompressedImage, from rclpy or from a rosbags-deserialized message alike; `array_to_image` writes;
+- pixels: `image_to_array` reads an Image as it is laid out (mono8, bgr8, rgb8, bgra8, rgba8);
+  `image_to_bgr` / `image_to_gray` also convert what camera drivers publish raw (the 8-bit Bayer
+  mosaics, yuv422 / yuv422_yuy2); anything else raises `UnsupportedEncodingError`;
+  `decode_image` also reads a CompressedImage, from rclpy or from a rosbags-deserialized message
+  alike; `array_to_image` writes;
 - stamps: `stamp_to_ns`, `ns_to_stamp`, `stamp_to_sec`, `frame_stamp_ns` (frame index at a rate);
 - rectangles: `rect_to_msg`, `msg_to_rect`, `msg_to_window` (a camera window of positive size);
 - `camera_info` for a pinhole camera, `image_qos` for image streams, `typestore` for rosbags.
@@ -32,8 +34,23 @@ if TYPE_CHECKING:
 
     from tracker_msgs.msg import Rect as RectMsg
 
-#: Encodings the suite reads and writes: number of channels of each.
+#: Encodings the suite reads and writes as they are laid out: number of channels of each.
 SUPPORTED_ENCODINGS: dict[str, int] = {"mono8": 1, "bgr8": 3, "rgb8": 3, "bgra8": 4, "rgba8": 4}
+
+#: Raw camera encodings `image_to_bgr` / `image_to_gray` convert (REP-104 / sensor_msgs names):
+#: bytes per pixel and the name of OpenCV's conversion to BGR. OpenCV names a Bayer pattern by
+#: the 2x2 block at the second row and column, so ROS's bayer_rggb8 is its BayerBG (as in
+#: cv_bridge); yuv422 is UYVY byte order, yuv422_yuy2 YUYV.
+CAMERA_ENCODINGS: dict[str, tuple[int, str]] = {
+    "bayer_rggb8": (1, "COLOR_BayerBG2BGR"),
+    "bayer_bggr8": (1, "COLOR_BayerRG2BGR"),
+    "bayer_gbrg8": (1, "COLOR_BayerGR2BGR"),
+    "bayer_grbg8": (1, "COLOR_BayerGB2BGR"),
+    "yuv422": (2, "COLOR_YUV2BGR_UYVY"),
+    "uyvy": (2, "COLOR_YUV2BGR_UYVY"),
+    "yuv422_yuy2": (2, "COLOR_YUV2BGR_YUYV"),
+    "yuyv": (2, "COLOR_YUV2BGR_YUYV"),
+}
 
 NS_PER_S = 1_000_000_000
 
@@ -141,13 +158,26 @@ def image_to_array(msg: Image) -> np.ndarray:
     """
     channels = SUPPORTED_ENCODINGS.get(msg.encoding)
     if channels is None:
-        raise UnsupportedEncodingError(
-            f"unsupported image encoding '{msg.encoding}' (supported: "
-            f"{', '.join(SUPPORTED_ENCODINGS)})",
-            f"unsupported encoding '{msg.encoding}'",
-        )
+        raise _unsupported(msg.encoding)
+    pixels = _rows(msg, channels)
+    if channels == 1:
+        return pixels
+    return pixels.reshape(pixels.shape[0], -1, channels)
+
+
+def _unsupported(encoding: str) -> UnsupportedEncodingError:
+    readable = ", ".join([*SUPPORTED_ENCODINGS, *CAMERA_ENCODINGS])
+    return UnsupportedEncodingError(
+        f"unsupported image encoding '{encoding}' (supported: {readable})",
+        f"unsupported encoding '{encoding}'",
+    )
+
+
+def _rows(msg: Image, bytes_per_pixel: int) -> np.ndarray:
+    """The image's rows (H, W x bytes_per_pixel) uint8 without their padding, checked against
+    its height, width, step and data length."""
     height, width, step = int(msg.height), int(msg.width), int(msg.step)
-    row_bytes = width * channels
+    row_bytes = width * bytes_per_pixel
     layout = f"{msg.encoding} image {width}x{height}, step {step}, {len(msg.data)} bytes"
     if height == 0 or width == 0:
         raise UnsupportedEncodingError(f"empty {layout}", "empty image")
@@ -162,14 +192,29 @@ def image_to_array(msg: Image) -> np.ndarray:
             "image data shorter than step x height",
         )
     rows = np.frombuffer(msg.data, dtype=np.uint8, count=step * height).reshape(height, step)
-    pixels = rows[:, :row_bytes]
-    if channels == 1:
-        return pixels.reshape(height, width)
-    return pixels.reshape(height, width, channels)
+    return rows[:, :row_bytes]
+
+
+def _camera_to_bgr(msg: Image) -> np.ndarray:
+    """A raw camera encoding (CAMERA_ENCODINGS) converted to BGR (H, W, 3) uint8."""
+    import cv2  # local import: keeps this module light for nodes that never convert colour
+
+    bytes_per_pixel, conversion = CAMERA_ENCODINGS[msg.encoding]
+    if bytes_per_pixel == 2 and int(msg.width) % 2:
+        raise UnsupportedEncodingError(
+            f"malformed {msg.encoding} image: odd width {msg.width} (pixels come in pairs)",
+            "odd width of a yuv422 image",
+        )
+    rows = _rows(msg, bytes_per_pixel)
+    pixels = rows if bytes_per_pixel == 1 else rows.reshape(rows.shape[0], -1, bytes_per_pixel)
+    return cv2.cvtColor(np.ascontiguousarray(pixels), getattr(cv2, conversion))
 
 
 def image_to_bgr(msg: Image) -> np.ndarray:
-    """The image as BGR (H, W, 3) uint8; mono8 is replicated into three channels, alpha dropped."""
+    """The image as BGR (H, W, 3) uint8; mono8 is replicated into three channels, alpha dropped,
+    Bayer mosaics demosaiced and yuv422 converted."""
+    if msg.encoding in CAMERA_ENCODINGS:
+        return _camera_to_bgr(msg)
     pixels = image_to_array(msg)
     if msg.encoding in ("rgb8", "rgba8"):
         return np.ascontiguousarray(pixels[:, :, 2::-1])
@@ -180,8 +225,11 @@ def image_to_bgr(msg: Image) -> np.ndarray:
 
 def image_to_gray(msg: Image) -> np.ndarray:
     """The image as (H, W) uint8 luma, with the seed's weights 0.2989 R + 0.5870 G + 0.1140 B."""
-    pixels = image_to_array(msg)
-    if msg.encoding == "mono8":
+    if msg.encoding in CAMERA_ENCODINGS:
+        pixels, encoding = _camera_to_bgr(msg), "bgr8"
+    else:
+        pixels, encoding = image_to_array(msg), msg.encoding
+    if encoding == "mono8":
         return pixels
     import cv2  # local import: keeps this module light for nodes that never convert colour
 
@@ -190,7 +238,7 @@ def image_to_gray(msg: Image) -> np.ndarray:
         "bgr8": cv2.COLOR_BGR2GRAY,
         "rgba8": cv2.COLOR_RGBA2GRAY,
         "bgra8": cv2.COLOR_BGRA2GRAY,
-    }[msg.encoding]
+    }[encoding]
     return cv2.cvtColor(np.ascontiguousarray(pixels), code)
 
 

@@ -51,7 +51,7 @@ from tracker_msgs_py import stop_signals
 from tracker_msgs_py.codec import stamp_to_ns
 from tracker_msgs_py.exit_deadline import ExitDeadline
 from tracker_msgs_py.node_stats import InputStats
-from tracker_msgs_py.params import ParameterError
+from tracker_msgs_py.params import ParameterError, parameters_for_every_node
 from tracker_msgs_py.problems import ProblemLog
 
 OUTPUT_SUFFIX = ": output"  # the diagnostic status of a node's published topics
@@ -62,6 +62,7 @@ SIGNAL_POLL_S = 0.1  # longest a stop signal waits for the executor to return to
 WORKER_JOIN_S = 1.5  # workers get this long to leave (the node must exit within 2 s)
 TEARDOWN_S = 1.8  # the whole teardown, workers included, before the process exits regardless
 DIAGNOSTICS_PERIOD_S = 1.0
+QOS_OVERRIDES_PREFIX = "qos_overrides."  # rclpy declares these only for the topics that use them
 
 
 class StartupError(RuntimeError):
@@ -93,6 +94,9 @@ class SuiteNode(Node):
         self._inputs: dict[str, InputStats] = {}
         self._outputs: dict[str, Publisher] = {}
         self._readers: dict[str, list[Subscription]] = {}  # per resolved topic
+        self._ros_args = list(node_options.get("cli_args") or []) + (
+            sys.argv if node_options.get("use_global_arguments", True) else []
+        )
         super().__init__(node_name, **node_options)
         self.stopping = threading.Event()
         self.finished = threading.Event()
@@ -109,6 +113,30 @@ class SuiteNode(Node):
         """A timer on wall time (the steady clock), for waits and reports: with use_sim_time
         the node's own clock stands still while a lockstep replay waits."""
         return self.create_timer(period_s, callback, clock=Clock(clock_type=ClockType.STEADY_TIME))
+
+    def unused_overrides(self) -> list[str]:
+        """Parameters given to this node by name (its params-file section, `-p node:name:=`,
+        run_demo's `--set`) that it did not declare: ROS ignores them without a word, so a
+        misspelt name changes nothing. Those given to every node (`/**`) are left out. rclpy
+        keeps the given values in `_parameter_overrides` and has no public accessor for them."""
+        given = getattr(self, "_parameter_overrides", {})
+        for_every_node = parameters_for_every_node(self._ros_args)
+        return sorted(
+            name
+            for name in given
+            if not self.has_parameter(name)
+            and name not in for_every_node
+            and not name.startswith(QOS_OVERRIDES_PREFIX)
+        )
+
+    def warn_unused_overrides(self) -> None:
+        """One warning naming the parameters given but not declared (see `unused_overrides`)."""
+        unused = self.unused_overrides()
+        if unused:
+            self.get_logger().warning(
+                f"ignored parameter(s) {', '.join(unused)}: this node does not declare them "
+                "(misspelt, or meant for a method other than the one chosen)"
+            )
 
     # --- threads and ending -----------------------------------------------------------------
 
@@ -330,6 +358,7 @@ class NodeGroup:
         self.nodes: list[SuiteNode] = []
 
     def add(self, node: SuiteNode) -> SuiteNode:
+        node.warn_unused_overrides()  # its parameters are declared once it is constructed
         self.nodes.append(node)
         self.executor.add_node(node)
         return node

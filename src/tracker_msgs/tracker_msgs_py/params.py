@@ -197,3 +197,58 @@ def _as_python(value: Any, default: ParamValue) -> Any:
     if isinstance(default, list) and not isinstance(value, list):
         return list(value)
     return value
+
+
+WILDCARD_SECTIONS = ("/**", "**")  # a params file's section for every node
+
+
+def parameters_for_every_node(ros_args: Sequence[str]) -> set[str]:
+    """The parameter names that a command line's ROS arguments (its `--ros-args` sections) give
+    every node rather than one by name: the `/**` section of each `--params-file` and each
+    `-p name:=value` without a node name. A node that does not use one of them (reliable_images
+    for a node without image inputs) is not wrong to ignore it; a parameter given to the node by
+    name and not declared is a mistake. Unreadable files count as giving nothing (rcl has
+    already refused them)."""
+    import yaml
+
+    names: set[str] = set()
+    tokens = ros_sections(ros_args)
+    for flag, value in zip(tokens, tokens[1:], strict=False):
+        if flag == "--params-file":
+            try:
+                with open(value, encoding="utf-8") as file:
+                    sections = yaml.safe_load(file) or {}
+            except (OSError, yaml.YAMLError):
+                continue
+            for section in WILDCARD_SECTIONS:
+                given = (sections.get(section) or {}).get("ros__parameters") or {}
+                names.update(_flattened(given))
+        elif flag in ("-p", "--param"):
+            name, sep, _ = value.partition(":=")
+            if sep and ":" not in name:
+                names.add(name)
+    return names
+
+
+def ros_sections(argv: Sequence[str]) -> list[str]:
+    """The tokens of `argv` inside its `--ros-args` sections (each ends at `--` or at the end),
+    where rcl reads its arguments; the rest belongs to the program."""
+    tokens: list[str] = []
+    inside = False
+    for token in argv:
+        if token == "--ros-args":
+            inside = True
+        elif token == "--":
+            inside = False
+        elif inside:
+            tokens.append(token)
+    return tokens
+
+
+def _flattened(tree: Mapping[str, Any], prefix: str = "") -> set[str]:
+    """Dotted names of a params file's nested parameters ({"a": {"b": 1}} -> {"a.b"})."""
+    names: set[str] = set()
+    for key, value in tree.items():
+        name = f"{prefix}{key}"
+        names.update(_flattened(value, f"{name}.") if isinstance(value, dict) else {name})
+    return names

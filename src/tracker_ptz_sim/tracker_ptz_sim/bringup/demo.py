@@ -31,6 +31,7 @@ import argparse
 import contextlib
 import os
 import queue
+import re
 import shutil
 import sys
 import threading
@@ -352,6 +353,7 @@ class RunResult:
     replay: dict[str, Any] = field(default_factory=dict)  # the last ReplayStatus
     # ptz_camera's own image-out -> command-in latency (ms: p50, p95, max; count)
     camera_latency: dict[str, float] = field(default_factory=dict)
+    node_warnings: list[str] = field(default_factory=list)  # "node: message", from logs/
 
     def fail(self, problem: str) -> None:
         self.complete = False
@@ -367,6 +369,7 @@ class RunResult:
             "exit_codes": self.exit_codes,
             "replay": self.replay,
             "camera_latency_ms": self.camera_latency,
+            "node_warnings": self.node_warnings,
         }
 
 
@@ -519,8 +522,9 @@ def run_graph(
     recorder.
     """
     bag_path = out / "bag"
-    if bag_path.exists():
-        shutil.rmtree(bag_path)
+    for previous in (bag_path, out / "logs"):  # a run into the same out/ replaces the last one's
+        if previous.exists():
+            shutil.rmtree(previous)
     topics = recorded_topics({t.name: t.type for t in graph.topics}, raw_images)
     bag = BagWriter(bag_path, topics, storage)
     result = RunResult(bag_path)
@@ -582,7 +586,27 @@ def run_graph(
         bag.close()
         result.replay = _replay_summary(recorder.status)
         _check_recording(recorder, result)
+        result.node_warnings = node_warnings(out / "logs")
     return result
+
+
+LOGGED_PROBLEM = re.compile(r"^\[(?:WARN|ERROR|FATAL)\] \[[0-9.]+\] \[([^\]]+)\]: (.*)$")
+
+
+def node_warnings(log_dir: Path, limit: int = 20) -> list[str]:
+    """The warnings and errors the nodes logged, "node: message", each once, log by log, at most
+    `limit` of them: what a user should see without opening logs/ (a parameter the node
+    ignored, input it dropped, a peer whose QoS does not match)."""
+    found: list[str] = []
+    for log in sorted(log_dir.glob("*.log")):
+        for line in log.read_text(errors="replace").splitlines():
+            match = LOGGED_PROBLEM.match(line)
+            warning = match and f"{match.group(1)}: {match.group(2)}"
+            if warning and warning not in found:
+                found.append(warning)
+                if len(found) == limit:
+                    return found
+    return found
 
 
 def _check_recording(recorder: Recorder, result: RunResult) -> None:
@@ -916,6 +940,8 @@ def main(argv: list[str] | None = None) -> int:
         "" if args.no_video or not summary.frames else ", annotated.mp4, contact_sheet.png"
     )
     print(f"\nWrote {args.out}/: {products}")
+    if run.node_warnings:
+        print("\nThe nodes warned (logs/):\n  " + "\n  ".join(run.node_warnings), file=sys.stderr)
     if not run.complete:
         problems = "\n  ".join(run.problems)
         print(f"\nThe run is INCOMPLETE:\n  {problems}", file=sys.stderr)

@@ -7,7 +7,8 @@
 - any other file: a video OpenCV reads (avi, mp4, mkv...), frame i stamped i / fps.
 
 Problems with the input as a whole raise SourceError with a message naming the path. A frame that
-cannot be decoded mid-stream is skipped and counted in `skipped` (the caller warns); later frames
+cannot be decoded mid-stream is skipped and counted in `skipped`, the reason in `skip_cause` when
+the reader knows it (the caller warns); later frames
 keep their index. Frames the input announces but does not hold (a truncated video) are counted in
 `lost`, and `end_note` says why the stream ended early.
 """
@@ -64,6 +65,7 @@ class FrameSource(ABC):
     fps: float
     total: int  # frames in the input, 0 when unknown
     skipped: int  # frames of [start, end) held but not decodable, over all passes so far
+    skip_cause: str = ""  # why the latest skipped frame could not be decoded, when known
     lost: int = 0  # frames of [start, end) announced but not held (the last pass that missed any)
     end_note: str = ""  # why the stream ended before the announced end, if it did
 
@@ -268,6 +270,7 @@ class ImageFolderSource(FrameSource):
             image = cv2.imread(str(self.files[index]), cv2.IMREAD_COLOR)
             if image is None:
                 self.skipped += 1
+                self.skip_cause = f"OpenCV cannot read {self.files[index].name}"
                 continue
             yield Frame(index, frame_stamp_ns(index, self.fps), image)
 
@@ -316,8 +319,8 @@ class BagSource(FrameSource):
                 try:
                     msg = store.deserialize_cdr(data, connection.msgtype)
                     image = decode_image(msg)
-                except (ValueError, cv2.error, RuntimeError):
-                    image = None
+                except (ValueError, cv2.error, RuntimeError) as error:
+                    image, self.skip_cause = None, f"{self.topic}: {error}"
                 if image is None:
                     self.skipped += 1
                     continue

@@ -348,10 +348,11 @@ class VideoSourceNode(SuiteNode):
 
     def _note_damage(self) -> None:
         if self.source.skipped > self.status.frames_skipped:
+            cause = f" ({self.source.skip_cause})" if self.source.skip_cause else ""
             self.problems.report(
                 "undecodable frame",
                 f"skipped {self.source.skipped - self.status.frames_skipped} undecodable "
-                f"frame(s) of {self.source.path} before frame {self.status.frame_index}",
+                f"frame(s) of {self.source.path} before frame {self.status.frame_index}{cause}",
             )
             self.status.frames_skipped = self.source.skipped
         self.status.frames_lost = self.source.lost
