@@ -344,3 +344,29 @@ def test_a_bag_image_that_cannot_be_read_is_skipped_with_its_cause(tmp_path):
     assert list(source.frames()) == []
     assert source.skipped == 2
     assert "/camera/image_raw: unsupported image encoding '16UC1'" in source.skip_cause
+
+
+@pytest.mark.ros
+def test_a_bag_with_several_image_topics_says_which_it_replays_and_at_what_rate(tmp_path):
+    from rclpy.serialization import serialize_message
+    from sensor_msgs.msg import CompressedImage
+
+    from tracker_ptz_sim.evaluation.recording import BagWriter
+
+    topics = ["/left/image_raw/compressed", "/right/image_raw/compressed"]
+    writer = BagWriter(tmp_path / "bag", dict.fromkeys(topics, "sensor_msgs/msg/CompressedImage"))
+    ok, png = cv2.imencode(".png", np.full((4, 6, 3), 7, np.uint8))
+    for k in range(3):
+        for topic in topics:
+            msg = CompressedImage(format="png", data=png.tobytes())
+            msg.header.stamp.sec = 1 + k
+            # recorded 100 times faster than the stamps run, as a lockstep replay records
+            writer.write(topic, (1 + k) * 10_000_000, serialize_message(msg))
+    writer.close()
+    chosen = open_source(tmp_path / "bag")
+    assert chosen.topic in topics and len(list(chosen.frames())) == 3
+    assert chosen.fps == pytest.approx(1.0)  # the stamps' rate, not the recording's
+    other = next(t for t in topics if t != chosen.topic)
+    assert other in chosen.note and "bag_topic" in chosen.note
+    asked = open_source(tmp_path / "bag", bag_topic=other)
+    assert asked.topic == other and asked.note == ""

@@ -33,12 +33,14 @@ from tracker_msgs_py.codec import (
     NS_PER_S,
     decode_image,
     frame_stamp_ns,
+    header_stamp_ns,
     stamp_to_ns,
     typestore,
 )
 
 IMAGE_SUFFIXES = {".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff", ".ppm", ".pgm", ".webp"}
 DEFAULT_FPS = 10.0
+STAMPS_FOR_RATE = 30  # header stamps a bag's frame rate is read from
 CAPTURE_OPTIONS = "OPENCV_FFMPEG_CAPTURE_OPTIONS"  # FFmpeg options of the captures OpenCV opens
 _OPTIONS_LOCK = threading.Lock()
 
@@ -68,6 +70,7 @@ class FrameSource(ABC):
     skip_cause: str = ""  # why the latest skipped frame could not be decoded, when known
     lost: int = 0  # frames of [start, end) announced but not held (the last pass that missed any)
     end_note: str = ""  # why the stream ended before the announced end, if it did
+    note: str = ""  # a choice made for the user that they may not want (warned at the start)
 
     @abstractmethod
     def frames(self, start: int = 0, end: int | None = None) -> Iterator[Frame]:
@@ -292,15 +295,38 @@ class BagSource(FrameSource):
             missing = f"no image topic {topic}" if topic else "no Image or CompressedImage topic"
             raise SourceError(f"{path}: the bag has {missing}")
         self.topic = candidates[0].topic
+        others = sorted({c.topic for c in candidates} - {self.topic})
+        if others:
+            self.note = (
+                f"{path}: the bag has more image topics than the one replayed, {self.topic}: "
+                f"{', '.join(others)} (the bag_topic parameter chooses)"
+            )
         self.total = sum(c.msgcount for c in candidates if c.topic == self.topic)
         if self.total == 0:
             raise SourceError(f"{path}: topic {self.topic} has no messages")
-        self.fps = (
-            (self.total - 1) / (duration / NS_PER_S)
-            if self.total > 1 and duration > 0
-            else DEFAULT_FPS
-        )
+        recorded_rate = (self.total - 1) / (duration / NS_PER_S) if duration > 0 else 0.0
+        self.fps = self._stamp_rate() or recorded_rate or DEFAULT_FPS
         self.skipped = 0
+
+    def _stamp_rate(self, count: int = STAMPS_FOR_RATE) -> float | None:
+        """Frames per second from the median gap between the first `count` header stamps (a bag
+        recorded faster than real time, as a lockstep replay records, has its own time in them);
+        None when they are unset."""
+        from rosbags.rosbag2 import Reader
+
+        stamps = []
+        with Reader(self.path) as reader:
+            connections = [c for c in reader.connections if c.topic == self.topic]
+            for _, _, data in reader.messages(connections=connections):
+                stamps.append(header_stamp_ns(data))
+                if len(stamps) == count:
+                    break
+        gaps = np.diff(stamps)
+        gaps = gaps[gaps > 0]
+        return NS_PER_S / float(np.median(gaps)) if gaps.size else None
+
+    def describe(self) -> str:
+        return f"{self.path} topic {self.topic} ({self.total} frames at {self.fps:g} fps)"
 
     def frames(self, start: int = 0, end: int | None = None) -> Iterator[Frame]:
         from rosbags.rosbag2 import Reader

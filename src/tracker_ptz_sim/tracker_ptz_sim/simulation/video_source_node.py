@@ -149,6 +149,8 @@ class VideoSourceNode(SuiteNode):
             self.params["start_frame"], self.params["end_frame"], self.source
         )
         self.get_logger().info(f"replaying {self.source.describe()}")
+        if self.source.note:
+            self.get_logger().warning(self.source.note)
         qos = image_qos(self.params["reliable_images"])
         self.image_pub = self.create_publisher(Image, "scene/image_raw", qos)
         self.info_pub = self.create_publisher(CameraInfo, "scene/camera_info", qos)
