@@ -8,9 +8,10 @@
 
 Problems with the input as a whole raise SourceError with a message naming the path. A frame that
 cannot be decoded mid-stream is skipped and counted in `skipped`, the reason in `skip_cause` when
-the reader knows it (the caller warns); later frames
-keep their index. Frames the input announces but does not hold (a truncated video) are counted in
-`lost`, and `end_note` says why the stream ended early.
+the reader knows it (the caller warns); later frames keep their index. Frames the input announces
+but does not hold (a truncated video) are counted in `lost`, and `end_note` says why the stream
+ended early. `note` is a choice made for the user that they may want to change (a bag's first
+image topic of several), warned at the start.
 """
 
 from __future__ import annotations
@@ -305,7 +306,11 @@ class BagSource(FrameSource):
         if self.total == 0:
             raise SourceError(f"{path}: topic {self.topic} has no messages")
         recorded_rate = (self.total - 1) / (duration / NS_PER_S) if duration > 0 else 0.0
-        self.fps = self._stamp_rate() or recorded_rate or DEFAULT_FPS
+        try:
+            stamp_rate = self._stamp_rate()
+        except Exception:  # rosbags raises several types; a damaged message is frames()'s to report
+            stamp_rate = None
+        self.fps = stamp_rate or recorded_rate or DEFAULT_FPS
         self.skipped = 0
 
     def _stamp_rate(self, count: int = STAMPS_FOR_RATE) -> float | None:
