@@ -201,6 +201,18 @@ def test_set_arguments_read_back_as_the_values_given():
     )
 
 
+def test_set_arguments_take_the_ros_launch_spelling_and_refuse_malformed_names():
+    from tracker_ptz_sim.bringup.graph import parse_overrides
+
+    assert parse_overrides(["tracker.lead_time:=0.2"]) == {"tracker": {"lead_time": 0.2}}
+    assert parse_overrides(["tracker.qos.depth=5"]) == {"tracker": {"qos.depth": 5}}
+    for item in ["tracker.lead time=1", "tracker.=1", "tracker.lead_time::=1", "2d.x=1"]:
+        with pytest.raises(SystemExit, match="not a node name and a parameter name"):
+            parse_overrides([item])
+    with pytest.raises(SystemExit, match="expects node.param=value"):
+        parse_overrides(["tracker.lead_time"])
+
+
 def test_a_set_argument_for_a_node_the_graph_lacks_is_refused_by_name(capsys):
     from tracker_ptz_sim.bringup import benchmark
     from tracker_ptz_sim.bringup.graph import load_graph, unknown_override_nodes

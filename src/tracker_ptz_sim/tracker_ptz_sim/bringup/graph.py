@@ -202,15 +202,25 @@ def executable_path(install_dir: Path, node: NodeSpec) -> Path:
     return path
 
 
+NODE_NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
+PARAMETER_NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_]*(\.[A-Za-z_][A-Za-z0-9_]*)*")
+
+
 def parse_overrides(items: Sequence[str]) -> dict[str, dict[str, Any]]:
-    """--set node.param=value (values parsed as YAML: 0.5, true, [1, 2], text; nothing after
-    the `=` is the empty string, e.g. a topic turned off, not YAML's null)."""
+    """--set node.param=value, or node.param:=value as ROS launch writes it (values parsed as
+    YAML: 0.5, true, [1, 2], text; nothing after the `=` is the empty string, e.g. a topic
+    turned off, not YAML's null). SystemExit naming the item for anything else."""
     overrides: dict[str, dict[str, Any]] = {}
     for item in items:
         key, sep, value = item.partition("=")
-        node, dot, param = key.partition(".")
+        node, dot, param = key.removesuffix(":").partition(".")
         if not sep or not dot:
             raise SystemExit(f"--set expects node.param=value, got '{item}'")
+        if not NODE_NAME.fullmatch(node) or not PARAMETER_NAME.fullmatch(param):
+            raise SystemExit(
+                f"--set '{item}': '{node}.{param}' is not a node name and a parameter name "
+                "(letters, digits and underscores; dots between a parameter's parts)"
+            )
         overrides.setdefault(node, {})[param] = yaml.safe_load(value) if value.strip() else ""
     return overrides
 
