@@ -370,3 +370,13 @@ def test_a_bag_with_several_image_topics_says_which_it_replays_and_at_what_rate(
     assert other in chosen.note and "bag_topic" in chosen.note
     asked = open_source(tmp_path / "bag", bag_topic=other)
     assert asked.topic == other and asked.note == ""
+
+
+def test_a_folder_of_images_says_the_rate_it_assumes(tmp_path):
+    for k in range(3):
+        cv2.imwrite(str(tmp_path / f"{k}.png"), np.full((4, 6, 3), k, np.uint8))
+    assumed = open_source(tmp_path)
+    assert assumed.fps == 10.0 and "10 fps" in assumed.note and "fps parameter" in assumed.note
+    assert [f.stamp_ns for f in assumed.frames()] == [0, 100_000_000, 200_000_000]
+    given = open_source(tmp_path, fps=30.0)
+    assert given.fps == 30.0 and given.note == ""

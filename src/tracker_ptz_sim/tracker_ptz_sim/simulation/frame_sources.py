@@ -266,6 +266,11 @@ class ImageFolderSource(FrameSource):
                 f"{path}: no images ({', '.join(sorted(IMAGE_SUFFIXES))}) in the folder"
             )
         self.fps = fps or DEFAULT_FPS
+        if not fps:
+            self.note = (
+                f"{path}: a folder of images carries no frame rate: its frames are stamped at "
+                f"{DEFAULT_FPS:g} fps (the fps parameter sets the camera's)"
+            )
         self.total = len(self.files)
         self.skipped = 0
 
