@@ -222,7 +222,7 @@ def parameters_for_every_node(ros_args: Sequence[str]) -> set[str]:
                 continue
             for section in WILDCARD_SECTIONS:
                 given = (sections.get(section) or {}).get("ros__parameters") or {}
-                names.update(_flattened(given))
+                names.update(flatten_parameters(given))
         elif flag in ("-p", "--param"):
             name, sep, _ = value.partition(":=")
             if sep and ":" not in name:
@@ -245,10 +245,12 @@ def ros_sections(argv: Sequence[str]) -> list[str]:
     return tokens
 
 
-def _flattened(tree: Mapping[str, Any], prefix: str = "") -> set[str]:
-    """Dotted names of a params file's nested parameters ({"a": {"b": 1}} -> {"a.b"})."""
-    names: set[str] = set()
-    for key, value in tree.items():
-        name = f"{prefix}{key}"
-        names.update(_flattened(value, f"{name}.") if isinstance(value, dict) else {name})
-    return names
+def flatten_parameters(values: Mapping[str, Any], prefix: str = "") -> dict[str, Any]:
+    """A params file's nested parameter maps as rcl reads them: {a: {b: 1}} -> {"a.b": 1}."""
+    flat: dict[str, Any] = {}
+    for name, value in values.items():
+        if isinstance(value, Mapping):
+            flat.update(flatten_parameters(value, f"{prefix}{name}."))
+        else:
+            flat[f"{prefix}{name}"] = value
+    return flat

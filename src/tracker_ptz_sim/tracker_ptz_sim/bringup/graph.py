@@ -22,6 +22,7 @@ from typing import Any
 import yaml
 
 from tracker_msgs_py.package_files import package_data
+from tracker_msgs_py.params import flatten_parameters
 from tracker_ptz_sim.simulation.camera_model import MAX_COMMAND_DELAY_FRAMES
 
 
@@ -147,7 +148,7 @@ def resolve_parameters(sources: Sequence[ParameterSource], node_fqn: str) -> dic
     for source in sources:
         data = yaml.safe_load(source.read_text()) if isinstance(source, Path) else source
         for key, body in (data or {}).items():
-            values = _flatten((body or {}).get("ros__parameters", {}))
+            values = flatten_parameters((body or {}).get("ros__parameters", {}))
             sections.setdefault(str(key), {}).update(values)
     merged: dict[str, Any] = {}
     for key, values in sections.items():
@@ -155,17 +156,6 @@ def resolve_parameters(sources: Sequence[ParameterSource], node_fqn: str) -> dic
         if re.fullmatch(pattern.replace("/*", r"(/\w+)"), node_fqn):
             merged.update(values)
     return merged
-
-
-def _flatten(values: Mapping[str, Any], prefix: str = "") -> dict[str, Any]:
-    """Nested parameter maps as rcl reads them: {a: {b: 1}} -> {"a.b": 1}."""
-    flat: dict[str, Any] = {}
-    for name, value in values.items():
-        if isinstance(value, Mapping):
-            flat.update(_flatten(value, f"{prefix}{name}."))
-        else:
-            flat[f"{prefix}{name}"] = value
-    return flat
 
 
 def ros_args(
