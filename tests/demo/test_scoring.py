@@ -80,6 +80,28 @@ def test_switch_after_the_object_went_out_of_the_counted_ones_is_explained():
     assert stayed.followed_changes == 1 and stayed.unexplained_changes == 1
 
 
+def test_switch_as_the_object_walks_out_is_explained():
+    """A person walking out at the scene's edge is counted down to a quarter of them in it: moving
+    on a frame before that last sliver goes is following them out, not changing whom the camera
+    follows. Gone only for a moment (hidden, back within 2 s), or leaving only a second later,
+    they were still there."""
+
+    def switch_at_21(gone: range):
+        truth = _walkers(60)
+        for f in gone:
+            del truth[f][1]
+        targets = {f: truth[f][1].center for f in range(1, 21)}
+        targets |= {f: truth[f][2].center for f in range(21, 61)}
+        return pan_tilt_scores(truth, _trace(60, targets))
+
+    left_next_frame = switch_at_21(range(22, 61))
+    assert left_next_frame.followed_changes == 1 and left_next_frame.unexplained_changes == 0
+    hidden_for_a_moment = switch_at_21(range(22, 30))
+    assert hidden_for_a_moment.unexplained_changes == 1
+    left_a_second_later = switch_at_21(range(31, 61))
+    assert left_a_second_later.unexplained_changes == 1
+
+
 def test_write_evaluation_writes_scores_tracks_and_plots(tmp_path):
     truth = _walkers(20)
     gt = tmp_path / "gt.txt"

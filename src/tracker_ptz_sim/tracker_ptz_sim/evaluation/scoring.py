@@ -10,8 +10,9 @@ boxes and the locked target. `score_trace` then gives
   centre is in the view, their boxes clipped to it;
 - the pan-tilt figures (`PanTiltScores`): share of locked frames whose target lies on a real object,
   how often the followed object changes (and how often without a reason: it neither left -- is no
-  longer among the counted objects -- nor was lost for `REASON_GAP_S`), centring error, time to
-  the first lock and to re-acquire after a loss;
+  longer among the counted objects, or is leaving: out of them within `EXIT_GRACE_S` of the change
+  and for `REASON_GAP_S` after -- nor was lost for `REASON_GAP_S`), centring error, time to the
+  first lock and to re-acquire after a loss;
 - on request (`centres`), seed 004's scores on box centres for small objects
   (`centre_scores`: OSPA with c = 5 and 10 px, CLEAR MOT with a 10 px match), over the whole scene.
 """
@@ -35,6 +36,10 @@ from tracker_ptz_sim.evaluation.metrics import Boxes
 
 LabelImages = Callable[[int], np.ndarray]  # 1-based frame -> label image (pixel = object id)
 REASON_GAP_S = 2.0  # a lock lost this long may move on to another object
+#: An object out of the counted ones this soon after the change, for REASON_GAP_S, was leaving: a
+#: person walking out at the scene's edge is counted down to a quarter of them in it, and moving
+#: on a frame or two before that sliver goes is not changing whom the camera follows.
+EXIT_GRACE_S = 0.5
 
 
 @dataclass
@@ -159,7 +164,8 @@ def pan_tilt_scores(truth: Boxes, trace: RunTrace, counted: Boxes | None = None)
     a mostly hidden person is still a real object). A change of the followed object is explained
     when the one followed before is no longer among the `counted` objects (the gt rows with
     conf > 0; default: every object in `truth`): a person whose last sliver is at the scene's
-    edge, under the scene's visibility threshold, has left it."""
+    edge, under the scene's visibility threshold, has left it; or when it is leaving them
+    (`_leaving`); or when the target was off it for REASON_GAP_S."""
     counted = truth if counted is None else counted
     frames = sorted(trace.windows)
     followed = followed_objects(truth, trace.targets)
@@ -171,9 +177,11 @@ def pan_tilt_scores(truth: Boxes, trace: RunTrace, counted: Boxes | None = None)
             continue
         if previous is not None and current != previous:
             changes += 1
-            still_there = previous in counted.get(frame, {})
+            staying = previous in counted.get(frame, {}) and not _leaving(
+                previous, frame, counted, trace.fps
+            )
             lost_for = (frame - last_seen[previous]) / trace.fps
-            unexplained += still_there and lost_for < REASON_GAP_S
+            unexplained += staying and lost_for < REASON_GAP_S
         previous, last_seen[current] = current, frame
         window = trace.windows[frame]
         errors.append(metrics.centre_distance(truth[frame][current], window))
@@ -192,6 +200,18 @@ def pan_tilt_scores(truth: Boxes, trace: RunTrace, counted: Boxes | None = None)
         else None,
         reacquire_s=_reacquire_times(frames, set(followed), first_lock, trace.fps),
     )
+
+
+def _leaving(obj: int, frame: int, counted: Boxes, fps: float) -> bool:
+    """Whether `obj`, counted at `frame`, leaves the counted objects within EXIT_GRACE_S and
+    stays out of them for REASON_GAP_S (or to the end of the ground truth)."""
+    last = max(counted, default=frame)
+    grace, gap = round(EXIT_GRACE_S * fps), round(REASON_GAP_S * fps)
+    for start in range(frame + 1, min(frame + grace, last) + 1):
+        out = range(start, min(start + gap, last) + 1)
+        if all(obj not in counted.get(f, {}) for f in out):
+            return True
+    return False
 
 
 def _reacquire_times(
