@@ -38,6 +38,7 @@ from typing import Any
 import rclpy
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rclpy.clock import Clock, ClockType
+from rclpy.duration import Duration
 from rclpy.event_handler import PublisherEventCallbacks, SubscriptionEventCallbacks
 from rclpy.executors import Executor, MultiThreadedExecutor, SingleThreadedExecutor
 from rclpy.node import Node
@@ -61,6 +62,7 @@ WRITERS_SUFFIX = " writers"  # among its values: "<topic> writers" = writers its
 SIGNAL_POLL_S = 0.1  # longest a stop signal waits for the executor to return to Python
 WORKER_JOIN_S = 1.5  # workers get this long to leave (the node must exit within 2 s)
 TEARDOWN_S = 1.8  # the whole teardown, workers included, before the process exits regardless
+LAST_REPORT_ACK_S = 0.5  # of it, the longest the nodes' last reports wait to be acknowledged
 DIAGNOSTICS_PERIOD_S = 1.0
 QOS_OVERRIDES_PREFIX = "qos_overrides."  # rclpy declares these only for the topics that use them
 
@@ -275,6 +277,12 @@ class SuiteNode(Node):
         graph in one process ends with its replay, before the next report was due)."""
         self._publish_diagnostics()
 
+    def wait_for_last_report(self, timeout_s: float) -> bool:
+        """Until the subscribers have acknowledged the diagnostics published (at most
+        `timeout_s`): a writer destroyed right after publishing drops what is not yet delivered,
+        and on a busy machine the last report was lost that way."""
+        return self._diagnostics_pub.wait_for_all_acked(Duration(seconds=max(0.0, timeout_s)))
+
     def _publish_diagnostics(self) -> None:
         revision = self.problems.revision
         recent = revision != self._diagnostics_seen
@@ -409,6 +417,10 @@ def run_nodes(
         group.executor.shutdown(timeout_sec=0.0)
         for node in reversed(group.nodes):
             node.publish_last_report()
+        acknowledged_by = time.monotonic() + LAST_REPORT_ACK_S
+        for node in reversed(group.nodes):
+            node.wait_for_last_report(acknowledged_by - time.monotonic())
+        for node in reversed(group.nodes):
             node.destroy_node()
         rclpy.try_shutdown()
         deadline.cancel()
