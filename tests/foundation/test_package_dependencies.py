@@ -27,6 +27,7 @@ PYTHON_KEYS = {
     "motmetrics": "python3-motmetrics-pip",
     "trackeval": "python3-trackeval-pip",
     "foxglove": "python3-foxglove-sdk-pip",
+    "onnxruntime": "python3-onnxruntime-pip",
 }
 # Keys in rosdistro's rosdep/python.yaml, looked up by hand in ros/rosdistro on 2026-11-25
 # (python3-filterpy and python3-rosbags are not keys there; their -pip forms are).
@@ -39,6 +40,7 @@ ROSDISTRO_KEYS = {
     "python3-yaml",
     "python3-matplotlib",
     "python3-rosbags-pip",
+    "python3-onnxruntime-pip",  # ros/rosdistro#32307
     "python3-pytest",
 }
 # ROS 2 Jazzy packages (rosdep resolves them from the distribution).

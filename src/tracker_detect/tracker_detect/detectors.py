@@ -25,6 +25,7 @@ from tracker_detect.motion import (
     DetectorConfig,
     MotionDetector,
 )
+from tracker_detect.person import RUNTIMES, PersonConfig, PersonDetector
 from tracker_msgs_py.params import ParamSpec, config_from_params
 from tracker_msgs_py.registry import Method, Registry
 
@@ -543,5 +544,49 @@ DETECTORS.register(
         "+ close (2x2), 8-connected blobs of small objects (seed 004)",
         build=lambda values: Mog2(config_from_params(Mog2Config, values)),
         parameters=MOG2_PARAMETERS,
+    )
+)
+
+
+_P = PersonConfig()
+
+PERSON_PARAMETERS: tuple[ParamSpec, ...] = (
+    ParamSpec(
+        "input_size",
+        _P.input_size,
+        "the model input's longer side [px] (a multiple of 32; the image is scaled to it)",
+        32,
+        2048,
+        validator=lambda v: None if v % 32 == 0 else "input_size must be a multiple of 32",
+    ),
+    ParamSpec(
+        "score_threshold", _P.score_threshold, "person score below which a box is dropped", 0.0, 1.0
+    ),
+    ParamSpec(
+        "nms_iou", _P.nms_iou, "boxes overlapping more than this IoU are one person", 0.01, 1.0
+    ),
+    ParamSpec("threads", _P.threads, "the runtime's threads per image", 1, 64, read_only=True),
+    ParamSpec(
+        "runtime",
+        _P.runtime,
+        "onnxruntime, or opencv (OpenCV's DNN: a fallback giving the same boxes)",
+        choices=RUNTIMES,
+        read_only=True,
+    ),
+    ParamSpec(
+        "model_path",
+        _P.model_path,
+        "an ONNX person model of NanoDet's layout ('' = the shipped NanoDet)",
+        read_only=True,
+    ),
+)
+
+DETECTORS.register(
+    Method(
+        name="person",
+        description="a learned person model (NanoDet, COCO's person class, onnxruntime) on each "
+        "camera image: person boxes with scores",
+        build=lambda values: PersonDetector(config_from_params(PersonConfig, values)),
+        parameters=PERSON_PARAMETERS,
     )
 )

@@ -88,6 +88,16 @@ def iou_matrix(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return result
 
 
+def corner_iou_matrix(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """`iou_matrix` of boxes given by their corners (x0, y0, x1, y1, any further columns)."""
+    a = np.asarray(a, dtype=float).reshape(len(a), -1)[:, :4]
+    b = np.asarray(b, dtype=float).reshape(len(b), -1)[:, :4]
+    return iou_matrix(
+        np.column_stack([a[:, :2], a[:, 2:] - a[:, :2]]),
+        np.column_stack([b[:, :2], b[:, 2:] - b[:, :2]]),
+    )
+
+
 @dataclass(frozen=True)
 class SceneGeometry:
     """Linear (equiangular) mapping between pan/tilt angles and scene pixels."""
