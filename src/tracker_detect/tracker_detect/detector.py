@@ -12,7 +12,8 @@
 
 Contract (tests/detect/test_detector_contract.py, for every registered detector): one Detection
 per accepted frame, with the frame's stamp; a frame not newer than the last raises
-`StaleFrameError` and changes nothing; `reset()` forgets the history.
+`StaleFrameError` and changes nothing; `reset()` forgets the history. A method whose `build`
+cannot start (a learned model that will not load) raises `DetectorUnavailableError`.
 """
 
 from __future__ import annotations
@@ -26,6 +27,11 @@ import numpy as np
 
 from tracker_detect.registration import ShiftEstimate, View
 from tracker_msgs_py.geometry import Rect
+
+
+class DetectorUnavailableError(RuntimeError):
+    """A detector that cannot start: a model file missing or damaged, no runtime to run it. The
+    message names the cause in one line; the node stops at start-up with it."""
 
 
 class StaleFrameError(ValueError):

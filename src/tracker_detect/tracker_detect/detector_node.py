@@ -29,6 +29,7 @@ from tracker_detect.detector import (
     DeferredLearning,
     Detection,
     Detector,
+    DetectorUnavailableError,
     SeededDetector,
     StaleFrameError,
 )
@@ -69,7 +70,7 @@ from tracker_msgs_py.codec import (
     stamp_to_ns,
 )
 from tracker_msgs_py.geometry import Rect
-from tracker_msgs_py.node_main import SuiteNode, run_node
+from tracker_msgs_py.node_main import StartupError, SuiteNode, run_node
 from tracker_msgs_py.params import ParamSpec, config_from_params, declare_parameters
 from tracker_msgs_py.stamps import Order, StampOrder
 
@@ -172,7 +173,7 @@ class DetectorNode(SuiteNode):
             on_change=self._on_change,
             check_all=self._check,
         )
-        self.detector: Detector = self.method.build(self._method_values(self.params))
+        self.detector: Detector = self._build(self._method_values(self.params))
         self.counters = Counters()
         self.pairing = ImagePosePairing(
             self.params["pose_source"],
@@ -223,9 +224,16 @@ class DetectorNode(SuiteNode):
     def _method_values(self, values: dict[str, Any]) -> dict[str, Any]:
         return {spec.name: values[spec.name] for spec in self.method.parameters}
 
+    def _build(self, values: dict[str, Any]) -> Detector:
+        """The method's detector; one that cannot start ends the node with its cause."""
+        try:
+            return self.method.build(values)
+        except DetectorUnavailableError as error:
+            raise StartupError(f"the {self.method.name} detector cannot start: {error}") from None
+
     def _check(self, values: dict[str, Any]) -> str | None:
         try:
-            detector = self.method.build(self._method_values(values))
+            detector = self._build(self._method_values(values))
         except ValueError as error:
             return str(error)
         if values["pose_source"] == "estimate" and not detector.estimates_ego_motion:
@@ -261,7 +269,7 @@ class DetectorNode(SuiteNode):
             if reconfigure is not None:  # keeps the history it can
                 reconfigure(values)
             else:
-                self.detector = self.method.build(values)
+                self.detector = self._build(values)
         self.pairing.configure(
             self.params["pose_buffer_size"],
             self._max_gap_ns(),

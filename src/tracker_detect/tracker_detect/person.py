@@ -29,7 +29,13 @@ from typing import Any
 import cv2
 import numpy as np
 
-from tracker_detect.detector import Blob, CameraFrame, Detection, checked_view
+from tracker_detect.detector import (
+    Blob,
+    CameraFrame,
+    Detection,
+    DetectorUnavailableError,
+    checked_view,
+)
 from tracker_detect.registration import View
 from tracker_msgs_py.geometry import Rect, corner_iou_matrix
 from tracker_msgs_py.package_files import package_data
@@ -44,7 +50,7 @@ STD = np.array([57.375, 57.12, 58.395], np.float32)
 RUNTIMES = ("onnxruntime", "opencv")
 
 
-class ModelUnavailableError(RuntimeError):
+class ModelUnavailableError(DetectorUnavailableError):
     """The model file is missing or damaged, or no runtime can load it (one line: the cause)."""
 
 
