@@ -1,0 +1,296 @@
+"""Offline linking of per-frame person boxes into tracks, and the finishing of ground truth (no rclpy).
+
+`link`: a forward pass in the manner of ByteTrack, with the whole clip known: each track predicts
+its box by its recent velocity; the Hungarian assignment on IoU matches confident boxes first
+(score >= `high`), then the remaining tracks to the weak boxes (>= `low`); only a confident box
+starts a track; a track unmatched for more than `max_gap` frames ends. Tracks observed in fewer
+than `min_boxes` frames, or never confidently (`min_peak`), are dropped.
+
+`finish`: ground truth from reviewed tracks: gaps of at most `max_gap` frames filled by linear
+interpolation, boxes clipped to the frame, and each box's visibility, the share of it not covered
+by the boxes of people nearer the camera (a lower bottom edge).
+
+Box tables are MOTChallenge text: `frame, id, x, y, w, h, score, class, visibility, ...`, frames
+numbered from 1, (x, y) the top-left corner in px.
+"""
+
+from __future__ import annotations
+
+import configparser
+from collections.abc import Iterator
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import cv2
+import numpy as np
+from scipy.optimize import linear_sum_assignment
+
+from tracker_msgs_py.geometry import corner_iou_matrix
+
+DETECTION_FLOOR = 0.1  # fused score below which the assistant's boxes are not kept
+
+
+@dataclass(frozen=True)
+class Box:
+    x: float
+    y: float
+    w: float
+    h: float
+    score: float = 1.0
+    visibility: float = 1.0
+
+    @property
+    def corners(self) -> np.ndarray:
+        return np.array([self.x, self.y, self.x + self.w, self.y + self.h])
+
+    @classmethod
+    def from_corners(cls, c: np.ndarray, score: float = 1.0) -> Box:
+        return cls(float(c[0]), float(c[1]), float(c[2] - c[0]), float(c[3] - c[1]), score)
+
+
+@dataclass
+class Detections:
+    """Per frame (from 1), the boxes found in it."""
+
+    by_frame: dict[int, list[Box]] = field(default_factory=dict)
+
+    def frames(self) -> set[int]:
+        return set(self.by_frame)
+
+
+@dataclass
+class Tracks:
+    """Per id, per frame (from 1), the person's box."""
+
+    by_id: dict[int, dict[int, Box]] = field(default_factory=dict)
+
+    def ids(self) -> list[int]:
+        return sorted(self.by_id)
+
+    def __len__(self) -> int:
+        return sum(len(boxes) for boxes in self.by_id.values())
+
+    def in_frame(self, frame: int) -> dict[int, Box]:
+        return {i: boxes[frame] for i, boxes in self.by_id.items() if frame in boxes}
+
+    def rows(self) -> Iterator[tuple[int, int, Box]]:
+        """(frame, id, box) in frame order, then id order."""
+        items = [(f, i, b) for i, boxes in self.by_id.items() for f, b in boxes.items()]
+        yield from sorted(items, key=lambda item: (item[0], item[1]))
+
+    def copy(self) -> Tracks:
+        return Tracks({i: dict(boxes) for i, boxes in self.by_id.items()})
+
+
+def _rows(path: Path) -> Iterator[list[str]]:
+    for line in path.read_text().splitlines():
+        if line.strip() and not line.startswith("#"):
+            yield line.split(",")
+
+
+def read_detections(path: Path) -> Detections:
+    detections = Detections()
+    for f in _rows(path):
+        box = Box(float(f[2]), float(f[3]), float(f[4]), float(f[5]), float(f[6]))
+        detections.by_frame.setdefault(int(f[0]), []).append(box)
+    return detections
+
+
+def read_tracks(path: Path) -> Tracks:
+    """Tracks from a MOTChallenge file (a tracker's output or ground truth)."""
+    tracks = Tracks()
+    for f in _rows(path):
+        visibility = float(f[8]) if len(f) > 8 else 1.0
+        box = Box(float(f[2]), float(f[3]), float(f[4]), float(f[5]), float(f[6]), visibility)
+        tracks.by_id.setdefault(int(f[1]), {})[int(f[0])] = box
+    return tracks
+
+
+def write_tracks(tracks: Tracks, path: Path) -> None:
+    """The assistant's tracks: `frame, id, x, y, w, h, score, -1, -1, -1`."""
+    lines = [
+        f"{f},{i},{b.x:.2f},{b.y:.2f},{b.w:.2f},{b.h:.2f},{b.score:.4f},-1,-1,-1"
+        for f, i, b in tracks.rows()
+    ]
+    path.write_text("\n".join(lines) + "\n")
+
+
+def write_ground_truth(tracks: Tracks, path: Path) -> None:
+    """MOTChallenge gt.txt: `frame, id, x, y, w, h, 1 (score it), 1 (pedestrian), visibility`."""
+    lines = [
+        f"{f},{i},{b.x:.2f},{b.y:.2f},{b.w:.2f},{b.h:.2f},1,1,{b.visibility:.3f}"
+        for f, i, b in tracks.rows()
+    ]
+    path.write_text("\n".join(lines) + "\n")
+
+
+@dataclass(frozen=True)
+class SeqInfo:
+    """MOTChallenge's seqinfo.ini: the clip's name, frame rate, length and size."""
+
+    name: str
+    fps: float
+    length: int
+    width: int
+    height: int
+
+
+def write_seqinfo(folder: Path, video: Path, size: tuple[int, int], length: int) -> None:
+    capture = cv2.VideoCapture(str(video))
+    fps = capture.get(cv2.CAP_PROP_FPS) or 10.0
+    capture.release()
+    (folder / "seqinfo.ini").write_text(
+        f"[Sequence]\nname={video.stem}\nimDir=img1\nframeRate={fps:g}\nseqLength={length}\n"
+        f"imWidth={size[0]}\nimHeight={size[1]}\nimExt=.jpg\n"
+    )
+
+
+def read_seqinfo(folder: Path) -> SeqInfo:
+    parser = configparser.ConfigParser()
+    parser.read(folder / "seqinfo.ini")
+    s = parser["Sequence"]
+    return SeqInfo(
+        s["name"], float(s["frameRate"]), int(s["seqLength"]), int(s["imWidth"]), int(s["imHeight"])
+    )
+
+
+@dataclass(frozen=True)
+class LinkConfig:
+    high: float = 0.35  # a box at least this confident may start a track and is matched first
+    low: float = DETECTION_FLOOR  # weaker boxes only continue tracks
+    match_iou: float = 0.3  # least IoU of a predicted box and a box to match them
+    max_gap: int = 15  # frames a track may go unmatched (1.5 s at 10 fps) and be continued
+    velocity_frames: int = 5  # the last observations the velocity is measured over
+    min_boxes: int = 5  # tracks observed in fewer frames are dropped
+    min_peak: float = 0.45  # ... and tracks never seen at least this confidently
+
+
+@dataclass
+class _Live:
+    ident: int
+    observed: dict[int, np.ndarray]  # frame -> corners
+    scores: list[float]
+    last: int
+
+    def predict(self, frame: int, window: int) -> np.ndarray:
+        frames = sorted(self.observed)[-window:]
+        box = self.observed[frames[-1]]
+        if len(frames) < 2:
+            return box
+        first = self.observed[frames[0]]
+        velocity = (box - first) / (frames[-1] - frames[0])
+        return box + velocity * (frame - frames[-1])
+
+
+def _match(predicted: np.ndarray, boxes: np.ndarray, threshold: float) -> list[tuple[int, int]]:
+    if len(predicted) == 0 or len(boxes) == 0:
+        return []
+    overlap = corner_iou_matrix(predicted, boxes)
+    rows, cols = linear_sum_assignment(-overlap)
+    return [(int(r), int(c)) for r, c in zip(rows, cols, strict=True) if overlap[r, c] >= threshold]
+
+
+def link(detections: Detections, config: LinkConfig | None = None) -> Tracks:
+    """Tracks with ids 1, 2, ... in order of first appearance (see the module docstring)."""
+    c = config or LinkConfig()
+    live: list[_Live] = []
+    ended: list[_Live] = []
+    next_id = 1
+    for frame in sorted(detections.by_frame):
+        found = detections.by_frame[frame]
+        corners = np.array([b.corners for b in found]).reshape(-1, 4)
+        scores = np.array([b.score for b in found])
+        still: list[_Live] = []
+        for track in live:
+            (ended if frame - track.last > c.max_gap else still).append(track)
+        live = still
+        unmatched = list(range(len(live)))
+        taken: set[int] = set()
+        for tier in (scores >= c.high, (scores >= c.low) & (scores < c.high)):
+            candidates = np.flatnonzero(tier)
+            predicted = np.array([live[t].predict(frame, c.velocity_frames) for t in unmatched])
+            pairs = _match(predicted.reshape(-1, 4), corners[candidates], c.match_iou)
+            for r, col in pairs:
+                track, box = live[unmatched[r]], int(candidates[col])
+                track.observed[frame] = corners[box]
+                track.scores.append(float(scores[box]))
+                track.last = frame
+                taken.add(box)
+            matched = {unmatched[r] for r, _ in pairs}
+            unmatched = [t for t in unmatched if t not in matched]
+        for new in (int(b) for b in np.flatnonzero(scores >= c.high)):
+            if new not in taken:
+                live.append(_Live(next_id, {frame: corners[new]}, [float(scores[new])], frame))
+                next_id += 1
+    tracks = Tracks()
+    kept = [
+        t for t in ended + live if len(t.observed) >= c.min_boxes and max(t.scores) >= c.min_peak
+    ]
+    for new_id, track in enumerate(sorted(kept, key=lambda t: (min(t.observed), t.ident)), 1):
+        score_of = dict(zip(sorted(track.observed), track.scores, strict=True))
+        tracks.by_id[new_id] = {
+            f: Box.from_corners(box, score_of[f]) for f, box in sorted(track.observed.items())
+        }
+    return tracks
+
+
+def interpolate(boxes: dict[int, Box], max_gap: int) -> dict[int, Box]:
+    """The boxes with every gap of at most `max_gap` frames filled linearly between its ends."""
+    frames = sorted(boxes)
+    out = dict(boxes)
+    for a, b in zip(frames, frames[1:], strict=False):
+        if 1 < b - a <= max_gap + 1:
+            start, end = boxes[a].corners, boxes[b].corners
+            for f in range(a + 1, b):
+                t = (f - a) / (b - a)
+                out[f] = Box.from_corners(start + t * (end - start), 0.0)
+    return dict(sorted(out.items()))
+
+
+def clip(box: Box, width: int, height: int) -> Box | None:
+    """The part of the box inside the frame (None: nothing of it is)."""
+    x0, y0 = max(box.x, 0.0), max(box.y, 0.0)
+    x1, y1 = min(box.x + box.w, float(width)), min(box.y + box.h, float(height))
+    if x1 - x0 < 1 or y1 - y0 < 1:
+        return None
+    return Box(x0, y0, x1 - x0, y1 - y0, box.score, box.visibility)
+
+
+def visibilities(boxes: dict[int, Box]) -> dict[int, float]:
+    """Per id, the share of its box not covered by nearer people's boxes (lower bottom edges),
+    on a 1 px grid."""
+    out = {}
+    for i, box in boxes.items():
+        x0, y0 = int(np.floor(box.x)), int(np.floor(box.y))
+        w, h = max(1, int(np.ceil(box.w))), max(1, int(np.ceil(box.h)))
+        covered = np.zeros((h, w), bool)
+        for j, other in boxes.items():
+            if j == i or other.y + other.h <= box.y + box.h:
+                continue
+            ox0 = int(np.clip(np.floor(other.x) - x0, 0, w))
+            ox1 = int(np.clip(np.ceil(other.x + other.w) - x0, 0, w))
+            oy0 = int(np.clip(np.floor(other.y) - y0, 0, h))
+            oy1 = int(np.clip(np.ceil(other.y + other.h) - y0, 0, h))
+            covered[oy0:oy1, ox0:ox1] = True
+        out[i] = round(1.0 - float(covered.mean()), 3)
+    return out
+
+
+def finish(tracks: Tracks, width: int, height: int, max_gap: int = LinkConfig.max_gap) -> Tracks:
+    """Ground truth from reviewed tracks (see the module docstring)."""
+    filled = Tracks()
+    for i, boxes in tracks.by_id.items():
+        inside = {}
+        for f, box in interpolate(boxes, max_gap).items():
+            clipped = clip(box, width, height)
+            if clipped is not None:
+                inside[f] = clipped
+        if inside:
+            filled.by_id[i] = inside
+    frames = sorted({f for boxes in filled.by_id.values() for f in boxes})
+    for f in frames:
+        present = filled.in_frame(f)
+        for i, v in visibilities(present).items():
+            b = present[i]
+            filled.by_id[i][f] = Box(b.x, b.y, b.w, b.h, 1.0, v)
+    return filled
