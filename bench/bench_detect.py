@@ -14,6 +14,9 @@ out/bench/detect.json. Everything runs on ONE core (OpenCV and BLAS limited to o
   through a fixed 256x256 window and as the whole 640x480 frame (BGR in, blobs out; mog2 is a
   static-camera method, so it is timed here, not on the sweeping window).
 - registration: the shift estimators alone, at the seed's 110x110 window and at 256x256.
+- person model: the `person` detector (NanoDet) per 264x264 camera view (the surveillance graph's
+  view at zoom 1) sweeping over vtest.avi, at input sizes 256 and 320 with onnxruntime and at 256
+  with OpenCV's DNN, beside `ssim_background` on the same views (colour in, boxes out).
 """
 
 from __future__ import annotations
@@ -222,6 +225,49 @@ def bench_registration(quick: bool) -> dict:
     return results
 
 
+PERSON_CASES = (
+    ("person, 256 px input, onnxruntime", "person", {"input_size": 256}),
+    ("person, 320 px input, onnxruntime", "person", {"input_size": 320}),
+    ("person, 256 px input, OpenCV DNN", "person", {"input_size": 256, "runtime": "opencv"}),
+    ("ssim_background (the same views)", "ssim_background", {}),
+)
+
+
+def bench_person(quick: bool) -> dict:
+    """Per-view time of the person model on real people (vtest.avi), one thread."""
+    from tracker_ptz_sim.annotation.assistant import read_frames
+    from tracker_ptz_sim.bringup.sample import SampleUnavailableError, fetch_sample
+
+    try:
+        video = fetch_sample()
+    except (SampleUnavailableError, OSError) as error:
+        return {"skipped": f"vtest.avi is not available ({error})"}
+    n, size = (20 if quick else 80), 264
+    frames = [f for k, f in zip(range(n), read_frames(video), strict=False)]
+    height, width = frames[0].shape[:2]
+    windows = [(int(40 + (k * 5) % (width - size - 80)), 100) for k in range(n)]
+    results: dict = {}
+    for name, registered, overrides in PERSON_CASES:
+        method = DETECTORS.get(registered)
+        detector = method.build({**method.defaults(), **overrides})
+        times, blobs = [], 0
+        for k, (frame, (x, y)) in enumerate(zip(frames, windows, strict=True)):
+            view = View(Rect(x, y, size, size), size, size)
+            crop = np.ascontiguousarray(frame[y : y + size, x : x + size])
+            start = time.perf_counter()
+            result = detector.process(CameraFrame(k * 100_000_000, crop, view))
+            elapsed = time.perf_counter() - start
+            if result.compared and k >= 3:
+                times.append(elapsed)
+                blobs += len(result.blobs)
+        results[name] = {
+            "median_ms": 1e3 * statistics.median(times),
+            "frames": len(times),
+            "boxes_per_view": blobs / len(times),
+        }
+    return results
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--quick", action="store_true", help="fewer repetitions (smoke run)")
@@ -238,6 +284,7 @@ def main() -> int:
         "detector": bench_detector(args.quick),
         "static": bench_static(args.quick),
         "registration": bench_registration(args.quick),
+        "person": bench_person(args.quick),
     }
     s = report["ssim_map"]
     print("tracker_detect benchmark (one core)")
@@ -259,6 +306,15 @@ def main() -> int:
     print("\nShift estimators alone (true shift (-13, 20)):")
     for name, value in report["registration"].items():
         print(f"  {name:44s} {value['median_ms']:8.2f} ms  -> {value['estimate']}")
+    print("\nPerson model per 264x264 view of vtest.avi (one thread), beside the SSIM detector:")
+    for name, value in report["person"].items():
+        if name == "skipped":
+            print(f"  skipped: {value}")
+            continue
+        print(
+            f"  {name:44s} {value['median_ms']:8.2f} ms  ({value['frames']} views, "
+            f"{value['boxes_per_view']:.1f} boxes/view)"
+        )
     OUT.parent.mkdir(parents=True, exist_ok=True)
     OUT.write_text(json.dumps(report, indent=1))
     print(f"\nwrote {OUT.relative_to(ROOT)}")

@@ -88,10 +88,14 @@ def iou_matrix(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return result
 
 
+def _corners(boxes: np.ndarray) -> np.ndarray:
+    boxes = np.asarray(boxes, dtype=float)
+    return boxes.reshape(len(boxes), -1)[:, :4] if boxes.size else np.zeros((len(boxes), 4))
+
+
 def corner_iou_matrix(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """`iou_matrix` of boxes given by their corners (x0, y0, x1, y1, any further columns)."""
-    a = np.asarray(a, dtype=float).reshape(len(a), -1)[:, :4]
-    b = np.asarray(b, dtype=float).reshape(len(b), -1)[:, :4]
+    a, b = _corners(a), _corners(b)
     return iou_matrix(
         np.column_stack([a[:, :2], a[:, 2:] - a[:, :2]]),
         np.column_stack([b[:, :2], b[:, 2:] - b[:, :2]]),

@@ -48,21 +48,25 @@ import os
 import shutil
 import sys
 import time
+from collections.abc import Iterator
 from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 
 from tracker_filter.config import PRESETS
 from tracker_msgs_py import stop_signals
+from tracker_msgs_py.codec import frame_stamp_ns
+from tracker_msgs_py.package_files import package_data
 from tracker_msgs_py.ros_domain import private_domain_id
 from tracker_ptz_sim.bringup import pipeline
 from tracker_ptz_sim.bringup.graph import load_graph, node_parameters, unknown_override_nodes
 from tracker_ptz_sim.evaluation import error_classes, scoring
 from tracker_ptz_sim.evaluation.centre_scores import OSPA_CUTOFFS, ospa_key
-from tracker_ptz_sim.simulation import small_objects, street
+from tracker_ptz_sim.simulation import real_people, small_objects, street
 from tracker_ptz_sim.simulation.scenes import (
+    GT_PATH,
     META_NAME,
     Scene,
     label_reader,
@@ -86,14 +90,57 @@ SMALL_OBJECT_PRESETS: dict[str, small_objects.SmallObjectsConfig] = {
     # 40 movers of 10-30 px over 200 frames, 25-35 in view at a time, 5 forced crossings, 3 occluders
     "small_objects": small_objects.SmallObjectsConfig(seed=7),
 }
-SceneConfig = street.StreetConfig | small_objects.SmallObjectsConfig
-#: Every scene preset by name: the street scenes, then the small-object scenes.
-SCENES: dict[str, SceneConfig] = {**street.STREET_PRESETS, **SMALL_OBJECT_PRESETS}
+
+
+@dataclass(frozen=True)
+class AnnotatedClip:
+    """A real clip and its reviewed ground truth (`annotation`): annotations/<name>/ of this
+    package holds gt/gt.txt and seqinfo.ini; the clip is the sample vtest.avi."""
+
+    name: str
+    seed: ClassVar[int] = 0  # one clip, not a family of scenes: --seeds does not apply
+
+    @property
+    def folder(self) -> Path:
+        return package_data("tracker_ptz_sim", "annotations") / self.name
+
+    @property
+    def gt(self) -> Path:
+        return self.folder / GT_PATH
+
+
+#: The annotated real clips, by name.
+CLIPS: dict[str, AnnotatedClip] = {"vtest": AnnotatedClip("vtest")}
+SceneConfig = street.StreetConfig | small_objects.SmallObjectsConfig | AnnotatedClip
+#: Every scene by name: the annotated clip, the scenes of real people (development, held-out),
+#: the drawn-figure street scenes, the small-object scenes.
+SCENES: dict[str, SceneConfig] = {
+    **CLIPS,
+    **street.REAL_PEOPLE_PRESETS,
+    **street.STREET_PRESETS,
+    **SMALL_OBJECT_PRESETS,
+}
+#: What `benchmark` runs when no --scenes are named: real people only (the accuracy of record).
+DEFAULT_SCENES = (*CLIPS, *street.REAL_PEOPLE_PRESETS)
 STREET, SMALL_OBJECTS = "street", "small_objects"  # the kinds of scene
 
 
 def scene_kind(config: SceneConfig) -> str:
+    """Which configurations run on it: the small-object ones, or the street ones (people)."""
     return SMALL_OBJECTS if isinstance(config, small_objects.SmallObjectsConfig) else STREET
+
+
+def scene_set(name: str) -> str:
+    """The table's groups: "annotated clip", "development", "held-out", "drawn figures" or
+    "small objects"."""
+    config = SCENES[name]
+    if isinstance(config, AnnotatedClip):
+        return "annotated clip"
+    if isinstance(config, small_objects.SmallObjectsConfig):
+        return "small objects"
+    return {"development": "development", "held_out": "held-out"}.get(
+        config.people, "drawn figures"
+    )
 
 
 @dataclass(frozen=True)
@@ -178,18 +225,46 @@ def background_image(kind: str) -> tuple[np.ndarray | None, str]:
     return None, "generated plaza"
 
 
+class RealPeople:
+    """The cut-outs of the annotated vtest.avi's people (`real_people`), made on first use."""
+
+    def __init__(self) -> None:
+        self._library: real_people.CutoutLibrary | None = None
+
+    @property
+    def gt(self) -> Path:
+        return CLIPS["vtest"].gt
+
+    def library(self) -> real_people.CutoutLibrary:
+        if self._library is None:
+            from tracker_ptz_sim.bringup.sample import fetch_sample
+
+            video = fetch_sample()
+            print("cutting out the annotated people of vtest.avi ...", flush=True)
+            self._library = real_people.load_library(
+                video, self.gt, street.median_background(video), real_people.CutoutConfig()
+            )
+        return self._library
+
+
 def prepare_scene(
-    name: str, config: SceneConfig, background: np.ndarray | None, cache: Path
+    name: str,
+    config: street.StreetConfig | small_objects.SmallObjectsConfig,
+    background: np.ndarray | None,
+    cache: Path,
+    people: RealPeople | None = None,
 ) -> Path:
     """The scene directory for `config` (a street or small-object scene) over `background`,
     rendered once and cached by content (the generators' sources included: a changed generator
-    renders its scenes anew)."""
-    small = scene_kind(config) == SMALL_OBJECTS
-    sources = (street, small_objects) if small else (street,)  # small_objects uses street's camera
+    renders its scenes anew; scenes of real people also by the annotation they are cut from)."""
+    small = isinstance(config, small_objects.SmallObjectsConfig)
+    real = isinstance(config, street.StreetConfig) and config.people != "drawn"
+    sources = (street, small_objects) if small else (street, real_people)
     key = hashlib.sha256(
         json.dumps(asdict(config), sort_keys=True).encode()
         + (background.tobytes() if background is not None else b"generated")
         + b"".join(Path(module.__file__ or "").read_bytes() for module in sources)
+        + ((people or RealPeople()).gt.read_bytes() if real else b"")
     ).hexdigest()[:12]
     root = cache / f"{name}-{key}"
     if not (root / META_NAME).exists():
@@ -198,9 +273,44 @@ def prepare_scene(
         if isinstance(config, small_objects.SmallObjectsConfig):
             scene = small_objects.generate_small_objects(config, background)
         else:
-            scene = street.generate_street(config, background)
+            cutouts = (people or RealPeople()).library() if real else None
+            scene = street.generate_street(config, background, cutouts)
         _write_whole(scene, root)
     return root
+
+
+@dataclass(frozen=True)
+class ClipReplay:
+    """A real clip as `run_in_process` replays it: its frames, read anew each time."""
+
+    video: Path
+    fps: float
+    num_frames: int
+
+    @property
+    def frames(self) -> Iterator[np.ndarray]:
+        from tracker_ptz_sim.annotation.assistant import read_frames
+
+        return read_frames(self.video)
+
+    def stamps_ns(self) -> list[int]:
+        return [frame_stamp_ns(i, self.fps) for i in range(self.num_frames)]
+
+
+def prepare_clip(clip: AnnotatedClip, cache: Path) -> tuple[Path, ClipReplay]:
+    """A scene directory for the annotated clip (its gt/gt.txt and a scene.json naming the
+    clip's video) and its replay."""
+    from tracker_ptz_sim.annotation.linking import read_seqinfo
+    from tracker_ptz_sim.bringup.sample import fetch_sample
+
+    video = fetch_sample()
+    info = read_seqinfo(clip.folder)
+    root = cache / f"{clip.name}-annotated"
+    (root / "gt").mkdir(parents=True, exist_ok=True)
+    shutil.copyfile(clip.gt, root / GT_PATH)
+    meta = {"generator": "clip", "video": str(video), "num_frames": info.length, "fps": info.fps}
+    (root / META_NAME).write_text(json.dumps(meta, indent=2) + "\n")
+    return root, ClipReplay(video, info.fps, info.length)
 
 
 def _write_whole(scene: Scene, root: Path) -> None:
@@ -221,7 +331,10 @@ def _write_whole(scene: Scene, root: Path) -> None:
             raise
 
 
-def run_in_process(scene: Scene, settings: pipeline.PipelineSettings) -> scoring.RunTrace:
+Replay = Scene | ClipReplay
+
+
+def run_in_process(scene: Replay, settings: pipeline.PipelineSettings) -> scoring.RunTrace:
     steps = pipeline.run(scene.frames, scene.stamps_ns(), settings)
     return scoring.trace_from_steps(steps, scene.fps)
 
@@ -250,7 +363,7 @@ def run_graph(
 def benchmark_one(
     scene_name: str,
     scene_dir: Path,
-    scene: Scene,
+    scene: Replay,
     configuration: str,
     graph_name: str,
     overrides: dict[str, dict[str, Any]],
@@ -297,15 +410,58 @@ def _speed(runs: list[RunScores]) -> float:
 
 
 def table(results: list[RunScores]) -> str:
-    """The results as Markdown tables: per scene preset, configuration and path, the mean over
-    the preset's seeds (object changes summed); why boxes missed (`error_table`); the runs
-    scored on box centres (small-object scenes) again in a third table, `centre_table`."""
+    """The results as Markdown tables: per set of scenes (`set_table`), then per scene preset,
+    configuration and path, the mean over the preset's seeds (object changes summed); why boxes
+    missed (`error_table`); the runs scored on box centres (small-object scenes) again in a
+    fourth table, `centre_table`."""
     centred = [r for r in results if "centres" in r.scores]
     return (
-        main_table(results)
+        set_table(results)
+        + "\n\n"
+        + main_table(results)
         + "\n\n"
         + error_table(results)
         + ("\n\n" + centre_table(centred) if centred else "")
+    )
+
+
+SET_ORDER = ("annotated clip", "development", "held-out", "drawn figures", "small objects")
+
+
+def set_table(results: list[RunScores]) -> str:
+    """Per set of scenes (`scene_set`), configuration and path: the mean over its runs."""
+    header = (
+        "| scenes | configuration | path | runs | view MOTA | view IDF1 | view HOTA | recall | "
+        "precision | id switches | scene MOTA | scene IDF1 | target on object | "
+        "object changes (unexplained) |"
+    )
+    lines = [header, "|" + "---|" * (header.count("|") - 1)]
+    groups: dict[tuple[str, str, str], list[RunScores]] = {}
+    for r in results:
+        groups.setdefault((scene_set(r.scene), r.configuration, r.path), []).append(r)
+    order = {name: k for k, name in enumerate(SET_ORDER)}
+    for (kind, configuration, path), runs in sorted(
+        groups.items(), key=lambda item: order[item[0][0]]
+    ):
+
+        def mean(part: str, name: str, runs: list[RunScores] = runs) -> float:
+            return _mean(runs, part, name)
+
+        switches = sum(r.scores["in_view"]["id_switches"] for r in runs)
+        changes = sum(r.scores["pan_tilt"]["followed_changes"] for r in runs)
+        unexplained = sum(r.scores["pan_tilt"]["unexplained_changes"] for r in runs)
+        lines.append(
+            f"| {kind} | {configuration} | {path} | {len(runs)} | {mean('in_view', 'mota'):.3f} | "
+            f"{mean('in_view', 'idf1'):.3f} | {mean('in_view', 'hota'):.3f} | "
+            f"{mean('in_view', 'recall'):.3f} | {mean('in_view', 'precision'):.3f} | {switches} | "
+            f"{mean('whole_scene', 'mota'):.3f} | {mean('whole_scene', 'idf1'):.3f} | "
+            f"{100 * mean('pan_tilt', 'on_object_share'):.1f} % | {changes} ({unexplained}) |"
+        )
+    return (
+        "Per set of scenes (the annotated clip; scenes of real people, development and held-out "
+        "people apart; drawn figures; small objects): the mean over the set's runs, IoU >= 0.5, "
+        "in the camera's view unless 'scene'; id switches and object changes summed.\n\n"
+        + "\n".join(lines)
     )
 
 
@@ -441,7 +597,7 @@ def main(argv: list[str] | None = None) -> int:
     from tracker_ptz_sim.bringup.demo import parse_overrides
 
     extra = parse_overrides(args.set)
-    scene_names = args.scenes or list(SCENES)
+    scene_names = args.scenes or list(DEFAULT_SCENES)
     configurations = args.configs or list(CONFIGURATIONS)
     runs = {
         name: [c for c in configurations if CONFIGURATIONS[c].scenes == scene_kind(SCENES[name])]
@@ -496,6 +652,24 @@ def _isolate_ros(domain_id: int | None) -> None:
     print(f"graph runs on ROS_DOMAIN_ID {domain_id}, localhost only", flush=True)
 
 
+def _scenes_of(
+    name: str, args: argparse.Namespace, background: np.ndarray | None, people: RealPeople
+) -> Iterator[tuple[str, int, Path, Replay]]:
+    """(label, seed, scene directory, replay) of each scene of `name`: the clip once; a preset's
+    seeds (--first-seed, --seeds), rendered when not cached."""
+    chosen = SCENES[name]
+    if isinstance(chosen, AnnotatedClip):
+        scene_dir, replay = prepare_clip(chosen, args.out / "scenes")
+        yield name, 0, scene_dir, replay
+        return
+    small = isinstance(chosen, small_objects.SmallObjectsConfig)
+    for k in range(args.first_seed, args.first_seed + args.seeds):
+        config = replace(chosen, seed=chosen.seed + k, num_frames=args.frames or chosen.num_frames)
+        ground = None if small else background
+        scene_dir = prepare_scene(name, config, ground, args.out / "scenes", people)
+        yield f"{name}-{config.seed}", config.seed, scene_dir, load_scene(scene_dir)
+
+
 def _run_all(
     args: argparse.Namespace,
     scene_names: list[str],
@@ -507,21 +681,14 @@ def _run_all(
     failures: list[str],
 ) -> None:
     """Every scene x configuration x path, appending to `results` and `failures` as they end."""
+    people = RealPeople()
     for name in scene_names:
         if not runs[name]:
             continue
         small = scene_kind(SCENES[name]) == SMALL_OBJECTS
-        for k in range(args.first_seed, args.first_seed + args.seeds):
-            preset = SCENES[name]
-            config = replace(
-                preset, seed=preset.seed + k, num_frames=args.frames or preset.num_frames
-            )
-            ground = None if small else background
-            scene_dir = prepare_scene(name, config, ground, args.out / "scenes")
-            scene = load_scene(scene_dir)
+        for label, seed, scene_dir, scene in _scenes_of(name, args, background, people):
             for configuration in runs[name]:
                 for path in paths:
-                    label = f"{name}-{config.seed}"
                     print(f"{label} / {configuration} / {path} ...", flush=True)
                     chosen = CONFIGURATIONS[configuration]
                     overrides = _merged(chosen.overrides, extra)
@@ -541,7 +708,7 @@ def _run_all(
                         failures.append(f"{label} / {configuration} / {path}: {error}")
                         print(f"FAILED: {failures[-1]}", file=sys.stderr, flush=True)
                         continue
-                    results.append(replace(result, scene=name, seed=config.seed))
+                    results.append(replace(result, scene=name, seed=seed))
                     print(scoring.format_scores(result.scores), flush=True)
 
 

@@ -41,7 +41,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from functools import partial
 from pathlib import Path
 from typing import ClassVar, Protocol
@@ -50,6 +50,13 @@ import cv2
 import numpy as np
 
 from tracker_msgs_py.params import check_config
+from tracker_ptz_sim.simulation.real_people import (
+    SETS,
+    CutoutLibrary,
+    LookChooser,
+    RealLook,
+    real_sprite,
+)
 from tracker_ptz_sim.simulation.scenes import (
     GroundTruthBox,
     Scene,
@@ -57,6 +64,7 @@ from tracker_ptz_sim.simulation.scenes import (
     negative_counts,
 )
 
+PEOPLE = ("drawn", *SETS)  # StreetConfig.people
 STATURE_M = 1.7  # the person height the perspective sizes refer to
 STEP_FRACTION = 0.4  # step length / stature
 SHIFT = 4  # fractional bits of the sub-pixel coordinates given to OpenCV's drawing functions
@@ -96,6 +104,9 @@ class StreetConfig:
     jpeg_quality: int = 75  # every frame goes through JPEG at this quality; 0 = no compression
     camera_jitter: int = 0  # px, per-frame camera offset drawn uniformly from [-j, j] per axis
     min_visibility: float = 0.25  # boxes less visible than this get conf 0 (ignored)
+    # who walks: "drawn" figures, or real people cut out of an annotated clip (real_people), those
+    # of its "development" set or of its "held_out" set
+    people: str = "drawn"
     seed: int = 0
 
     def __post_init__(self) -> None:
@@ -138,6 +149,8 @@ class StreetConfig:
             problems.append(f"jpeg_quality must be in [0, 100], got {c.jpeg_quality}")
         if not 0 <= c.min_visibility <= 1:
             problems.append(f"min_visibility must be in [0, 1], got {c.min_visibility}")
+        if c.people not in PEOPLE:
+            problems.append(f"people must be one of {', '.join(PEOPLE)}, got '{c.people}'")
         return problems
 
 
@@ -174,6 +187,34 @@ STREET_PRESETS: dict[str, StreetConfig] = {
     # 4 people walking alone, each hidden for 1 s by a board midway through their time in view.
     "occluded": StreetConfig(walkers=4, occluders=4, seed=37),
 }
+
+
+def _real_people_presets() -> dict[str, StreetConfig]:
+    """The benchmark's scenes of real people (`real_people`): each kind of scene with the
+    development people ("real_...") and with the held-out people ("heldout_...", other seeds).
+    People are 60-190 px tall, as tall as vtest.avi's own (cut-outs are scaled up at most 2x)."""
+    kinds = {
+        "walkers": StreetConfig(walkers=5),
+        "groups": StreetConfig(walkers=1, groups=2, crossings=1),
+        "crossings": StreetConfig(walkers=1, crossings=3),
+        "stops": StreetConfig(walkers=2, stoppers=2),
+        "occluded": StreetConfig(walkers=4, occluders=4),
+        "shaky": StreetConfig(walkers=5, camera_jitter=3),
+    }
+    presets = {}
+    for k, (kind, config) in enumerate(kinds.items()):
+        for prefix, people, seed in (("real", "development", 100), ("heldout", "held_out", 200)):
+            presets[f"{prefix}_{kind}"] = replace(
+                config,
+                people=people,
+                person_height_far=60.0,
+                person_height_near=190.0,
+                seed=seed + 10 * k,
+            )
+    return presets
+
+
+REAL_PEOPLE_PRESETS: dict[str, StreetConfig] = _real_people_presets()
 
 
 @dataclass(frozen=True, eq=False)
@@ -828,9 +869,11 @@ def _composite(
     x: int,
     y: int,
     ident: int,
+    alpha: np.ndarray | None = None,
 ) -> tuple[int, int, int, int] | None:
-    """Paste ``patch`` where ``mask`` at (x, y), clipped; set ``label`` there to ``ident``.
-    Returns the image rectangle (x0, y0, x1, y1) it touched, or None when fully outside."""
+    """Paste ``patch`` where ``mask`` at (x, y), clipped (blended by ``alpha`` where given: the
+    soft edge of a cut-out); set ``label`` to ``ident`` where ``mask``. Returns the image
+    rectangle (x0, y0, x1, y1) it touched, or None when fully outside."""
     H, W = canvas.shape[:2]
     h, w = mask.shape
     x0, y0, x1, y1 = max(x, 0), max(y, 0), min(x + w, W), min(y + h, H)
@@ -838,7 +881,12 @@ def _composite(
         return None
     sub = mask[y0 - y : y1 - y, x0 - x : x1 - x]
     pixels = patch[y0 - y : y1 - y, x0 - x : x1 - x]
-    canvas[y0:y1, x0:x1][sub] = np.clip(pixels[sub], 0, 255)
+    if alpha is None:
+        canvas[y0:y1, x0:x1][sub] = np.clip(pixels[sub], 0, 255)
+    else:
+        a = alpha[y0 - y : y1 - y, x0 - x : x1 - x, None]
+        under = canvas[y0:y1, x0:x1].astype(np.float32)
+        canvas[y0:y1, x0:x1] = np.clip(np.rint(a * pixels + (1 - a) * under), 0, 255)
     label[y0:y1, x0:x1][sub] = ident
     return x0, y0, x1, y1
 
@@ -1386,7 +1434,7 @@ class _Person:
     """One person's look and, per frame, where it stands and how it walks (world px)."""
 
     object_id: int
-    look: _Look
+    look: _Look | RealLook
     info: StreetPerson
     heading: np.ndarray  # (N,) rad on the ground
     phase: np.ndarray  # (N,) gait phase, cycles
@@ -1424,7 +1472,7 @@ def _person(
     object_id: int,
     unit: tuple[int, _Unit],
     plan: _Plan,
-    look_for: Callable[[np.ndarray, float], _Look],
+    look_for: Callable[[np.ndarray, float], _Look | RealLook],
     config: StreetConfig,
     ground: _Ground,
 ) -> _Person:
@@ -1463,14 +1511,29 @@ def _people(
     config: StreetConfig,
     ground: _Ground,
     background: np.ndarray,
+    cutouts: CutoutLibrary | None,
 ) -> list[_Person]:
-    """Everybody, numbered 1, 2, ... in the order of ``units``."""
+    """Everybody, numbered 1, 2, ... in the order of ``units``: drawn figures, or real people of
+    ``cutouts``' set ``config.people``."""
     people: list[_Person] = []
+    chooser = None
+    if config.people != "drawn":
+        if cutouts is None:
+            raise ValueError(f"a street scene of real people ({config.people}) needs cut-outs")
+        chooser = LookChooser(rng, cutouts.of_set(config.people))
     for index, unit in enumerate(units):
         for plan in unit.plans:
-            look_for = partial(_dress, rng, background, config.camera_jitter, plan.stature)
+            look_for: Callable[[np.ndarray, float], _Look | RealLook]
+            if chooser is None:
+                look_for = partial(_dress, rng, background, config.camera_jitter, plan.stature)
+            else:
+                look_for = partial(_real_look, chooser, plan.stature)
             people.append(_person(len(people) + 1, (index, unit), plan, look_for, config, ground))
     return people
+
+
+def _real_look(chooser: LookChooser, stature: float, foot: np.ndarray, h: float) -> RealLook:
+    return chooser.look(stature)
 
 
 @dataclass(eq=False)
@@ -1495,9 +1558,18 @@ class _PersonItem:
         view = self.person.view(n, dx, dy)
         if self.shadow > 0:
             _cast_shadow(canvas, view, self.shadow)
-        sprite = _figure(self.person.look, float(self.person.phase[n]), view)
-        colour, mask = _colour(self.person.look, sprite, view)
-        rect = _composite(canvas, label, colour, mask, sprite.x0, sprite.y0, self.person.object_id)
+        look, phase = self.person.look, float(self.person.phase[n])
+        alpha = None
+        if isinstance(look, RealLook):
+            colour, alpha, x0, y0 = real_sprite(
+                look, phase, (view.u, view.v), view.h, view.cos >= 0
+            )
+            mask = alpha >= 0.5
+        else:
+            sprite = _figure(look, phase, view)
+            colour, mask = _colour(look, sprite, view)
+            x0, y0 = sprite.x0, sprite.y0
+        rect = _composite(canvas, label, colour, mask, x0, y0, self.person.object_id, alpha)
         if rect is not None:
             self.drawn.append(_Drawn(self.person.object_id, int(mask.sum()), rect))
 
@@ -1625,10 +1697,15 @@ def _render(
     return _visible_boxes(n, drawn, label, config.min_visibility)
 
 
-def generate_street(config: StreetConfig, background: np.ndarray | None = None) -> StreetScene:
+def generate_street(
+    config: StreetConfig,
+    background: np.ndarray | None = None,
+    cutouts: CutoutLibrary | None = None,
+) -> StreetScene:
     """Render the street scene ``config`` describes, over ``background`` (any BGR or grey image,
-    resized to the scene size) or, without one, a procedural plaza made from the seed.
-    Deterministic: the same config and background give bit-identical frames."""
+    resized to the scene size) or, without one, a procedural plaza made from the seed; real
+    people (``config.people`` not "drawn") come from ``cutouts``. Deterministic: the same config,
+    background and cut-outs give bit-identical frames."""
     streams = [np.random.default_rng(s) for s in np.random.SeedSequence(config.seed).spawn(6)]
     layout_rng, look_rng, background_rng, distractor_rng, sensor_rng, jitter_rng = streams
     ground = _Ground.of(config)
@@ -1638,7 +1715,8 @@ def generate_street(config: StreetConfig, background: np.ndarray | None = None) 
         if background is None
         else _given_background(background, config.width, config.height, margin)
     )
-    people = _people(_layout(layout_rng, config, ground), look_rng, config, ground, world)
+    units = _layout(layout_rng, config, ground)
+    people = _people(units, look_rng, config, ground, world, cutouts)
     distractors = _distractors(distractor_rng, config, ground)
     distractors += _boards(distractor_rng, config, ground, people)
     N, H, W = config.num_frames, config.height, config.width
