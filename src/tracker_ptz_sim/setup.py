@@ -1,4 +1,5 @@
 from glob import glob
+from os.path import isfile
 
 from setuptools import find_packages, setup
 
@@ -13,6 +14,10 @@ setup(
         ("share/" + package_name, ["package.xml"]),
         ("share/" + package_name + "/launch", glob("launch/*.launch.py")),
         ("share/" + package_name + "/config", glob("config/*.yaml") + glob("config/*.xml")),
+        *(  # annotated clips: annotations/<clip>/ and its gt/ (not the review's sheets)
+            (f"share/{package_name}/{folder}", [p for p in glob(f"{folder}/*") if isfile(p)])
+            for folder in glob("annotations/*") + glob("annotations/*/gt")
+        ),
     ],
     install_requires=["setuptools"],
     zip_safe=True,
@@ -35,6 +40,7 @@ setup(
             "run_demo = tracker_ptz_sim.entry_points:run_demo",
             "fetch_sample = tracker_ptz_sim.bringup.sample:main",
             "make_scene = tracker_ptz_sim.simulation.scene_cli:main",
+            "annotate = tracker_ptz_sim.annotation.cli:main",
             "evaluate = tracker_ptz_sim.entry_points:evaluate",
             "benchmark = tracker_ptz_sim.entry_points:benchmark",
             "predictor_study = tracker_ptz_sim.entry_points:predictor_study",

@@ -44,6 +44,7 @@ def node_parameters() -> dict[tuple[str, str], list]:
         ),
         ("tracker_detect/README.md", "### `camshift`"): list(DETECTORS.get("camshift").parameters),
         ("tracker_detect/README.md", "### `mog2`"): list(DETECTORS.get("mog2").parameters),
+        ("tracker_detect/README.md", "### `person`"): list(DETECTORS.get("person").parameters),
         ("tracker_filter/README.md", "### Parameters"): [
             ParamSpec("method", "gated_hungarian", ""),
             ParamSpec("preset", "", ""),

@@ -191,6 +191,14 @@ CONFIGURATIONS: dict[str, Configuration] = {
     "occupancy": Configuration(overrides=OCCUPANCY),
     # seed 004: a fixed camera over many small movers, MOG2 and the GM-PHD tracker
     "gmphd": Configuration("small_objects", scenes=SMALL_OBJECTS),
+    # the person model (NanoDet) on every camera image and the plain gated-Hungarian tracker (its
+    # preset, without the motion-era rules config/surveillance.yaml adds): the learned baseline
+    "person": Configuration(
+        overrides={
+            "ssim_detector": {"method": "person"},
+            "tracker": {name: PRESETS["multi"][name] for name in _suite_tracker_settings()},
+        }
+    ),
     # seed 004's GM-PHD tracker on the surveillance graph's SSIM blobs, under the moving camera
     "gmphd_ssim": Configuration(overrides={"tracker": {"method": "gm_phd"} | GMPHD_PEOPLE}),
     # ... without seed 004's occlusion handling (plain GM-PHD with Hungarian labels)

@@ -1,0 +1,124 @@
+"""The person plug-in (NanoDet): the model file as shipped, its decoding, the runtimes, and what
+happens when the model cannot be loaded."""
+
+from __future__ import annotations
+
+import hashlib
+import shutil
+
+import numpy as np
+import pytest
+from ros_process import RosProcess
+
+from tracker_detect import person
+from tracker_detect.detector import CameraFrame
+from tracker_detect.person import ModelUnavailableError, PersonConfig, PersonModel
+from tracker_detect.registration import View
+from tracker_msgs_py.geometry import Rect
+
+
+def test_the_shipped_models_match_their_checksums_and_licence():
+    folder = person.shipped_model().parent
+    sums = person.known_checksums(folder)
+    assert set(sums) == {"nanodet.onnx", "centernet.onnx"}
+    for name, digest in sums.items():
+        assert hashlib.sha256((folder / name).read_bytes()).hexdigest() == digest
+    licence = (folder / "LICENSE").read_text()
+    assert "MIT License" in licence and "Apache License 2.0" in licence
+
+
+def test_nanodet_grids_follow_the_input_size():
+    """Every stride's cells (scores and the 4 x 11 side bins) for any multiple of 32."""
+    model = PersonModel(PersonConfig())
+    for height, width in ((256, 256), (320, 416), (96, 160)):
+        blob = np.zeros((1, 3, height, width), np.float32)
+        outputs = model.runtime.run(blob)
+        cells = sorted((v.shape[1], v.shape[2]) for v in outputs.values())
+        expected = sorted(
+            (height // s * (width // s), columns) for s in (8, 16, 32) for columns in (80, 44)
+        )
+        assert cells == expected
+
+
+def test_decoding_puts_a_box_where_the_bins_say():
+    """One confident cell at stride 16, row 3, col 5 of a 128 x 128 input, sides 2, 1, 3, 4
+    strides (all bins' weight on one distance): the box is the cell centre minus / plus those."""
+    model = PersonModel(PersonConfig())
+    outputs = {}
+    for stride, (scores, sides) in zip(
+        (8, 16, 32), (("a", "b"), ("c", "d"), ("e", "f")), strict=True
+    ):
+        n = (128 // stride) ** 2
+        outputs[scores] = np.zeros((1, n, 80), np.float32)
+        outputs[sides] = np.full((1, n, 44), -50.0, np.float32)
+    cell = 3 * 8 + 5
+    outputs["c"][0, cell, 0] = 0.9
+    for side, distance in enumerate((2, 1, 3, 4)):
+        outputs["d"][0, cell, side * 11 + distance] = 50.0
+    boxes = model.decode(outputs, 128, 128)
+    centre = np.array([5.5 * 16, 3.5 * 16])
+    expected = [centre[0] - 32, centre[1] - 16, centre[0] + 48, centre[1] + 64, 0.9]
+    np.testing.assert_allclose(boxes, [expected], atol=1e-3)
+
+
+def test_overlapping_boxes_are_one_person_and_side_by_side_two():
+    boxes = np.array([[0, 0, 10, 30, 0.9], [1, 0, 11, 31, 0.8], [12, 0, 22, 30, 0.7]], np.float32)
+    kept = person.non_maximum_suppression(boxes, 0.5)
+    assert kept.tolist() == [0, 2]
+
+
+def test_opencv_dnn_gives_the_boxes_onnxruntime_gives():
+    rng = np.random.default_rng(1)
+    image = rng.integers(0, 255, (264, 264, 3), dtype=np.uint8)
+    a = PersonModel(PersonConfig(score_threshold=0.05))
+    b = PersonModel(PersonConfig(score_threshold=0.05, runtime="opencv"))
+    blob, _ = a.blob(image)
+    outputs_a, outputs_b = a.runtime.run(blob), b.runtime.run(blob)
+    for name, value in outputs_a.items():
+        np.testing.assert_allclose(outputs_b[name], value, atol=1e-4)
+
+
+def test_boxes_come_out_in_scene_coordinates_of_the_view():
+    detector = person.PersonDetector(PersonConfig(score_threshold=0.0, nms_iou=0.3))
+    image = np.full((128, 128, 3), 128, np.uint8)
+    view = View(Rect(1000.0, 500.0, 256.0, 256.0), 128, 128)  # 2 scene px per image px
+    detection = detector.process(CameraFrame(1, image, view))
+    assert detection.compared and detection.blobs
+    for blob in detection.blobs:
+        assert 1000.0 <= blob.bbox.x and blob.bbox.x + blob.bbox.width <= 1256.0 + 1e-6
+        assert 500.0 <= blob.bbox.y and blob.bbox.y + blob.bbox.height <= 756.0 + 1e-6
+
+
+def test_a_damaged_model_file_is_named_in_one_line(tmp_path):
+    copy = tmp_path / "nanodet.onnx"
+    shutil.copy(person.shipped_model(), copy)
+    (tmp_path / "SHA256SUMS").write_text((person.shipped_model().parent / "SHA256SUMS").read_text())
+    data = bytearray(copy.read_bytes())
+    data[5000] ^= 0xFF
+    copy.write_bytes(bytes(data))
+    with pytest.raises(ModelUnavailableError, match="damaged"):
+        PersonModel(PersonConfig(model_path=str(copy)))
+    with pytest.raises(ModelUnavailableError, match="No such file"):
+        PersonModel(PersonConfig(model_path=str(tmp_path / "missing.onnx")))
+
+
+@pytest.mark.ros
+@pytest.mark.parametrize("case", ["missing", "not_a_model"])
+def test_the_detector_node_stops_at_start_up_with_the_cause(tmp_path, case):
+    path = tmp_path / "model.onnx"
+    if case == "not_a_model":
+        path.write_bytes(b"this is not ONNX")
+    node = RosProcess(
+        "tracker_detect",
+        "detector",
+        log_dir=tmp_path,
+        params={"method": "person", "model_path": str(path)},
+    )
+    try:
+        code = node.wait(timeout=30)
+    finally:
+        node.kill()
+    output = node.output()
+    assert code == 2, output
+    assert "the person detector cannot start" in output and str(path) in output
+    assert "Traceback" not in output and output.count("[FATAL]") == 1
