@@ -5,7 +5,10 @@
     annotate link DIR             detections -> tracks with ids -> DIR/assistant.txt
     annotate apply DIR            assistant.txt + DIR/corrections.yaml -> DIR/gt/gt.txt
     annotate sheet VIDEO DIR      contact sheets of every 10th frame with boxes and ids -> DIR/review/
-    annotate VIDEO DIR            all four
+    annotate strip VIDEO DIR --frames 20-75:5 --zoom X,Y,W,H [--scale 3]
+                                  those frames of that region magnified, with a coordinate
+                                  grid to read boxes off -> DIR/review/strip.png
+    annotate all VIDEO DIR        assist, link, apply, sheet
 
 The ground truth is reproducible from the clip and corrections.yaml: `assist`, `link` and `apply`
 are deterministic. Files are MOTChallenge text (frame numbers from 1). See `annotation.linking`
@@ -54,22 +57,46 @@ def link(folder: Path) -> int:
     return 0
 
 
-def apply(folder: Path) -> int:
+def ground_truth(folder: Path) -> tuple[linking.Tracks, corrections.Applied]:
+    """The ground truth: the assistant's tracks, corrected, finished (interpolated boxes have
+    score 0); and what the corrections did."""
     tracks = linking.read_tracks(folder / ASSISTANT)
     fixes = corrections.load(folder / CORRECTIONS) if (folder / CORRECTIONS).exists() else []
-    result = corrections.apply(tracks, fixes)
+    result = corrections.apply(tracks, fixes, linking.read_detections(folder / DETECTIONS))
     info = linking.read_seqinfo(folder)
-    gt = linking.finish(result.tracks, info.width, info.height)
+    return linking.finish(result.tracks, info.width, info.height), result
+
+
+def apply(folder: Path) -> int:
+    gt, result = ground_truth(folder)
     (folder / GT).parent.mkdir(parents=True, exist_ok=True)
     linking.write_ground_truth(gt, folder / GT)
     print(f"apply: {result.summary()}; {len(gt.ids())} people, {len(gt)} boxes -> {folder / GT}")
     return 0
 
 
-def sheet(video: Path, folder: Path, every: int) -> int:
-    source = folder / GT if (folder / GT).exists() else folder / ASSISTANT
-    pages = review.contact_sheets(video, linking.read_tracks(source), folder / "review", every)
-    print(f"sheet: {len(pages)} pages of every {every}th frame of {source} -> {folder / 'review'}")
+def sheet(video: Path, folder: Path, every: int, region: tuple[int, int, int, int] | None) -> int:
+    tracks, _ = ground_truth(folder)
+    pages = review.contact_sheets(video, tracks, folder / "review", every)
+    if region is not None:
+        pages += review.contact_sheets(video, tracks, folder / "review", every, region)
+    print(f"sheet: {len(pages)} pages of every {every}th frame -> {folder / 'review'}")
+    return 0
+
+
+def frame_range(text: str) -> range:
+    """ "20-75:5" -> range(20, 76, 5); "20-75" -> every frame."""
+    span, _, step = text.partition(":")
+    first, _, last = span.partition("-")
+    return range(int(first), int(last or first) + 1, int(step or 1))
+
+
+def show_strip(
+    video: Path, folder: Path, frames: range, region: tuple[int, int, int, int], scale: int
+) -> int:
+    path = folder / "review" / "strip.png"
+    count = review.strip(video, ground_truth(folder)[0], frames, region, scale, path)
+    print(f"strip: {count} frames -> {path}")
     return 0
 
 
@@ -77,11 +104,19 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(
         prog="annotate", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
     )
-    parser.add_argument("step", choices=("assist", "link", "apply", "sheet", "all"))
+    parser.add_argument("step", choices=("assist", "link", "apply", "sheet", "strip", "all"))
     parser.add_argument("paths", nargs="+", type=Path, help="VIDEO DIR (assist, sheet, all) or DIR")
     parser.add_argument("--every", type=int, default=10, help="sheet: every n-th frame")
+    parser.add_argument(
+        "--zoom",
+        type=lambda text: tuple(int(v) for v in text.split(",")),
+        metavar="X,Y,W,H",
+        help="sheet: also pages of this region magnified 2x (vtest.avi: 250,110,320,200)",
+    )
+    parser.add_argument("--frames", type=frame_range, help="strip: FIRST-LAST[:STEP]")
+    parser.add_argument("--scale", type=int, default=3, help="strip: magnification")
     args = parser.parse_args(argv)
-    needs_video = args.step in ("assist", "sheet", "all")
+    needs_video = args.step in ("assist", "sheet", "strip", "all")
     if len(args.paths) != (2 if needs_video else 1):
         parser.error(f"{args.step} takes {'VIDEO DIR' if needs_video else 'DIR'}")
     folder = args.paths[-1]
@@ -92,12 +127,16 @@ def main(argv: list[str] | None = None) -> int:
     if args.step == "apply":
         return apply(folder)
     if args.step == "sheet":
-        return sheet(args.paths[0], folder, args.every)
+        return sheet(args.paths[0], folder, args.every, args.zoom)
+    if args.step == "strip":
+        if args.frames is None or args.zoom is None:
+            parser.error("strip takes --frames and --zoom")
+        return show_strip(args.paths[0], folder, args.frames, args.zoom, args.scale)
     return (
         assist(args.paths[0], folder)
         or link(folder)
         or apply(folder)
-        or sheet(args.paths[0], folder, args.every)
+        or sheet(args.paths[0], folder, args.every, args.zoom)
     )
 
 

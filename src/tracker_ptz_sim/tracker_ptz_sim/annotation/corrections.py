@@ -12,6 +12,12 @@ A list of fixes, applied in order; frames are numbered from 1 (as in gt.txt), bo
     - join: {ids: [5, 12]}                                # one person: 12's boxes become 5's
     - split: {id: 5, frame: 300, new_id: 41}              # from frame 300 on, 5 is another person
     - swap: {ids: [3, 4], frame: 250}                     # from 250 on the two ids are exchanged
+    - path: {id: 3, boxes: {25: [x, y, w, h], 40: [...], 55: [...]}}
+          # where a person really is over frames 25..55, for a stretch the assistant got wrong
+          # (people crowding, merged boxes): keyframes read off the review's strips, each frame
+          # in between interpolated and then snapped to the assistant's own box that overlaps it
+          # best (IoU >= SNAP_IOU, a height within 25 %), which is tighter than a line between
+          # keyframes; the id's other boxes in the span go
 
 `apply` counts what the review changed (boxes added, removed and moved; id fixes) for the
 annotation's README, and refuses a fix that names an id or box that is not there (a stale
@@ -25,11 +31,14 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import yaml
 
-from tracker_ptz_sim.annotation.linking import Box, Tracks
+from tracker_msgs_py.geometry import corner_iou_matrix
+from tracker_ptz_sim.annotation.linking import Box, Detections, Tracks, interpolate
 
-KINDS = ("delete", "add", "move", "join", "split", "swap")
+KINDS = ("delete", "add", "move", "join", "split", "swap", "path")
+SNAP_IOU = 0.5
 
 
 class CorrectionError(ValueError):
@@ -76,6 +85,7 @@ class Fix:
 @dataclass
 class Applied:
     tracks: Tracks
+    detections: Detections = field(default_factory=Detections)  # the assistant's, for `path`
     counts: Counter = field(default_factory=Counter)
 
     def summary(self) -> str:
@@ -83,7 +93,8 @@ class Applied:
         return (
             f"{c['boxes added']} boxes added, {c['boxes removed']} removed, {c['boxes moved']} "
             f"moved; {c['tracks deleted']} tracks deleted; {c['id fixes']} id fixes "
-            f"({c['join']} joins, {c['split']} splits, {c['swap']} swaps)"
+            f"({c['join']} joins, {c['split']} splits, {c['swap']} swaps); {c['path']} paths "
+            f"traced ({c['boxes snapped']} of their boxes snapped to the assistant's)"
         )
 
 
@@ -119,9 +130,10 @@ def _track(tracks: Tracks, ident: int, fix: Fix) -> dict[int, Box]:
     return tracks.by_id[ident]
 
 
-def apply(tracks: Tracks, fixes: list[Fix]) -> Applied:
-    """The tracks after every fix, and what the fixes changed (see the module docstring)."""
-    out = Applied(tracks.copy())
+def apply(tracks: Tracks, fixes: list[Fix], detections: Detections | None = None) -> Applied:
+    """The tracks after every fix, and what the fixes changed (see the module docstring);
+    `detections` are the assistant's boxes `path` snaps to."""
+    out = Applied(tracks.copy(), detections or Detections())
     for fix in fixes:
         _APPLY[fix.kind](out, fix)
     return out
@@ -217,6 +229,38 @@ def _swap(out: Applied, fix: Fix) -> None:
     out.counts["id fixes"] += 1
 
 
+def snapped(box: Box, candidates: list[Box]) -> Box | None:
+    """The candidate that overlaps `box` best, when by IoU >= SNAP_IOU with a height within 25 %."""
+    if not candidates:
+        return None
+    overlap = corner_iou_matrix(box.corners[None], np.array([c.corners for c in candidates]))[0]
+    best = int(np.argmax(overlap))
+    ratio = candidates[best].h / box.h
+    if overlap[best] < SNAP_IOU or not 0.8 <= ratio <= 1.25:
+        return None
+    c = candidates[best]
+    return Box(c.x, c.y, c.w, c.h)
+
+
+def _path(out: Applied, fix: Fix) -> None:
+    ident = fix.number("id")
+    keys = fix.boxes()
+    first, last = min(keys), max(keys)
+    if len(keys) < 2:
+        raise CorrectionError(f"{fix.where()}: a path needs two keyframes or more")
+    snap = fix.args.get("snap", True)
+    if not isinstance(snap, bool):
+        raise CorrectionError(f"{fix.where()}: snap must be true or false")
+    boxes = out.tracks.by_id.setdefault(ident, {})
+    for frame, box in interpolate(keys, max_gap=last - first).items():
+        near = snapped(box, out.detections.by_frame.get(frame, [])) if snap else None
+        out.counts["boxes moved" if frame in boxes else "boxes added"] += 1
+        out.counts["boxes snapped"] += near is not None
+        boxes[frame] = near or box  # an interpolated box keeps score 0: drawn thin
+    out.tracks.by_id[ident] = dict(sorted(boxes.items()))
+    out.counts["path"] += 1
+
+
 _APPLY = {
     "delete": _delete,
     "add": _add,
@@ -224,4 +268,5 @@ _APPLY = {
     "join": _join,
     "split": _split,
     "swap": _swap,
+    "path": _path,
 }

@@ -1,14 +1,17 @@
 """Offline linking of per-frame person boxes into tracks, and the finishing of ground truth (no rclpy).
 
-`link`: a forward pass in the manner of ByteTrack, with the whole clip known: each track predicts
-its box by its recent velocity; the Hungarian assignment on IoU matches confident boxes first
-(score >= `high`), then the remaining tracks to the weak boxes (>= `low`); only a confident box
-starts a track; a track unmatched for more than `max_gap` frames ends. Tracks observed in fewer
-than `min_boxes` frames, or never confidently (`min_peak`), are dropped.
+`link`: a forward pass in the manner of ByteTrack: each track predicts its box (its centre moved
+on at its recent velocity, its recent median size); the Hungarian assignment on IoU matches
+confident boxes first (score >= `high`), then the remaining tracks to the weak boxes (>= `low`),
+then the tracks lost for a frame or more to the confident boxes left near their prediction (a
+person coming out from behind the sign); a box of another height never matches; only a confident
+box starts a track; a track unmatched for more than `max_gap` frames ends. Tracks observed in
+fewer than `min_boxes` frames, or never confidently (`min_peak`), are dropped.
 
 `finish`: ground truth from reviewed tracks: gaps of at most `max_gap` frames filled by linear
-interpolation, boxes clipped to the frame, and each box's visibility, the share of it not covered
-by the boxes of people nearer the camera (a lower bottom edge).
+interpolation (score 0: what the review sheets draw thin), boxes clipped to the frame, and each
+box's visibility, the share of it not covered by the boxes of people nearer the camera (a lower
+bottom edge).
 
 Box tables are MOTChallenge text: `frame, id, x, y, w, h, score, class, visibility, ...`, frames
 numbered from 1, (x, y) the top-left corner in px.
@@ -159,8 +162,10 @@ class LinkConfig:
     high: float = 0.35  # a box at least this confident may start a track and is matched first
     low: float = DETECTION_FLOOR  # weaker boxes only continue tracks
     match_iou: float = 0.3  # least IoU of a predicted box and a box to match them
-    max_gap: int = 15  # frames a track may go unmatched (1.5 s at 10 fps) and be continued
-    velocity_frames: int = 5  # the last observations the velocity is measured over
+    max_size_change: float = 1.5  # a box more than this x taller or shorter is not the track's
+    refind_distance: float = 0.6  # of the height: how far from its prediction a lost track ...
+    max_gap: int = 15  # ... may be found again within this many frames (1.5 s at 10 fps)
+    velocity_frames: int = 5  # the last observations the velocity and size are measured over
     min_boxes: int = 5  # tracks observed in fewer frames are dropped
     min_peak: float = 0.45  # ... and tracks never seen at least this confidently
 
@@ -173,21 +178,52 @@ class _Live:
     last: int
 
     def predict(self, frame: int, window: int) -> np.ndarray:
+        """The box at `frame`: the centre moved on at its recent velocity, the recent median
+        size (a person half behind something shrinks for a few frames; the prediction should
+        not follow that onto whatever is left)."""
         frames = sorted(self.observed)[-window:]
-        box = self.observed[frames[-1]]
-        if len(frames) < 2:
-            return box
-        first = self.observed[frames[0]]
-        velocity = (box - first) / (frames[-1] - frames[0])
-        return box + velocity * (frame - frames[-1])
+        boxes = np.array([self.observed[f] for f in frames])
+        centres = (boxes[:, :2] + boxes[:, 2:]) / 2
+        size = np.median(boxes[:, 2:] - boxes[:, :2], axis=0)
+        centre = centres[-1]
+        if len(frames) >= 2:
+            centre = centre + (centres[-1] - centres[0]) / (frames[-1] - frames[0]) * (
+                frame - frames[-1]
+            )
+        return np.concatenate([centre - size / 2, centre + size / 2])
 
 
-def _match(predicted: np.ndarray, boxes: np.ndarray, threshold: float) -> list[tuple[int, int]]:
+def _heights(boxes: np.ndarray) -> np.ndarray:
+    return boxes[:, 3] - boxes[:, 1]
+
+
+def _size_fits(predicted: np.ndarray, boxes: np.ndarray, change: float) -> np.ndarray:
+    """(N, M): box m's height within `change` x of prediction n's."""
+    ratio = _heights(boxes)[None, :] / np.maximum(_heights(predicted)[:, None], 1e-6)
+    return (ratio <= change) & (ratio >= 1 / change)
+
+
+def _match(
+    predicted: np.ndarray, boxes: np.ndarray, c: LinkConfig, lost: np.ndarray | None = None
+) -> list[tuple[int, int]]:
+    """Pairs (prediction, box) by the Hungarian assignment on IoU (>= match_iou); with `lost`
+    (a flag per prediction), the lost tracks by centre distance instead (<= refind_distance of
+    the height). Boxes of another size never pair."""
     if len(predicted) == 0 or len(boxes) == 0:
         return []
-    overlap = corner_iou_matrix(predicted, boxes)
-    rows, cols = linear_sum_assignment(-overlap)
-    return [(int(r), int(c)) for r, c in zip(rows, cols, strict=True) if overlap[r, c] >= threshold]
+    fits = _size_fits(predicted, boxes, c.max_size_change)
+    if lost is None:
+        score = np.where(fits, corner_iou_matrix(predicted, boxes), 0.0)
+        good = score >= c.match_iou
+    else:
+        centre_p = (predicted[:, None, :2] + predicted[:, None, 2:]) / 2
+        centre_b = (boxes[None, :, :2] + boxes[None, :, 2:]) / 2
+        distance = np.hypot(*(centre_p - centre_b).transpose(2, 0, 1))
+        relative = distance / np.maximum(_heights(predicted)[:, None], 1e-6)
+        good = fits & lost[:, None] & (relative <= c.refind_distance)
+        score = np.where(good, 1.0 - relative, 0.0)
+    rows, cols = linear_sum_assignment(-score)
+    return [(int(r), int(k)) for r, k in zip(rows, cols, strict=True) if good[r, k]]
 
 
 def link(detections: Detections, config: LinkConfig | None = None) -> Tracks:
@@ -206,10 +242,12 @@ def link(detections: Detections, config: LinkConfig | None = None) -> Tracks:
         live = still
         unmatched = list(range(len(live)))
         taken: set[int] = set()
-        for tier in (scores >= c.high, (scores >= c.low) & (scores < c.high)):
-            candidates = np.flatnonzero(tier)
+        high, low = scores >= c.high, (scores >= c.low) & (scores < c.high)
+        for tier, refind in ((high, False), (low, False), (high, True)):
+            candidates = [k for k in np.flatnonzero(tier) if int(k) not in taken]
             predicted = np.array([live[t].predict(frame, c.velocity_frames) for t in unmatched])
-            pairs = _match(predicted.reshape(-1, 4), corners[candidates], c.match_iou)
+            lost = np.array([frame - live[t].last > 1 for t in unmatched]) if refind else None
+            pairs = _match(predicted.reshape(-1, 4), corners[candidates].reshape(-1, 4), c, lost)
             for r, col in pairs:
                 track, box = live[unmatched[r]], int(candidates[col])
                 track.observed[frame] = corners[box]
@@ -218,7 +256,7 @@ def link(detections: Detections, config: LinkConfig | None = None) -> Tracks:
                 taken.add(box)
             matched = {unmatched[r] for r, _ in pairs}
             unmatched = [t for t in unmatched if t not in matched]
-        for new in (int(b) for b in np.flatnonzero(scores >= c.high)):
+        for new in (int(b) for b in np.flatnonzero(high)):
             if new not in taken:
                 live.append(_Live(next_id, {frame: corners[new]}, [float(scores[new])], frame))
                 next_id += 1
@@ -292,5 +330,5 @@ def finish(tracks: Tracks, width: int, height: int, max_gap: int = LinkConfig.ma
         present = filled.in_frame(f)
         for i, v in visibilities(present).items():
             b = present[i]
-            filled.by_id[i][f] = Box(b.x, b.y, b.w, b.h, 1.0, v)
+            filled.by_id[i][f] = Box(b.x, b.y, b.w, b.h, b.score, v)
     return filled
