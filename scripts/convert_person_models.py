@@ -137,15 +137,15 @@ def fold_reshape_shapes(model, input_name: str) -> int:  # noqa: ANN001
     from onnx import numpy_helper
 
     inits = {i.name for i in model.graph.initializer}
-    computed = sorted(
-        {n.input[1] for n in model.graph.node if n.op_type == "Reshape"} - inits
-    )
+    computed = sorted({n.input[1] for n in model.graph.node if n.op_type == "Reshape"} - inits)
     if not computed:
         return 0
     probe = onnx.ModelProto()
     probe.CopyFrom(model)
     for name in computed:
-        probe.graph.output.append(onnx.helper.make_tensor_value_info(name, onnx.TensorProto.INT64, None))
+        probe.graph.output.append(
+            onnx.helper.make_tensor_value_info(name, onnx.TensorProto.INT64, None)
+        )
     session = ort.InferenceSession(probe.SerializeToString(), providers=["CPUExecutionProvider"])
     at = [
         session.run(computed, {input_name: np.zeros((1, 3, size, size), np.float32)})
