@@ -23,3 +23,18 @@ from tracker_msgs_py.ros_domain import private_domain_id  # noqa: E402
 os.environ.setdefault("ROS_DOMAIN_ID", str(private_domain_id(os.getpid(), taken=0)))
 os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
 os.environ.setdefault("RMW_IMPLEMENTATION", "rmw_fastrtps_cpp")
+
+
+import pytest  # noqa: E402
+
+
+@pytest.fixture(scope="session")
+def vtest_clip() -> Path:
+    """OpenCV's vtest.avi (real pedestrians; the annotated clip), fetched once like `make sample`
+    does (Debian's opencv-doc package); skipped only on a machine without apt."""
+    from tracker_ptz_sim.bringup.sample import SampleUnavailableError, fetch_sample
+
+    try:
+        return fetch_sample()
+    except SampleUnavailableError as error:
+        pytest.skip(f"vtest.avi is not available: {error}")

@@ -80,3 +80,26 @@ def test_a_fix_that_does_not_fit_is_refused_with_its_place(text, cause):
     with pytest.raises(CorrectionError, match="fix 1") as error:
         applied(text)
     assert cause in str(error.value)
+
+
+def test_a_path_is_interpolated_and_snapped_to_the_assistants_boxes():
+    from tracker_ptz_sim.annotation.linking import Detections
+
+    detections = Detections(
+        {
+            3: [Box(21.0, 11.0, 20.0, 50.0, 0.3), Box(200.0, 0.0, 20.0, 50.0, 0.9)],
+            4: [Box(60.0, 10.0, 40.0, 100.0, 0.8)],  # twice as tall: two people, never snapped
+        }
+    )
+    text = "- path: {id: 1, boxes: {2: [10, 10, 20, 50], 6: [50, 10, 20, 50]}}"
+    out = corrections.apply(two_people(), corrections.parse(text), detections)
+    boxes = out.tracks.by_id[1]
+    assert boxes[2] == Box(10.0, 10.0, 20.0, 50.0)  # a keyframe as written
+    assert boxes[3] == Box(21.0, 11.0, 20.0, 50.0)  # the assistant's box, which overlaps best
+    assert boxes[4].x == 30.0 and boxes[4].score == 0.0  # interpolated, nothing to snap to
+    assert boxes[7].x == 7.0 and boxes[1].x == 1.0  # outside the span: left alone
+    assert out.counts["boxes snapped"] == 1 and out.counts["boxes moved"] == 5
+    unsnapped = corrections.apply(
+        two_people(), corrections.parse(text.replace("{id: 1,", "{id: 1, snap: false,")), detections
+    )
+    assert unsnapped.tracks.by_id[1][3].x == 20.0

@@ -4,6 +4,9 @@ changing state, reset() forgets the history."""
 
 from __future__ import annotations
 
+from pathlib import Path
+
+import cv2
 import numpy as np
 import pytest
 import region_detector
@@ -17,14 +20,31 @@ NS = 100_000_000
 METHODS = [*DETECTORS, region_detector.METHOD]
 
 
+WIDTH, HEIGHT = 200, 160
+
+
+def walker() -> tuple[np.ndarray, np.ndarray]:
+    """A real person (cut out of vtest.avi, 104 px tall): BGR pixels and mask."""
+    data = np.load(Path(__file__).parent / "data" / "walker.npz")
+    image = cv2.imdecode(data["image_jpeg"], cv2.IMREAD_COLOR)
+    shape = tuple(data["mask_shape"])
+    mask = np.unpackbits(data["mask_bits"])[: shape[0] * shape[1]].reshape(shape).astype(bool)
+    return image, mask
+
+
 def frames(count: int = 8, start: int = 1) -> list[CameraFrame]:
-    """A textured scene with a bright yellow square moving right; the camera is static."""
-    background = np.random.default_rng(0).integers(40, 120, (120, 160, 3), dtype=np.uint8)
+    """A textured scene with a bright yellow square and a person moving right (something every
+    kind of detector finds: motion, colour, a person); the camera is static."""
+    background = np.random.default_rng(0).integers(40, 120, (HEIGHT, WIDTH, 3), dtype=np.uint8)
+    person, mask = walker()
+    h, w = mask.shape
     out = []
     for k in range(start, start + count):
         image = background.copy()
         image[50:70, 10 + 8 * k : 30 + 8 * k] = (60, 250, 250)  # bright and yellow: motion, colour
-        out.append(CameraFrame(k * NS, image, View.identity(160, 120)))
+        x, y = 100 + 8 * k - w, HEIGHT - h - 2
+        image[y : y + h, x : x + w][mask] = person[mask]
+        out.append(CameraFrame(k * NS, image, View.identity(WIDTH, HEIGHT)))
     return out
 
 
@@ -51,10 +71,10 @@ class TestDetectorContract:
         assert isinstance(detector, Detector)
         results = [detector.process(frame) for frame in frames()]
         assert [r.stamp_ns for r in results] == [f.stamp_ns for f in frames()]
-        assert any(r.blobs for r in results), "the moving square was never detected"
+        assert any(r.blobs for r in results), "neither the square nor the person was detected"
         for r in results:
             for blob in r.blobs:
-                assert 0 <= blob.centroid_x <= 160 and 0 <= blob.centroid_y <= 120
+                assert 0 <= blob.centroid_x <= WIDTH and 0 <= blob.centroid_y <= HEIGHT
 
     def test_stale_frames_are_refused_without_changing_state(self, method):
         detector, twin = make(method), make(method)

@@ -59,7 +59,7 @@ class PersonConfig:
     """How the person model looks at an image."""
 
     input_size: int = 256  # px, the model input's longer side (a multiple of 32)
-    score_threshold: float = 0.35  # person score below which a box is dropped
+    score_threshold: float = 0.5  # person score below which a box is dropped
     nms_iou: float = 0.5  # boxes overlapping more than this (IoU) are one person
     threads: int = 1  # the runtime's threads for one image
     runtime: str = "onnxruntime"  # or "opencv" (OpenCV's DNN: a fallback, same boxes)
