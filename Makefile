@@ -43,8 +43,8 @@ demo: setup  ## Run the surveillance demo (VIDEO=path/to/video to use your own; 
 bench: setup  ## Benchmarks: prints tables, writes out/bench/*.json
 	@$(ENV) for b in bench/bench_*.py; do echo "== $$b"; python "$$b" || exit 1; done
 
-benchmark: setup  ## Accuracy of record: realistic scenes, graph + in-process (out/benchmark); CamShift per person (out/single_target); voxel rooms (out/voxel_benchmark)
-	@$(ENV) $(SIM)/benchmark --graph $(BENCHMARK_ARGS) && $(SIM)/single_target_benchmark && $(SIM)/voxel_benchmark
+benchmark: setup  ## Accuracy of record on real people: the annotated clip (graph + in-process) and real-people scenes (out/benchmark); CamShift / colour particles per person (out/single_target); voxel rooms (out/voxel_benchmark)
+	@$(ENV) $(SIM)/benchmark --graph vtest $(BENCHMARK_ARGS) && $(SIM)/single_target_benchmark && $(SIM)/voxel_benchmark
 
 evaluate: setup  ## Score the graph against ground truth: SCENE=dir, or VIDEO=file GT=gt.txt (default: a street scene)
 	@$(ENV) if [ -n "$(VIDEO)" ]; then $(SIM)/evaluate --video "$(VIDEO)" --gt "$(GT)" $(DEMO_ARGS); \
