@@ -135,6 +135,20 @@ def test_the_table_gives_the_mean_and_spread_over_runs_and_pools_the_fixed_camer
     assert rows["all"][4:6] == ["0.350", "0.071"]  # runs 0: 0.3, 1: 0.4 over both scenes
 
 
+def test_the_table_pools_the_development_and_the_held_out_people_apart():
+    from tracker_ptz_sim.bringup.single_target_benchmark import PersonRun, table
+
+    def run(scene: str, q1: float) -> PersonRun:
+        return PersonRun(scene, 1, "pf", 5, SingleTargetScores(10, q1, q1, q1, 0), {})
+
+    runs = [run("real_walkers-115", 0.6), run("real_groups-115", 0.4)]
+    runs += [run("heldout_walkers-117", 0.2), run("heldout_occluded-117", 0.3)]
+    rows = {line.split(" | ")[0][2:]: line.split(" | ") for line in table(runs, ["pf"]).split("\n")}
+    assert rows["development"][4] == "0.500"
+    assert rows["held-out"][4] == "0.250"
+    assert rows["heldout_occluded (moving camera)"][4] == "0.300"
+
+
 def test_each_occlusion_is_judged_over_its_runs():
     from tracker_ptz_sim.bringup.single_target_benchmark import PersonRun, occlusions_kept
 

@@ -1,7 +1,8 @@
 """single_target_benchmark: seed 001's CamShift and seed 003's particle filter on the benchmark's
-street scenes, one person at a time.
+scenes of real people (development and held-out, pooled apart), one person at a time.
 
-    single_target_benchmark                       every preset x 3 seeds, every variant
+    single_target_benchmark                       every real-people preset x 2 seeds, every variant
+    single_target_benchmark --scenes walkers groups --seeds 3    the drawn figures
     single_target_benchmark --scenes walkers --seeds 1
     single_target_benchmark --runs 10             particle filters 10 times (sigma_Q)
     single_target_benchmark --sweep --runs 3      particle count and histogram bins
@@ -42,7 +43,7 @@ gives the mean over runs and sigma_Q, the standard deviation of a run's Q over t
 thesis's 10 runs). --sweep runs instead the best particle filter with 100 / 500 / 750 / 2000
 particles and K = 8 / 16 / 32 bins per channel.
 
-The "occluded" preset, where each person walks behind a board for 1 s, is watched by a moving
+The "occluded" presets, where each person walks behind a board for 1 s, are watched by a moving
 camera: a 480x360 window aimed at the person as a camera operator would (0.7 s lag, 12 px sway;
 `evaluation.single_target.operator_path`), so the trackers see the scene move; its boxes are
 scored in that window. "kept" counts the occlusions after which the estimate is back on the person
@@ -98,7 +99,7 @@ from tracker_filter.trackers import TRACKERS
 from tracker_filter.tracking import TrackStatus
 from tracker_msgs_py.codec import NS_PER_S
 from tracker_msgs_py.geometry import Rect
-from tracker_ptz_sim.bringup.benchmark import background_image, prepare_scene
+from tracker_ptz_sim.bringup.benchmark import RealPeople, background_image, prepare_scene
 from tracker_ptz_sim.bringup.graph import load_graph
 from tracker_ptz_sim.bringup.pipeline import PipelineSettings, detections_of
 from tracker_ptz_sim.evaluation.prediction_study import PRIOR_STD
@@ -331,7 +332,12 @@ SWEEP: dict[str, ParticleVariant] = {
     **{f"best, N = {n}": _best(particles=n) for n in (100, 500, 750, 2000)},
     **{f"best, K = {k}": _best(bins=k) for k in (8, 32)},
 }
-MOVING_CAMERA = {"occluded"}  # presets watched by a camera operator's moving window
+#: Every street preset by name: the scenes of real people (the default), then the drawn figures.
+PRESETS = {**street.REAL_PEOPLE_PRESETS, **street.STREET_PRESETS}
+#: Presets watched by a camera operator's moving window: the people passing behind boards.
+MOVING_CAMERA = {name for name in PRESETS if name.split("_")[-1] == "occluded"}
+#: The table's pooled groups beside each preset: the development and the held-out people.
+PEOPLE_SETS = {"development": "real_", "held-out": "heldout_"}
 FIXED_CAMERA = "fixed camera"  # the table's rows pooled over the other presets
 WINDOW = (480, 360)  # px, that window
 START_VISIBILITY = 0.9
@@ -501,6 +507,9 @@ def table(runs: list[PersonRun], variants: Sequence[str]) -> str:
     groups = list(presets)
     if any(p in MOVING_CAMERA for p in presets) and set(presets) - MOVING_CAMERA:
         groups.append(FIXED_CAMERA)
+    groups += [
+        name for name, prefix in PEOPLE_SETS.items() if any(p.startswith(prefix) for p in presets)
+    ]
     for group in [*groups, "all"]:
         for variant in variants:
             chosen = [r for r in runs if r.variant == variant and in_group(r, group)]
@@ -542,6 +551,8 @@ def in_group(run: PersonRun, group: str) -> bool:
     preset = preset_of(run)
     if group == FIXED_CAMERA:
         return preset not in MOVING_CAMERA
+    if group in PEOPLE_SETS:
+        return preset.startswith(PEOPLE_SETS[group])
     return group in ("all", preset)
 
 
@@ -610,8 +621,13 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument(
         "--cache", type=Path, default=Path("out/benchmark/scenes"), help="rendered scenes"
     )
-    parser.add_argument("--scenes", nargs="+", choices=sorted(street.STREET_PRESETS))
-    parser.add_argument("--seeds", type=int, default=3, help="scenes per preset")
+    parser.add_argument(
+        "--scenes",
+        nargs="+",
+        choices=sorted(PRESETS),
+        help="presets (default: the scenes of real people, development and held-out)",
+    )
+    parser.add_argument("--seeds", type=int, default=2, help="scenes per preset")
     parser.add_argument(
         "--first-seed",
         type=int,
@@ -642,14 +658,15 @@ def main(argv: list[str] | None = None) -> int:
     args.out.mkdir(parents=True, exist_ok=True)
     background, described = background_image(args.background)
     runs: list[PersonRun] = []
-    for name in args.scenes or list(street.STREET_PRESETS):
+    cutouts = RealPeople()
+    for name in args.scenes or list(street.REAL_PEOPLE_PRESETS):
         for k in range(args.first_seed, args.first_seed + args.seeds):
-            preset = street.STREET_PRESETS[name]
+            preset = PRESETS[name]
             config = replace(
                 preset, seed=preset.seed + k, num_frames=args.frames or preset.num_frames
             )
             label = f"{name}-{config.seed}"
-            scene = load_scene(prepare_scene(name, config, background, args.cache))
+            scene = load_scene(prepare_scene(name, config, background, args.cache, cutouts))
             print(f"{label}: {len(people(scene))} people ...", flush=True)
             moving = name in MOVING_CAMERA
             scene_runs = run_scene(label, scene, variants, args.runs, moving)
