@@ -159,3 +159,16 @@ def test_the_person_model_finds_the_annotated_people(vtest_clip):
     assert frames == 20 and score.objects > 100
     assert score.recall >= 0.85, f"recall {score.recall:.3f}"
     assert score.precision >= 0.9, f"precision {score.precision:.3f}"
+
+
+def test_without_onnxruntime_the_cause_and_the_fallback_are_named(monkeypatch):
+    import sys
+
+    monkeypatch.setitem(sys.modules, "onnxruntime", None)  # import onnxruntime now fails
+    person._load.cache_clear()
+    try:
+        with pytest.raises(ModelUnavailableError, match="onnxruntime is not installed.*opencv"):
+            PersonModel(PersonConfig(threads=3))  # a thread count not loaded before
+        assert PersonModel(PersonConfig(runtime="opencv")).runtime.kind == "opencv"
+    finally:
+        person._load.cache_clear()
