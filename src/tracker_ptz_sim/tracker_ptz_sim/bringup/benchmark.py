@@ -61,7 +61,7 @@ import os
 import shutil
 import sys
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 from typing import Any, ClassVar
@@ -413,10 +413,13 @@ def _merged(
     return {node: {**base.get(node, {}), **extra.get(node, {})} for node in {*base, *extra}}
 
 
-def _groups(results: list[RunScores]) -> dict[tuple[str, str, str], list[RunScores]]:
+def _groups(
+    results: list[RunScores], key: Callable[[RunScores], str] = lambda r: r.scene
+) -> dict[tuple[str, str, str], list[RunScores]]:
+    """The runs by (key: the scene preset unless given, configuration, path), in first-run order."""
     groups: dict[tuple[str, str, str], list[RunScores]] = {}
     for r in results:
-        groups.setdefault((r.scene, r.configuration, r.path), []).append(r)
+        groups.setdefault((key(r), r.configuration, r.path), []).append(r)
     return groups
 
 
@@ -457,9 +460,7 @@ def set_table(results: list[RunScores]) -> str:
         "object changes (unexplained) |"
     )
     lines = [header, "|" + "---|" * (header.count("|") - 1)]
-    groups: dict[tuple[str, str, str], list[RunScores]] = {}
-    for r in results:
-        groups.setdefault((scene_set(r.scene), r.configuration, r.path), []).append(r)
+    groups = _groups(results, lambda r: scene_set(r.scene))
     order = {name: k for k, name in enumerate(SET_ORDER)}
     for (kind, configuration, path), runs in sorted(
         groups.items(), key=lambda item: order[item[0][0]]
