@@ -235,15 +235,15 @@ PERSON_CASES = (
 
 def bench_person(quick: bool) -> dict:
     """Per-view time of the person model on real people (vtest.avi), one thread."""
-    from tracker_ptz_sim.annotation.assistant import read_frames
     from tracker_ptz_sim.bringup.sample import SampleUnavailableError, fetch_sample
+    from tracker_ptz_sim.simulation.frame_sources import video_frames
 
     try:
         video = fetch_sample()
     except (SampleUnavailableError, OSError) as error:
         return {"skipped": f"vtest.avi is not available ({error})"}
     n, size = (20 if quick else 80), 264
-    frames = [f for k, f in zip(range(n), read_frames(video), strict=False)]
+    frames = [f for k, f in zip(range(n), video_frames(video), strict=False)]
     height, width = frames[0].shape[:2]
     windows = [(int(40 + (k * 5) % (width - size - 80)), 100) for k in range(n)]
     results: dict = {}

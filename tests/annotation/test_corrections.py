@@ -7,7 +7,7 @@ import pytest
 
 from tracker_ptz_sim.annotation import corrections
 from tracker_ptz_sim.annotation.corrections import CorrectionError
-from tracker_ptz_sim.annotation.linking import Box, Tracks
+from tracker_ptz_sim.simulation.ground_truth import Box, Tracks
 
 
 def track(frames: range, x: float) -> dict[int, Box]:
@@ -83,7 +83,7 @@ def test_a_fix_that_does_not_fit_is_refused_with_its_place(text, cause):
 
 
 def test_a_path_is_interpolated_and_snapped_to_the_assistants_boxes():
-    from tracker_ptz_sim.annotation.linking import Detections
+    from tracker_ptz_sim.simulation.ground_truth import Detections
 
     detections = Detections(
         {

@@ -6,7 +6,9 @@ import numpy as np
 import pytest
 
 from tracker_ptz_sim.annotation import linking
-from tracker_ptz_sim.annotation.linking import Box, Detections, LinkConfig, Tracks
+from tracker_ptz_sim.annotation.linking import LinkConfig
+from tracker_ptz_sim.simulation import ground_truth
+from tracker_ptz_sim.simulation.ground_truth import Box, Detections, Tracks
 
 
 def test_interpolation_fills_short_gaps_linearly_and_leaves_long_ones():
@@ -63,7 +65,7 @@ def test_finish_clips_to_the_frame_and_measures_visibility():
 
 def test_ground_truth_round_trips_through_its_file(tmp_path):
     tracks = Tracks({3: {1: Box(1.5, 2.25, 30.0, 60.0, 1.0, 0.75)}})
-    linking.write_ground_truth(tracks, tmp_path / "gt.txt")
+    ground_truth.write_ground_truth(tracks, tmp_path / "gt.txt")
     assert (tmp_path / "gt.txt").read_text() == "1,3,1.50,2.25,30.00,60.00,1,1,0.750\n"
-    back = linking.read_tracks(tmp_path / "gt.txt")
+    back = ground_truth.read_tracks(tmp_path / "gt.txt")
     assert back.by_id[3][1].visibility == 0.75 and np.isclose(back.by_id[3][1].y, 2.25)

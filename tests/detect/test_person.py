@@ -126,12 +126,12 @@ def test_the_detector_node_stops_at_start_up_with_the_cause(tmp_path, case):
 
 def annotated_frames(video, every: int = 40):
     """Every `every`-th frame of vtest.avi (20 of its 795) with its reviewed ground truth."""
-    from tracker_ptz_sim.annotation.assistant import read_frames
-    from tracker_ptz_sim.annotation.linking import read_tracks
     from tracker_ptz_sim.bringup.benchmark import CLIPS
+    from tracker_ptz_sim.simulation.frame_sources import video_frames
+    from tracker_ptz_sim.simulation.ground_truth import read_tracks
 
     truth = read_tracks(CLIPS["vtest"].gt)
-    for index, frame in enumerate(read_frames(video)):
+    for index, frame in enumerate(video_frames(video)):
         if (index + 1) % every == every // 2:
             yield frame, list(truth.in_frame(index + 1).values())
 

@@ -18,7 +18,8 @@ ALLOWED = {
     "simulation": {"simulation"},
     "control": {"control"},
     "evaluation": {"evaluation"},
-    "bringup": {"simulation", "control", "evaluation", "bringup"},
+    "annotation": {"annotation", "simulation"},
+    "bringup": {"simulation", "control", "evaluation", "annotation", "bringup"},
 }
 
 # Modules that are ROS shells (nodes, process runners), allowed to import rclpy.

@@ -9,8 +9,8 @@ from dataclasses import replace
 import cv2
 import numpy as np
 
-from tracker_ptz_sim.annotation.linking import Box, Tracks
 from tracker_ptz_sim.simulation import real_people, street
+from tracker_ptz_sim.simulation.ground_truth import Box, Tracks
 from tracker_ptz_sim.simulation.real_people import CutoutConfig, CutoutLibrary, Run, Sprite
 
 GREY = (128, 128, 128)

@@ -18,7 +18,6 @@ from __future__ import annotations
 import math
 from collections.abc import Iterator
 from dataclasses import dataclass
-from pathlib import Path
 
 import cv2
 import numpy as np
@@ -201,17 +200,3 @@ def fuse(passes: list[np.ndarray], iou: float) -> np.ndarray:
         return fused
     fused[:, 4] = [weight / len(passes) for _, weight, _ in clusters]
     return fused[np.argsort(-fused[:, 4], kind="stable")]
-
-
-def read_frames(video: Path) -> Iterator[np.ndarray]:
-    capture = cv2.VideoCapture(str(video))
-    if not capture.isOpened():
-        raise OSError(f"cannot open {video}")
-    try:
-        while True:
-            ok, frame = capture.read()
-            if not ok:
-                return
-            yield frame
-    finally:
-        capture.release()

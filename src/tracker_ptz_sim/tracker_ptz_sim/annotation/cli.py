@@ -22,7 +22,9 @@ import sys
 from pathlib import Path
 
 from tracker_ptz_sim.annotation import corrections, linking, review
-from tracker_ptz_sim.annotation.assistant import Assistant, read_frames
+from tracker_ptz_sim.annotation.assistant import Assistant
+from tracker_ptz_sim.simulation import ground_truth
+from tracker_ptz_sim.simulation.frame_sources import video_frames
 
 DETECTIONS = "detections.txt"
 ASSISTANT = "assistant.txt"
@@ -35,7 +37,7 @@ def assist(video: Path, folder: Path) -> int:
     folder.mkdir(parents=True, exist_ok=True)
     assistant = Assistant()
     lines, size = [], (0, 0)
-    for index, frame in enumerate(read_frames(video)):
+    for index, frame in enumerate(video_frames(video)):
         size = (frame.shape[1], frame.shape[0])
         for x0, y0, x1, y1, score in assistant.detect(frame, linking.DETECTION_FLOOR):
             lines.append(
@@ -44,39 +46,39 @@ def assist(video: Path, folder: Path) -> int:
         if (index + 1) % 20 == 0:
             print(f"assist: frame {index + 1}", flush=True)
     (folder / DETECTIONS).write_text("\n".join(lines) + "\n")
-    linking.write_seqinfo(folder, video, size, index + 1)
+    ground_truth.write_seqinfo(folder, video, size, index + 1)
     print(f"assist: {index + 1} frames, {len(lines)} boxes -> {folder / DETECTIONS}")
     return 0
 
 
 def link(folder: Path) -> int:
-    detections = linking.read_detections(folder / DETECTIONS)
+    detections = ground_truth.read_detections(folder / DETECTIONS)
     tracks = linking.link(detections)
-    linking.write_tracks(tracks, folder / ASSISTANT)
+    ground_truth.write_tracks(tracks, folder / ASSISTANT)
     print(f"link: {len(tracks.ids())} tracks, {len(tracks)} boxes -> {folder / ASSISTANT}")
     return 0
 
 
-def ground_truth(folder: Path) -> tuple[linking.Tracks, corrections.Applied]:
+def reviewed(folder: Path) -> tuple[ground_truth.Tracks, corrections.Applied]:
     """The ground truth: the assistant's tracks, corrected, finished (interpolated boxes have
     score 0); and what the corrections did."""
-    tracks = linking.read_tracks(folder / ASSISTANT)
+    tracks = ground_truth.read_tracks(folder / ASSISTANT)
     fixes = corrections.load(folder / CORRECTIONS) if (folder / CORRECTIONS).exists() else []
-    result = corrections.apply(tracks, fixes, linking.read_detections(folder / DETECTIONS))
-    info = linking.read_seqinfo(folder)
+    result = corrections.apply(tracks, fixes, ground_truth.read_detections(folder / DETECTIONS))
+    info = ground_truth.read_seqinfo(folder)
     return linking.finish(result.tracks, info.width, info.height), result
 
 
 def apply(folder: Path) -> int:
-    gt, result = ground_truth(folder)
+    gt, result = reviewed(folder)
     (folder / GT).parent.mkdir(parents=True, exist_ok=True)
-    linking.write_ground_truth(gt, folder / GT)
+    ground_truth.write_ground_truth(gt, folder / GT)
     print(f"apply: {result.summary()}; {len(gt.ids())} people, {len(gt)} boxes -> {folder / GT}")
     return 0
 
 
 def sheet(video: Path, folder: Path, every: int, region: tuple[int, int, int, int] | None) -> int:
-    tracks, _ = ground_truth(folder)
+    tracks, _ = reviewed(folder)
     pages = review.contact_sheets(video, tracks, folder / "review", every)
     if region is not None:
         pages += review.contact_sheets(video, tracks, folder / "review", every, region)
@@ -95,7 +97,7 @@ def show_strip(
     video: Path, folder: Path, frames: range, region: tuple[int, int, int, int], scale: int
 ) -> int:
     path = folder / "review" / "strip.png"
-    count = review.strip(video, ground_truth(folder)[0], frames, region, scale, path)
+    count = review.strip(video, reviewed(folder)[0], frames, region, scale, path)
     print(f"strip: {count} frames -> {path}")
     return 0
 

@@ -35,7 +35,8 @@ import numpy as np
 import yaml
 
 from tracker_msgs_py.geometry import corner_iou_matrix
-from tracker_ptz_sim.annotation.linking import Box, Detections, Tracks, interpolate
+from tracker_ptz_sim.annotation.linking import interpolate
+from tracker_ptz_sim.simulation.ground_truth import Box, Detections, Tracks
 
 KINDS = ("delete", "add", "move", "join", "split", "swap", "path")
 SNAP_IOU = 0.5

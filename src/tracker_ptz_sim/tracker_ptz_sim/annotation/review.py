@@ -13,8 +13,8 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from tracker_ptz_sim.annotation.assistant import read_frames
-from tracker_ptz_sim.annotation.linking import Box, Tracks
+from tracker_ptz_sim.simulation.frame_sources import video_frames
+from tracker_ptz_sim.simulation.ground_truth import Box, Tracks
 
 COLUMNS, ROWS = 2, 2
 
@@ -107,7 +107,7 @@ def strip(
     """Frames `frames` of `region` magnified with boxes, ids and a coordinate grid, in rows up to
     `width` px wide, into one image at `path`; how many frames it shows."""
     tiles = []
-    for index, frame in enumerate(read_frames(video)):
+    for index, frame in enumerate(video_frames(video)):
         if index + 1 in frames:
             tile = zoomed(frame, index + 1, tracks, region, scale)
             grid(tile, region, scale)
@@ -144,7 +144,7 @@ def contact_sheets(
         draw(frame, index + 1, tracks)
         if region is None
         else zoomed(frame, index + 1, tracks, region, scale)
-        for index, frame in enumerate(read_frames(video))
+        for index, frame in enumerate(video_frames(video))
         if index % every == 0
     ]
     columns, rows = (COLUMNS, ROWS) if region is None else (2, 3)

@@ -77,7 +77,8 @@ from tracker_ptz_sim.bringup import pipeline
 from tracker_ptz_sim.bringup.graph import load_graph, node_parameters, unknown_override_nodes
 from tracker_ptz_sim.evaluation import error_classes, scoring
 from tracker_ptz_sim.evaluation.centre_scores import OSPA_CUTOFFS, ospa_key
-from tracker_ptz_sim.simulation import real_people, small_objects, street
+from tracker_ptz_sim.simulation import ground_truth, real_people, small_objects, street
+from tracker_ptz_sim.simulation.frame_sources import video_frames
 from tracker_ptz_sim.simulation.scenes import (
     GT_PATH,
     META_NAME,
@@ -310,9 +311,7 @@ class ClipReplay:
 
     @property
     def frames(self) -> Iterator[np.ndarray]:
-        from tracker_ptz_sim.annotation.assistant import read_frames
-
-        return read_frames(self.video)
+        return video_frames(self.video)
 
     def stamps_ns(self) -> list[int]:
         return [frame_stamp_ns(i, self.fps) for i in range(self.num_frames)]
@@ -321,11 +320,10 @@ class ClipReplay:
 def prepare_clip(clip: AnnotatedClip, cache: Path) -> tuple[Path, ClipReplay]:
     """A scene directory for the annotated clip (its gt/gt.txt and a scene.json naming the
     clip's video) and its replay."""
-    from tracker_ptz_sim.annotation.linking import read_seqinfo
     from tracker_ptz_sim.bringup.sample import fetch_sample
 
     video = fetch_sample()
-    info = read_seqinfo(clip.folder)
+    info = ground_truth.read_seqinfo(clip.folder)
     root = cache / f"{clip.name}-annotated"
     (root / "gt").mkdir(parents=True, exist_ok=True)
     shutil.copyfile(clip.gt, root / GT_PATH)

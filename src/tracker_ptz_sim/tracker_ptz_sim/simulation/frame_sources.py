@@ -147,6 +147,11 @@ class VideoFileSource(FrameSource):
         )
 
 
+def video_frames(path: Path) -> Iterator[np.ndarray]:
+    """The decodable frames (BGR) of a video file, in order (`VideoFileSource`)."""
+    return (frame.image for frame in VideoFileSource(Path(path)).frames())
+
+
 def open_capture(path: Path, index_order: bool) -> cv2.VideoCapture:
     """OpenCV's reader of `path`; `index_order` makes FFmpeg read an AVI in its index's order.
 

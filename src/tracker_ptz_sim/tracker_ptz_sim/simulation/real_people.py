@@ -27,7 +27,8 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from tracker_ptz_sim.annotation.linking import Box, Tracks, read_tracks
+from tracker_ptz_sim.simulation.frame_sources import video_frames
+from tracker_ptz_sim.simulation.ground_truth import Box, Tracks, read_tracks
 
 SETS = ("development", "held_out")
 
@@ -196,9 +197,7 @@ def load_library(
     video: Path, gt: Path, background: np.ndarray, config: CutoutConfig
 ) -> CutoutLibrary:
     """The library of `video` and its ground truth file `gt`."""
-    from tracker_ptz_sim.annotation.assistant import read_frames
-
-    return build_library(read_frames(video), background, read_tracks(gt), config)
+    return build_library(video_frames(video), background, read_tracks(gt), config)
 
 
 @dataclass(frozen=True, eq=False)
