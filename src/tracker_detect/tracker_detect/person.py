@@ -8,8 +8,9 @@ plug-in (`method: person`): the camera image in, the boxes as blobs in scene coo
 NanoDet, as converted (each fact checked against the model: tests/detect/test_person.py):
 - input: (1, 3, H, W) float32, H and W multiples of 32; the image scaled so that its longer side
   is `input_size`, the rest padded. Channels: BGR, normalised by NanoDet's own mean and standard
-  deviation (`MEAN`, `STD`); Human (the npm package's library) feeds RGB / 255 instead, which the
-  model also takes, with lower scores and more merged pairs (measured in docs/results/people.md).
+  deviation (`MEAN`, `STD`), as it was trained; Human (the npm package's library) feeds RGB / 255
+  instead, which gives about the same precision and recall on the annotated clip
+  (docs/results/people.md).
 - outputs, per stride s in (8, 16, 32): class scores (1, H/s * W/s, 80), already sigmoid, person
   = column 0; and box sides (1, H/s * W/s, 44): 4 sides (left, top, right, bottom) x 11 distance
   bins, in strides from the cell centre ((col + 0.5) s, (row + 0.5) s). The distance is the
@@ -39,7 +40,7 @@ from tracker_detect.detector import (
 from tracker_detect.registration import View
 from tracker_msgs_py.geometry import Rect, corner_iou_matrix
 from tracker_msgs_py.package_files import package_data
-from tracker_msgs_py.params import check_config
+from tracker_msgs_py.params import check_config, config_from_params
 
 MODEL_NAME = "nanodet.onnx"
 STRIDES = (8, 16, 32)
@@ -293,8 +294,7 @@ class PersonDetector:
         self.last_stamp_ns = None
 
     def reconfigure(self, values: dict[str, Any]) -> None:
-        from tracker_msgs_py.params import config_from_params
-
+        """New parameter values from the next frame on (the loaded model is reused)."""
         self.model = PersonModel(config_from_params(PersonConfig, values))
 
 
