@@ -40,7 +40,7 @@ setup(
             "run_demo = tracker_ptz_sim.entry_points:run_demo",
             "fetch_sample = tracker_ptz_sim.bringup.sample:main",
             "make_scene = tracker_ptz_sim.simulation.scene_cli:main",
-            "annotate = tracker_ptz_sim.annotation.cli:main",
+            "annotate = tracker_ptz_sim.entry_points:annotate",
             "evaluate = tracker_ptz_sim.entry_points:evaluate",
             "benchmark = tracker_ptz_sim.entry_points:benchmark",
             "predictor_study = tracker_ptz_sim.entry_points:predictor_study",

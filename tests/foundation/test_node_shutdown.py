@@ -27,6 +27,7 @@ TOOLS = {
     "single_target_benchmark",
     "phd_benchmark",
     "voxel_benchmark",
+    "annotate",
 }
 
 

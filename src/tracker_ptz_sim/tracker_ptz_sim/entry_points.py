@@ -58,3 +58,7 @@ def phd_benchmark() -> int:
 
 def voxel_benchmark() -> int:
     return guarded_main("tracker_ptz_sim.bringup.voxel_benchmark", batch=True)
+
+
+def annotate() -> int:
+    return guarded_main("tracker_ptz_sim.annotation.cli", batch=True)
