@@ -54,6 +54,7 @@ def node_parameters() -> dict[tuple[str, str], list]:
             TRACKERS.get("colour_particles").parameters
         ),
         ("tracker_filter/README.md", "### `gm_phd`"): list(TRACKERS.get("gm_phd").parameters),
+        ("tracker_filter/README.md", "### `byte`"): list(TRACKERS.get("byte").parameters),
         ("tracker_filter/README.md", "### `occupancy_particles`"): list(
             TRACKERS.get("occupancy_particles").parameters
         ),

@@ -13,6 +13,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from typing import Any
 
+from tracker_filter.byte_tracker import METHOD as BYTE
 from tracker_filter.config import PRESETS, SELECTION_DEFAULTS, TRACKING_PARAMETERS, TrackerConfig
 from tracker_filter.gmphd_tracker import METHOD as GM_PHD
 from tracker_filter.occupancy_tracker import METHOD as OCCUPANCY_PARTICLES
@@ -42,3 +43,4 @@ TRACKERS.register(
 TRACKERS.register(COLOUR_PARTICLES)
 TRACKERS.register(GM_PHD)
 TRACKERS.register(OCCUPANCY_PARTICLES)
+TRACKERS.register(BYTE)

@@ -213,6 +213,15 @@ CONFIGURATIONS: dict[str, Configuration] = {
             "tracker": {name: PRESETS["multi"][name] for name in _suite_tracker_settings()},
         }
     ),
+    # the person model's boxes, weak ones included, tracked in the manner of ByteTrack (with
+    # colours to find a missed person again); the camera keeps its person until they are lost
+    # and then waits 2 s for them before it takes another
+    "people": Configuration(
+        overrides={
+            "ssim_detector": {"method": "person", "score_threshold": 0.2},
+            "tracker": {"method": "byte", "switch_margin": 1000.0, "reacquire_time": 2.0},
+        }
+    ),
     # seed 004's GM-PHD tracker on the surveillance graph's SSIM blobs, under the moving camera
     "gmphd_ssim": Configuration(overrides={"tracker": {"method": "gm_phd"} | GMPHD_PEOPLE}),
     # ... without seed 004's occlusion handling (plain GM-PHD with Hungarian labels)
