@@ -16,7 +16,9 @@ out/bench/detect.json. Everything runs on ONE core (OpenCV and BLAS limited to o
 - registration: the shift estimators alone, at the seed's 110x110 window and at 256x256.
 - person model: the `person` detector (NanoDet) per 264x264 camera view (the surveillance graph's
   view at zoom 1) sweeping over vtest.avi, at input sizes 256 and 320 with onnxruntime and at 256
-  with OpenCV's DNN, beside `ssim_background` on the same views (colour in, boxes out).
+  with OpenCV's DNN, beside `ssim_background` on the same views (colour in, boxes out), the
+  surveillance graph's `person_motion` (both on every view; target <= 1.5x the model alone), and
+  the other way to fuse them: the model on each motion blob's crop at 128 px.
 """
 
 from __future__ import annotations
@@ -230,7 +232,10 @@ PERSON_CASES = (
     ("person, 320 px input, onnxruntime", "person", {"input_size": 320}),
     ("person, 256 px input, OpenCV DNN", "person", {"input_size": 256, "runtime": "opencv"}),
     ("ssim_background (the same views)", "ssim_background", {}),
+    ("person_motion (the surveillance graph's)", "person_motion", {}),
 )
+CROP_INPUT = 128  # px, the person model's input for one blob's crop (a person fills it)
+CROP_GROWTH = 0.25  # the blob's box grown by this x its longer side on each side
 
 
 def bench_person(quick: bool) -> dict:
@@ -265,7 +270,40 @@ def bench_person(quick: bool) -> dict:
             "frames": len(times),
             "boxes_per_view": blobs / len(times),
         }
+    results["ssim_background + its blobs' crops (the alternative)"] = bench_crops(frames, windows)
     return results
+
+
+def bench_crops(frames: list, windows: list) -> dict:
+    """The fusion's other way to look: the person model on each motion blob's crop (grown by
+    CROP_GROWTH, at CROP_INPUT px) after the background detector, per view."""
+    background = DETECTORS.get("ssim_background")
+    detector = background.build(background.defaults())
+    person = DETECTORS.get("person")
+    model = person.build({**person.defaults(), "input_size": CROP_INPUT}).model
+    size, times, crops = 264, [], 0
+    for k, (frame, (x, y)) in enumerate(zip(frames, windows, strict=True)):
+        view = View(Rect(x, y, size, size), size, size)
+        image = np.ascontiguousarray(frame[y : y + size, x : x + size])
+        start = time.perf_counter()
+        result = detector.process(CameraFrame(k * 100_000_000, image, view))
+        for blob in result.blobs:
+            bx, by = blob.bbox.x - x, blob.bbox.y - y
+            grow = CROP_GROWTH * max(blob.bbox.width, blob.bbox.height)
+            x0, y0 = int(max(0, bx - grow)), int(max(0, by - grow))
+            x1 = int(min(size, bx + blob.bbox.width + grow))
+            y1 = int(min(size, by + blob.bbox.height + grow))
+            if x1 - x0 >= 8 and y1 - y0 >= 8:
+                model.detect(image[y0:y1, x0:x1])
+                crops += 1
+        elapsed = time.perf_counter() - start
+        if result.compared and k >= 3:
+            times.append(elapsed)
+    return {
+        "median_ms": 1e3 * statistics.median(times),
+        "frames": len(times),
+        "boxes_per_view": crops / max(1, len(times)),
+    }
 
 
 def main() -> int:
@@ -312,9 +350,14 @@ def main() -> int:
             print(f"  skipped: {value}")
             continue
         print(
-            f"  {name:44s} {value['median_ms']:8.2f} ms  ({value['frames']} views, "
+            f"  {name:52s} {value['median_ms']:8.2f} ms  ({value['frames']} views, "
             f"{value['boxes_per_view']:.1f} boxes/view)"
         )
+    person = report["person"]
+    if "skipped" not in person:
+        fused = person["person_motion (the surveillance graph's)"]["median_ms"]
+        alone = person["person, 256 px input, onnxruntime"]["median_ms"]
+        print(f"  person_motion / the model alone: {fused / alone:.2f}x (target <= 1.5x)")
     OUT.parent.mkdir(parents=True, exist_ok=True)
     OUT.write_text(json.dumps(report, indent=1))
     print(f"\nwrote {OUT.relative_to(ROOT)}")

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import subprocess
 
 from ros_process import executable
@@ -24,6 +25,19 @@ SWEEP_RATE = 0.6  # rad/s: 170 px/s, the search crosses the scene in about 3 s
 ROUND_OBJECTS = {"split_depth": 0.0}
 
 
+def motion_only_settings() -> list[str]:
+    """node.param=value settings that make a graph built on surveillance.yaml motion-only, as
+    config/motion.yaml makes the surveillance graph (for graphs without a motion variant)."""
+    from tracker_ptz_sim.bringup.graph import load_graph, node_parameters
+
+    motion = [p for p in load_graph("motion").params_files if p.name == "motion.yaml"]
+    return [
+        f"{node}.{name}={json.dumps(value)}"
+        for node in ("ssim_detector", "tracker")
+        for name, value in node_parameters(motion, node).items()
+    ]
+
+
 def run_demo(
     video,
     out,
@@ -31,7 +45,7 @@ def run_demo(
     mode="servo",
     render=False,
     small_view=True,
-    graph="surveillance",
+    graph="motion",
     flags=(),
 ):
     """run_demo on `video` with `graph`; `settings` are node.param=value; `small_view`: the

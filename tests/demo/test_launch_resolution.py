@@ -128,7 +128,7 @@ def test_a_live_camera_runs_the_graph_behind_the_bridge_on_wall_time(tmp_path):
     with Resolved(launch_ros_command(node(planned, "ssim_detector"), tmp_path)) as detector:
         assert detector.value("use_sim_time") is False
         assert detector.value("reliable_images") is False  # live cameras publish best effort
-        assert detector.value("method") == "ssim_background"
+        assert detector.value("method") == "person_motion"
     with Resolved(launch_ros_command(node(planned, "ptz_controller"), tmp_path)) as controller:
         assert controller.value("joint_command_topic") == "ptz/joint_command"
 

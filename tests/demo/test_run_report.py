@@ -233,7 +233,11 @@ def test_colour_graph_hands_motion_over_to_camshift_on_its_own_topics():
     from tracker_ptz_sim.bringup.graph import load_graph, node_parameters
 
     graph = load_graph("colour")
-    assert [p.name for p in graph.params_files] == ["surveillance.yaml", "colour.yaml"]
+    assert [p.name for p in graph.params_files] == [
+        "surveillance.yaml",
+        "motion.yaml",
+        "colour.yaml",
+    ]
     detector = node_parameters(graph.params_files, "colour_detector")
     assert detector["method"] == "camshift" and detector["lockstep_targets"] is True
     assert node_parameters(graph.params_files, "ssim_detector")["method"] == "ssim_background"
@@ -325,8 +329,9 @@ def test_launch_file_runs_the_colour_graph_on_request(monkeypatch):
     names = [n["name"] for n in created]
     assert "colour_detector" in names and "colour_tracker" in names
     detector = created[names.index("colour_detector")]
-    assert [p.rsplit("/", 1)[-1] for p in detector["parameters"][:2]] == [
+    assert [p.rsplit("/", 1)[-1] for p in detector["parameters"][:3]] == [
         "surveillance.yaml",
+        "motion.yaml",
         "colour.yaml",
     ]
     assert ("handover_target", "motion/target") in detector["remappings"]

@@ -53,12 +53,13 @@ class Harness:
             assert time.monotonic() < deadline, "timed out"
             self.executor.spin_once(timeout_sec=0.05)
 
-    def send(self, stamp_s, positions, present=True, frame_id="scene"):
+    def send(self, stamp_s, positions, present=True, frame_id="scene", label="person"):
+        """Blobs at `positions`, of a person detector unless `label` says otherwise."""
         msg = BlobArray(target_present=present)
         msg.header.stamp.sec, msg.header.stamp.nanosec = int(stamp_s), round((stamp_s % 1) * 1e9)
         msg.header.frame_id = frame_id
         for x, y in positions:
-            blob = Blob(centroid_x=float(x), centroid_y=float(y), area=100)
+            blob = Blob(centroid_x=float(x), centroid_y=float(y), area=100, label=label)
             blob.bbox.x, blob.bbox.y, blob.bbox.width, blob.bbox.height = (
                 x - 5.0,
                 y - 5.0,
@@ -160,6 +161,27 @@ def test_a_repeated_frame_is_dropped_and_a_jump_back_starts_a_new_epoch(harness)
     for k in range(1, 4):
         tracks, target = harness.send(0.5 + 0.1 * k, [(500 + 5 * k, 500)])
     assert target.locked and target.track.id == 2 and target.track.hits == 4
+
+
+def test_tracks_carry_their_label_and_only_people_are_followed_by_default(harness):
+    for k in range(5):
+        tracks, target = harness.send(20.0 + 0.1 * k, [(100 + 3 * k, 100)], label="motion")
+    assert [(t.label, t.status) for t in tracks.tracks] == [("motion", 1)]
+    assert not target.locked  # a flag, a tree or a car is tracked, never followed
+    for k in range(5):
+        tracks, target = harness.send(21.0 + 0.1 * k, [(300 + 3 * k, 100)])
+    assert target.locked and target.track.label == "person"
+    assert {t.label for t in tracks.tracks} == {"motion", "person"}
+
+
+def test_track_labels_names_what_the_camera_may_follow():
+    harness = Harness([Parameter("track_labels", value=["*"])])
+    try:
+        for k in range(5):
+            _, target = harness.send(20.0 + 0.1 * k, [(100 + 3 * k, 100)], label="motion")
+        assert target.locked and target.track.label == "motion"
+    finally:
+        harness.close()
 
 
 def test_hostile_blobs_never_become_tracks(harness, capfd):

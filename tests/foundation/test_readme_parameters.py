@@ -16,6 +16,14 @@ pytestmark = pytest.mark.ros
 SRC = Path(__file__).resolve().parents[2] / "src"
 
 
+FUSION_OWN = (
+    "explained_share",
+    "motion_blobs",
+    "motion_share",
+    "still_score",
+)
+
+
 def node_parameters() -> dict[tuple[str, str], list]:
     """(README, heading before its table) -> the ParamSpecs of that node."""
     from tracker_detect.detector_node import NODE_PARAMETERS
@@ -45,6 +53,9 @@ def node_parameters() -> dict[tuple[str, str], list]:
         ("tracker_detect/README.md", "### `camshift`"): list(DETECTORS.get("camshift").parameters),
         ("tracker_detect/README.md", "### `mog2`"): list(DETECTORS.get("mog2").parameters),
         ("tracker_detect/README.md", "### `person`"): list(DETECTORS.get("person").parameters),
+        ("tracker_detect/README.md", "### `person_motion`"): [
+            spec for spec in DETECTORS.get("person_motion").parameters if spec.name in FUSION_OWN
+        ],
         ("tracker_filter/README.md", "### Parameters"): [
             ParamSpec("method", "gated_hungarian", ""),
             ParamSpec("preset", "", ""),

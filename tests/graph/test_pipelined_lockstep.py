@@ -34,7 +34,7 @@ def test_a_pipelined_replay_matches_the_in_process_graph_with_the_same_delay(tmp
             "ptz_controller": {"sweep_rate": SWEEP_RATE, "mode": "servo"},
             "ssim_detector": ROUND_OBJECTS,
         }
-        settings = pipeline.PipelineSettings.from_graph(load_graph(), overrides)
+        settings = pipeline.PipelineSettings.from_graph(load_graph("motion"), overrides)
         steps = pipeline.run(scene.frames, scene.stamps_ns(), settings)
         return scoring.trace_from_steps(steps, scene.fps)
 

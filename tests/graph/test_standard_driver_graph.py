@@ -6,7 +6,7 @@ suite's ptz/state from them, and the controller steers the unit with JointState 
 from __future__ import annotations
 
 import pytest
-from demo_runs import ONE_WALKER, run_demo
+from demo_runs import ONE_WALKER, motion_only_settings, run_demo
 
 pytestmark = [pytest.mark.ros, pytest.mark.slow]
 
@@ -15,8 +15,9 @@ WALKER_PAN = -0.3  # rad: the walker's first position, x = 320 - 280 px/rad * pa
 
 @pytest.fixture(scope="module")
 def standard_run(tmp_path_factory):
-    """One person-sized object walking with two turns (the surveillance graph test's scene), the
-    unit starting pointed at it: this test is about steering through standard messages, and the
+    """One person-sized object walking with two turns (the surveillance graph test's scene; a
+    round object, so the graph runs motion-only, as config/motion.yaml makes it), the unit
+    starting pointed at it: this test is about steering through standard messages, and the
     search's single pass over this walker (it walks up out of the sweep's band within 8 frames)
     is too short to confirm it for a pinhole camera's 3 % narrower view."""
     from tracker_ptz_sim.evaluation import run_report
@@ -25,7 +26,8 @@ def standard_run(tmp_path_factory):
     root = tmp_path_factory.mktemp("standard")
     paths = write_scene(generate_scene(SceneConfig(**ONE_WALKER)), root / "scene")
     out = root / "run"
-    run_demo(paths.video, out, f"ptz_camera.initial_pan={WALKER_PAN}", graph="standard")
+    settings = [f"ptz_camera.initial_pan={WALKER_PAN}", *motion_only_settings()]
+    run_demo(paths.video, out, *settings, graph="standard")
     return paths, out, run_report.collect(out / "bag")
 
 

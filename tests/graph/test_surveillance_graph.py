@@ -1,5 +1,8 @@
 """The whole surveillance graph as separate processes, in lockstep, on synthetic scenes with
-ground truth: video_source -> ptz_camera -> ssim_detector -> tracker -> ptz_controller."""
+ground truth: video_source -> ptz_camera -> ssim_detector -> tracker -> ptz_controller. The
+scenes' movers are round objects and drawn figures, not people, so the graph runs motion-only
+(config/motion_graph.yaml: the same nodes without the person model); the shipped graph on real
+people is tests/graph/test_people_graph.py."""
 
 from __future__ import annotations
 
@@ -69,7 +72,7 @@ def test_in_process_pipeline_matches_the_graph(one_walker, servo_run):
         "ptz_controller": {"sweep_rate": SWEEP_RATE, "mode": "servo"},
         "ssim_detector": ROUND_OBJECTS,
     }
-    settings = pipeline.PipelineSettings.from_graph(load_graph(), overrides)
+    settings = pipeline.PipelineSettings.from_graph(load_graph("motion"), overrides)
     steps = pipeline.run(scene.frames, scene.stamps_ns(), settings)
     fast = scoring.trace_from_steps(steps, scene.fps)
     assert fast.windows == graph.windows
@@ -98,7 +101,7 @@ def test_the_camera_zooms_out_for_a_person_taller_than_its_view(tmp_path):
     zoomed = [f for f, window in graph.windows.items() if window.height > nominal]
     assert len(zoomed) >= 5 and all(f in graph.targets for f in zoomed[:3])
     assert graph.windows[max(graph.windows)].height == nominal
-    settings = pipeline.PipelineSettings.from_graph(load_graph())
+    settings = pipeline.PipelineSettings.from_graph(load_graph("motion"))
     fast = scoring.trace_from_steps(
         pipeline.run(scene.frames, scene.stamps_ns(), settings), scene.fps
     )
@@ -109,7 +112,7 @@ def test_evaluate_scores_a_recorded_run(one_walker, servo_run, tmp_path):
     """evaluate --bag writes what its help promises, scores included, for a run recorded before."""
     _, paths, _ = one_walker
     command = [str(executable("tracker_ptz_sim", "evaluate")), "--bag", str(servo_run / "bag")]
-    command += ["--gt", str(paths.gt), "--out", str(tmp_path)]
+    command += ["--gt", str(paths.gt), "--out", str(tmp_path), "--graph", "motion"]
     result = subprocess.run(command, capture_output=True, text=True, timeout=120)
     assert result.returncode == 0, result.stdout + result.stderr
     for name in ("summary.json", "evaluation.json", "tracks.txt", "plots.png"):
@@ -279,7 +282,13 @@ def test_killing_the_detector_stops_the_camera_and_tracking_resumes(one_walker, 
         "ssim_detector": ROUND_OBJECTS,
     }
     run = demo.run_graph(
-        load_graph(), paths.video, tmp_path, overrides, demo.install_space(), 300.0, during=during
+        load_graph("motion"),
+        paths.video,
+        tmp_path,
+        overrides,
+        demo.install_space(),
+        300.0,
+        during=during,
     )
     failed = {name: code for name, code in run.exit_codes.items() if code != 0}
     assert failed == {}, with_logs(run, tmp_path)

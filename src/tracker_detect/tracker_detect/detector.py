@@ -27,6 +27,7 @@ import numpy as np
 
 from tracker_detect.registration import ShiftEstimate, View
 from tracker_msgs_py.geometry import Rect
+from tracker_msgs_py.labels import MOTION
 
 
 class DetectorUnavailableError(RuntimeError):
@@ -50,6 +51,7 @@ class Blob:
     score: float  # the method's score (SSIM: mean SSIM over the blob, lower = stronger motion)
     angle: float = 0.0  # rad, oriented box's rotation from the scene x axis towards y
     oriented_size: tuple[float, float] | None = None  # scene px, oriented box's sides (CamShift)
+    label: str = MOTION  # class: PERSON from the person model, MOTION when nothing classified it
 
 
 @dataclass

@@ -578,6 +578,7 @@ def _blob_msg(blob: Blob) -> BlobMsg:
         bbox=rect_to_msg(blob.bbox),
         area=round(blob.area),
         score=blob.score,
+        label=blob.label,
         angle=blob.angle,
     )
     if blob.oriented_size is not None:

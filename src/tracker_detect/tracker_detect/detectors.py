@@ -15,6 +15,7 @@ from typing import Any
 from tracker_detect.background import BackgroundConfig, BackgroundDetector
 from tracker_detect.camshift import CamShiftConfig, CamShiftTracker
 from tracker_detect.detector import CameraFrame, Detection, Detector
+from tracker_detect.fusion import FusionConfig, FusionDetector
 from tracker_detect.mog2 import Mog2Config, Mog2Detector
 from tracker_detect.motion import (
     COMPENSATION_MODES,
@@ -588,5 +589,66 @@ DETECTORS.register(
         "camera image: person boxes with scores",
         build=lambda values: PersonDetector(config_from_params(PersonConfig, values)),
         parameters=PERSON_PARAMETERS,
+    )
+)
+
+
+_F = FusionConfig()
+#: The person model keeps its weak boxes here: the tracker's second association stage uses them.
+FUSION_SCORE_THRESHOLD = 0.2
+
+FUSION_PARAMETERS: tuple[ParamSpec, ...] = (
+    BACKGROUND_PARAMETERS
+    + tuple(
+        replace(spec, default=FUSION_SCORE_THRESHOLD) if spec.name == "score_threshold" else spec
+        for spec in PERSON_PARAMETERS
+    )
+    + (
+        ParamSpec(
+            "explained_share",
+            _F.explained_share,
+            "a motion blob whose box person boxes cover at least this share is those people's "
+            "(else it is published labelled motion)",
+            0.01,
+            1.0,
+        ),
+        ParamSpec(
+            "motion_blobs", _F.motion_blobs, "publish the blobs no person explains (label motion)"
+        ),
+        ParamSpec(
+            "motion_share",
+            _F.motion_share,
+            "share of a person box's pixels in the motion mask that vouches for it",
+            0.0,
+            1.0,
+        ),
+        ParamSpec(
+            "still_score",
+            _F.still_score,
+            "score cap of a person box motion does not vouch for (below the tracker's high: it "
+            "continues a track, never starts one; 1: no cap)",
+            0.0,
+            1.0,
+        ),
+    )
+)
+
+
+def _fusion(values: Mapping[str, Any]) -> FusionDetector:
+    return FusionDetector(
+        config_from_params(BackgroundConfig, values),
+        config_from_params(PersonConfig, values),
+        config_from_params(FusionConfig, values),
+    )
+
+
+DETECTORS.register(
+    Method(
+        name="person_motion",
+        description="motion proposes, the person model decides: the SSIM background detector's "
+        "blobs and the person model's boxes on each camera image; person boxes labelled person, "
+        "blobs no person explains labelled motion",
+        build=_fusion,
+        parameters=FUSION_PARAMETERS,
     )
 )

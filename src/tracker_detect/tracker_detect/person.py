@@ -39,13 +39,14 @@ from tracker_detect.detector import (
 )
 from tracker_detect.registration import View
 from tracker_msgs_py.geometry import Rect, corner_iou_matrix
+from tracker_msgs_py.labels import PERSON
 from tracker_msgs_py.package_files import package_data
 from tracker_msgs_py.params import check_config, config_from_params
 
 MODEL_NAME = "nanodet.onnx"
 STRIDES = (8, 16, 32)
 BINS = 11  # distance bins per box side (reg_max 10)
-PERSON = 0  # COCO class index
+COCO_PERSON = 0  # COCO class index
 MEAN = np.array([103.53, 116.28, 123.675], np.float32)  # BGR, NanoDet's normalisation
 STD = np.array([57.375, 57.12, 58.395], np.float32)
 RUNTIMES = ("onnxruntime", "opencv")
@@ -207,7 +208,7 @@ class PersonModel:
         for stride in STRIDES:
             rows, cols = height // stride, width // stride
             scores, sides = _outputs_of(outputs, rows * cols)
-            person = scores[:, PERSON]
+            person = scores[:, COCO_PERSON]
             keep = np.flatnonzero(person >= self.config.score_threshold)
             if keep.size == 0:
                 continue
@@ -280,7 +281,7 @@ class PersonDetector:
         view = checked_view(frame, self.last_stamp_ns)
         boxes = self.model.detect(frame.image)
         self.last_stamp_ns = frame.stamp_ns
-        blobs = sorted((_blob(box, view) for box in boxes), key=lambda b: -b.area)
+        blobs = sorted((box_blob(box, view) for box in boxes), key=lambda b: -b.area)
         return Detection(
             stamp_ns=frame.stamp_ns,
             view=view,
@@ -298,7 +299,7 @@ class PersonDetector:
         self.model = PersonModel(config_from_params(PersonConfig, values))
 
 
-def _blob(box: np.ndarray, view: View) -> Blob:
+def box_blob(box: np.ndarray, view: View) -> Blob:
     """One (x0, y0, x1, y1, score) image box as a blob in scene px, clipped to the image."""
     x0, y0 = max(0.0, float(box[0])), max(0.0, float(box[1]))
     x1, y1 = min(float(view.width), float(box[2])), min(float(view.height), float(box[3]))
@@ -310,4 +311,5 @@ def _blob(box: np.ndarray, view: View) -> Blob:
         area=rect.width * rect.height,
         pixel_count=round((x1 - x0) * (y1 - y0)),
         score=float(box[4]),
+        label=PERSON,
     )

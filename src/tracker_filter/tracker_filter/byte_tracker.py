@@ -22,6 +22,11 @@ score, higher = surer (the `person` detector). What it needs once detections are
    row (a tentative track missed once is dropped: one false box never becomes a track); a
    confirmed track missed for more than `max_misses` frames is LOST.
 
+A box is matched only with tracks of its label (as Frigate tracks each label apart): from the
+`person_motion` detector, person boxes make person tracks and the motion blobs no person explains
+make motion tracks (a flag, a car), which target selection leaves alone unless told to follow
+them; a motion blob on a person the model misses for a moment does not take their track over.
+
 No travel or straightness rule: a person standing still is a person. Layout "x y vx vy": the box
 centre and its velocity (px, px/s); each track's box is its filter's.
 """
@@ -158,11 +163,14 @@ def _diagonals(variances: np.ndarray) -> np.ndarray:
     return out
 
 
-def _assign(predicted: np.ndarray, boxes: np.ndarray, threshold: float) -> list[tuple[int, int]]:
-    """Pairs (track row, box row) by the Hungarian assignment on IoU, each pair >= threshold."""
+def _assign(
+    predicted: np.ndarray, boxes: np.ndarray, threshold: float, allowed: np.ndarray
+) -> list[tuple[int, int]]:
+    """Pairs (track row, box row) by the Hungarian assignment on IoU, each pair >= threshold and
+    `allowed` (tracks x boxes)."""
     if not len(predicted) or not len(boxes):
         return []
-    overlap = iou_matrix(predicted, boxes)
+    overlap = np.where(allowed, iou_matrix(predicted, boxes), 0.0)
     rows, cols = linear_sum_assignment(-overlap)
     return [(int(r), int(c)) for r, c in zip(rows, cols, strict=True) if overlap[r, c] >= threshold]
 
@@ -323,6 +331,7 @@ class ByteTracker:
         reach = c.refind_reach * predicted[missed, 3:4] * (book.misses[missed, None] + 1)
         alike = similarity(self.looks[missed], looks[candidates])
         good = (distance <= reach) & (alike >= c.refind_similarity)
+        good &= self._same_label(missed, detections.labels[candidates])
         rows, cols = linear_sum_assignment(-np.where(good, alike, 0.0))
         chosen = [
             (int(missed[r]), int(candidates[k]))
@@ -332,6 +341,11 @@ class ByteTracker:
         pairs += chosen
         used = {d for _, d in chosen}
         return np.array([d for d in candidates if int(d) not in used], dtype=np.int64)
+
+    def _same_label(self, tracks: np.ndarray, labels: np.ndarray) -> np.ndarray:
+        """(tracks x boxes) whether the track rows and the boxes' labels agree."""
+        result: np.ndarray = self.book.labels[tracks][:, None] == labels[None, :]
+        return result
 
     def _match(
         self,
@@ -344,7 +358,8 @@ class ByteTracker:
     ) -> np.ndarray:
         """Assign `candidates` (detection rows) to `tracks` (track rows) by IoU, adding the pairs
         to `pairs`; the candidates no track took, best score first."""
-        found = _assign(predicted[tracks], detections.bboxes[candidates], threshold)
+        same = self._same_label(tracks, detections.labels[candidates])
+        found = _assign(predicted[tracks], detections.bboxes[candidates], threshold, same)
         pairs += [(int(tracks[r]), int(candidates[k])) for r, k in found]
         taken = {int(candidates[k]) for _, k in found}
         left = np.array([d for d in candidates if int(d) not in taken], dtype=np.int64)

@@ -36,6 +36,7 @@ from tracker_filter.management import (
 from tracker_filter.models import seed001_nominal_model
 from tracker_filter.robust_kalman import LambdaRule, seed001_uncertainty
 from tracker_filter.selection import AUTOMATIC_POLICIES, SelectionPolicy, TargetSelector
+from tracker_msgs_py.labels import ANY_LABEL, PERSON
 from tracker_msgs_py.params import ParamSpec
 
 SEED_CYCLE = 3.0 / 25.0  # s between processed frames in seed 000 (every 3rd frame at 25 fps)
@@ -78,6 +79,7 @@ _MULTI: dict[str, Any] = {
     "robust_e_f": _SEED001_UNCERTAINTY.E_f.ravel().tolist(),
     "robust_e_g": _SEED001_UNCERTAINTY.E_g.ravel().tolist(),
     "gate_probability": 0.99,
+    "track_labels": [PERSON],
     "measurements": "all",
     "max_tracks": 100,
     "confirm_hits": 3,
@@ -238,7 +240,12 @@ TRACKING_PARAMETERS: tuple[ParamSpec, ...] = (
 SELECTION_PARAMETERS: tuple[ParamSpec, ...] = (
     _spec("selection_policy", "automatic target selection", choices=tuple(AUTOMATIC_POLICIES)),
     _spec("min_lock_time", "s, shortest time on a target before switching to another", 0.0, 3600.0),
-    _spec("switch_margin", "relative score advantage needed to switch targets", 0.0, 100.0),
+    _spec(
+        "switch_margin",
+        "relative score advantage needed to switch targets (1000: keep the target until lost)",
+        0.0,
+        1e6,
+    ),
     _spec("lead_time", "s, horizon of the target's predicted position", 0.0, 10.0),
     _spec(
         "target_max_misses",
@@ -252,6 +259,13 @@ SELECTION_PARAMETERS: tuple[ParamSpec, ...] = (
         "new track where they were heading) before selecting another (0: at once)",
         0.0,
         60.0,
+    ),
+    ParamSpec(
+        "track_labels",
+        _MULTI["track_labels"],
+        "labels of the tracks the camera may follow automatically: person (the person model), "
+        "motion (an unclassified blob), * (any)",
+        validator=lambda v: None if v and all(v) else "track_labels must name a label ('*': any)",
     ),
 )
 
@@ -267,7 +281,7 @@ LIVE_PARAMETERS = frozenset({spec.name for spec in SELECTION_PARAMETERS})
 
 def selector_settings(
     params: Mapping[str, Any],
-) -> tuple[SelectionPolicy, float, float, int, float]:
+) -> tuple[SelectionPolicy, float, float, int, float, tuple[str, ...]]:
     """`TargetSelector`'s arguments (and `configure`'s) from the selection parameters."""
     return (
         AUTOMATIC_POLICIES[params["selection_policy"]],
@@ -275,6 +289,7 @@ def selector_settings(
         params["switch_margin"],
         params["target_max_misses"],
         params["reacquire_time"],
+        tuple(params["track_labels"]),
     )
 
 
@@ -294,6 +309,7 @@ _SEED000 = _MULTI | {
     "selection_policy": "largest_blob",
     "min_lock_time": 0.0,
     "lead_time": 0.0,
+    "track_labels": [ANY_LABEL],  # the seed follows the largest blob, whatever it is
 }
 
 PRESETS: dict[str, dict[str, Any]] = {
@@ -329,6 +345,7 @@ class TrackerConfig:
     lead_time: float
     target_max_misses: int
     reacquire_time: float
+    track_labels: tuple[str, ...]
 
     @classmethod
     def from_params(cls, params: Mapping[str, Any]) -> TrackerConfig:
@@ -373,6 +390,7 @@ class TrackerConfig:
             lead_time=params["lead_time"],
             target_max_misses=params["target_max_misses"],
             reacquire_time=params["reacquire_time"],
+            track_labels=tuple(params["track_labels"]),
         )
 
     @classmethod
@@ -417,4 +435,5 @@ class TrackerConfig:
             self.switch_margin,
             self.target_max_misses,
             self.reacquire_time,
+            self.track_labels,
         )

@@ -112,6 +112,7 @@ class MergedSplitter:
             np.concatenate([rest.areas, *(p.areas for p in pieces)]),
             np.concatenate([rest.bboxes, *(p.bboxes for p in pieces)]),
             np.concatenate([rest.scores, *(p.scores for p in pieces)]),
+            np.concatenate([rest.labels, *(p.labels for p in pieces)]),
         )
 
     def _holds_several(self, area: float, boxes: np.ndarray) -> bool:
@@ -137,6 +138,7 @@ class MergedSplitter:
             detections.areas[j] * shares,
             np.column_stack([corners, sizes]),
             np.full(len(boxes), detections.scores[j]),
+            np.full(len(boxes), detections.labels[j], dtype=object),
         )
 
 
@@ -254,7 +256,7 @@ class BoxGate:
         shift = (gated[:, :2] + gated[:, 2:] / 2) - (boxes[cols, :2] + boxes[cols, 2:] / 2)
         boxes[cols] = gated
         positions[cols] += shift
-        return Detections(positions, detections.areas, boxes, detections.scores)
+        return Detections(positions, detections.areas, boxes, detections.scores, detections.labels)
 
     def _detection_fits(self, detected: np.ndarray, held: np.ndarray) -> np.ndarray:
         """Per pair of boxes (N, 4), whether the detection's is at least as close to the learned

@@ -15,6 +15,7 @@ from enum import Enum
 import numpy as np
 
 from tracker_msgs_py.geometry import Rect
+from tracker_msgs_py.labels import label_array
 
 AXES = 2  # the scene is a plane: x and y
 MAX_COORDINATE_PX = 1e6  # farther from the scene origin is a corrupt message, not a detection
@@ -31,12 +32,14 @@ class Need(Enum):
 @dataclass(frozen=True, eq=False)
 class Detections:
     """Measurements of one frame: centroids (M, 2) px, areas (M,) px^2, boxes (M, 4) as x, y,
-    width, height px, and detector scores (M,)."""
+    width, height px, detector scores (M,) and class labels (M,) (all `labels.MOTION` when none
+    are given)."""
 
     positions: np.ndarray
     areas: np.ndarray
     bboxes: np.ndarray
     scores: np.ndarray
+    labels: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=object))
 
     def __post_init__(self) -> None:
         positions = np.asarray(self.positions, dtype=float).reshape(-1, AXES)
@@ -51,6 +54,8 @@ class Detections:
             if len(values) != count:
                 raise ValueError(f"detections: {len(values)} {name} for {count} positions")
             object.__setattr__(self, name, values)
+        given = None if len(self.labels) == 0 and count else self.labels
+        object.__setattr__(self, "labels", label_array(given, count))
 
     @classmethod
     def empty(cls) -> Detections:
@@ -72,7 +77,11 @@ class Detections:
 
     def subset(self, indices: np.ndarray) -> Detections:
         return Detections(
-            self.positions[indices], self.areas[indices], self.bboxes[indices], self.scores[indices]
+            self.positions[indices],
+            self.areas[indices],
+            self.bboxes[indices],
+            self.scores[indices],
+            self.labels[indices],
         )
 
     def invalid_by_cause(self) -> dict[str, np.ndarray]:

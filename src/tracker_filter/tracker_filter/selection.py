@@ -1,7 +1,8 @@
 """Choosing the one track the pan-tilt camera follows, with hysteresis (no rclpy).
 
 Policies match tracker_msgs/Target SELECT_*. Automatic ones score the confirmed tracks (CONFIRMED or
-COASTING) every frame:
+COASTING) of the labels the selector follows (`labels`: e.g. only "person", so the camera never
+follows a flag, a tree or a car unless asked; "*" = any label) every frame:
 
 - LARGEST_BLOB (seed 000): area of the track's last associated detection;
 - LONGEST_LIVED: track age;
@@ -34,6 +35,7 @@ import numpy as np
 
 from tracker_filter.tracking import TrackSet, TrackStatus
 from tracker_msgs_py.geometry import Rect
+from tracker_msgs_py.labels import ANY_LABEL, wanted
 
 
 class SelectionPolicy(IntEnum):
@@ -113,8 +115,9 @@ class TargetSelector:
         switch_margin: float = 0.2,
         max_misses: int = 10000,
         reacquire_time: float = 0.0,
+        labels: tuple[str, ...] = (ANY_LABEL,),
     ) -> None:
-        self.configure(policy, min_lock_time, switch_margin, max_misses, reacquire_time)
+        self.configure(policy, min_lock_time, switch_margin, max_misses, reacquire_time, labels)
         self.reset()
 
     def configure(
@@ -124,6 +127,7 @@ class TargetSelector:
         switch_margin: float,
         max_misses: int = 10000,
         reacquire_time: float = 0.0,
+        labels: tuple[str, ...] = (ANY_LABEL,),
     ) -> None:
         policy = SelectionPolicy(policy)
         if policy not in AUTOMATIC_POLICIES.values():
@@ -138,8 +142,11 @@ class TargetSelector:
             raise ValueError(f"max_misses must be >= 0, got {max_misses}")
         if not (math.isfinite(reacquire_time) and reacquire_time >= 0.0):
             raise ValueError(f"reacquire_time must be >= 0 s, got {reacquire_time}")
+        if not labels or not all(labels):
+            raise ValueError(f"track_labels must name at least one label ('*': any), got {labels}")
         self.policy, self.min_lock_time, self.switch_margin = policy, min_lock_time, switch_margin
         self.max_misses, self.reacquire_time = max_misses, reacquire_time
+        self.labels = tuple(labels)
 
     def reset(self) -> None:
         """Back to the automatic policy with nothing locked."""
@@ -259,7 +266,8 @@ class TargetSelector:
         confirmed = (tracks.status == TrackStatus.CONFIRMED) | (
             tracks.status == TrackStatus.COASTING
         )
-        candidates = np.flatnonzero(confirmed & (tracks.misses <= self.max_misses))
+        followed = wanted(tracks.labels, self.labels)
+        candidates = np.flatnonzero(confirmed & followed & (tracks.misses <= self.max_misses))
         current = self.selection
         incumbent = tracks.index_of(current.track_id) if current is not None else None
         if current is not None and (incumbent is None or incumbent not in candidates):

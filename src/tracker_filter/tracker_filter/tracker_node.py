@@ -40,6 +40,7 @@ from tracker_msgs_py.codec import (
     result_qos,
     stamp_to_ns,
 )
+from tracker_msgs_py.labels import label_array
 from tracker_msgs_py.node_main import SuiteNode, run_node
 from tracker_msgs_py.pairing import Frame, FrameAssembler
 from tracker_msgs_py.params import ParameterError, ParamSpec, declare_parameters
@@ -62,6 +63,7 @@ def detections_from_msg(msg: BlobArray) -> Detections:
             [(b.bbox.x, b.bbox.y, b.bbox.width, b.bbox.height) for b in blobs], dtype=float
         ),
         scores=np.array([b.score for b in blobs], dtype=float),
+        labels=label_array((b.label for b in blobs), len(blobs)),
     )
 
 
@@ -92,6 +94,8 @@ def tracks_to_msgs(tracks: TrackSet, which: slice = slice(None)) -> list[Track]:
         tracks.ages[which].tolist(),
         tracks.hits[which].tolist(),
         tracks.misses[which].tolist(),
+        tracks.labels[which].tolist(),
+        tracks.scores[which].tolist(),
         strict=True,
     )
     return [
@@ -111,6 +115,8 @@ def tracks_to_msgs(tracks: TrackSet, which: slice = slice(None)) -> list[Track]:
             age=age,
             hits=hits,
             consecutive_misses=misses,
+            label=label,
+            score=score,
         )
         for (
             track_id,
@@ -125,6 +131,8 @@ def tracks_to_msgs(tracks: TrackSet, which: slice = slice(None)) -> list[Track]:
             age,
             hits,
             misses,
+            label,
+            score,
         ) in columns
     ]
 

@@ -27,6 +27,7 @@ from tracker_filter.layout import StateLayout
 from tracker_filter.models import extrapolate_positions
 from tracker_filter.observation import AXES, Detections, Need, Observation
 from tracker_msgs_py.geometry import Rect
+from tracker_msgs_py.labels import MOTION, classified_over, label_array
 
 
 class TrackStatus(IntEnum):
@@ -56,6 +57,8 @@ class TrackReport:
     existence: float
     area: float  # px^2 of the last associated detection
     detection: int  # index of the detection that updated it this frame, -1 if none
+    label: str = MOTION  # class (labels.classified_over: a class once seen sticks)
+    score: float = 0.0  # the last associated detection's score
 
     @property
     def state_layout(self) -> tuple[str, ...]:
@@ -72,6 +75,14 @@ class TrackReport:
     @property
     def position_covariance(self) -> np.ndarray:
         return self.layout.position_covariances(self.covariance)
+
+
+def _no_labels() -> np.ndarray:
+    return np.zeros(0, dtype=object)
+
+
+def _no_scores() -> np.ndarray:
+    return np.zeros(0)
 
 
 @dataclass(frozen=True, eq=False)
@@ -97,6 +108,8 @@ class TrackSet:
     rejections: dict[str, int] = field(default_factory=dict)  # invalid detections dropped, by cause
     travel: np.ndarray | None = None  # px from where each track started (None: all 0)
     straightness: np.ndarray | None = None  # net distance / path of its detections (None: all 1)
+    labels: np.ndarray = field(default_factory=_no_labels)  # class per track (none: all MOTION)
+    scores: np.ndarray = field(default_factory=_no_scores)  # last detection's score (none: 0)
     layout: StateLayout = field(init=False)
 
     def __post_init__(self) -> None:
@@ -108,6 +121,10 @@ class TrackSet:
             object.__setattr__(self, "travel", np.zeros(len(self.ids)))
         if self.straightness is None:
             object.__setattr__(self, "straightness", np.ones(len(self.ids)))
+        if len(self.labels) != len(self.ids):
+            object.__setattr__(self, "labels", label_array(None, len(self.ids)))
+        if len(self.scores) != len(self.ids):
+            object.__setattr__(self, "scores", np.zeros(len(self.ids)))
 
     def __len__(self) -> int:
         return len(self.ids)
@@ -147,6 +164,8 @@ class TrackSet:
             existence=float(self.existence[i]),
             area=float(self.areas[i]),
             detection=int(self.detections[i]),
+            label=str(self.labels[i]),
+            score=float(self.scores[i]),
         )
 
     def predicted_positions(self, lead: float) -> np.ndarray:
@@ -239,6 +258,8 @@ class TrackBook:
         self.path = np.zeros(0)  # px walked from waypoint to waypoint (path_step apart)
         self.waypoints = np.zeros((0, AXES))  # the last detection counted in the path
         self.areas = np.zeros(0)
+        self.labels = np.zeros(0, dtype=object)
+        self.scores = np.zeros(0)
 
     def reset(self, reset_ids: bool = False) -> int:
         count = len(self)
@@ -277,6 +298,8 @@ class TrackBook:
         self.path[rows[counted]] += hops[counted]
         self.waypoints[rows[counted]] = found[counted]
         self.measured[rows] = found
+        self.labels[rows] = classified_over(self.labels[rows], detections.labels[cols])
+        self.scores[rows] = detections.scores[cols]
         return updated
 
     def travel(self, positions: np.ndarray) -> np.ndarray:
@@ -333,6 +356,8 @@ class TrackBook:
         self.path = np.concatenate([self.path, np.zeros(count)])
         self.waypoints = np.concatenate([self.waypoints, detections.positions[new]])
         self.areas = np.concatenate([self.areas, detections.areas[new]])
+        self.labels = np.concatenate([self.labels, detections.labels[new]])
+        self.scores = np.concatenate([self.scores, detections.scores[new]])
 
     def snapshot(
         self,
@@ -370,6 +395,8 @@ class TrackBook:
             rejections=rejections,
             travel=self.travel(layout.positions(means)),
             straightness=self.straightness(),
+            labels=self.labels.copy(),
+            scores=self.scores.copy(),
         )
 
     def keep(self, mask: np.ndarray) -> None:
@@ -387,6 +414,8 @@ class TrackBook:
             "path",
             "waypoints",
             "areas",
+            "labels",
+            "scores",
         ):
             setattr(self, name, getattr(self, name)[mask])
 

@@ -89,10 +89,10 @@ from tracker_ptz_sim.simulation.scenes import (
 )
 
 
-def _suite_tracker_settings() -> tuple[str, ...]:
-    """The tracker parameters config/surveillance.yaml sets on top of the tracker's preset (a
+def _tracker_settings(graph_name: str) -> tuple[str, ...]:
+    """The tracker parameters the graph's params files set on top of the tracker's preset (a
     configuration on another preset resets them to that preset's values)."""
-    graph = load_graph("surveillance")
+    graph = load_graph(graph_name)
     return tuple(
         name for name in node_parameters(graph.params_files, "tracker") if name in PRESETS["multi"]
     )
@@ -186,44 +186,45 @@ OCCUPANCY: dict[str, dict[str, Any]] = {
 
 #: Configurations compared. A new tracker or detector joins the benchmark with one line here.
 CONFIGURATIONS: dict[str, Configuration] = {
+    # the surveillance graph as shipped: the person_motion detector, the byte tracker, people
     "suite": Configuration(),
+    # the same nodes without the person model: motion blobs, the rules made for them
+    # (config/motion.yaml), the gated-Hungarian tracker; the camera follows what walks
+    "motion": Configuration("motion"),
     "seed000": Configuration(
+        "motion",
         overrides={
             "ssim_detector": {"method": "ssim"},
-            # the seed's tracker preset, also for what surveillance.yaml sets on top of presets
+            # the seed's tracker preset, also for what motion.yaml sets on top of presets
             "tracker": {"preset": "seed000"}
-            | {name: PRESETS["seed000"][name] for name in _suite_tracker_settings()},
+            | {name: PRESETS["seed000"][name] for name in _tracker_settings("motion")},
             "ptz_controller": {"mode": "direct", "zoom_control": False},
             "ptz_camera": {"min_zoom": 1.0},
-        }
+        },
     ),
     # seed 001: motion hands its target over to CamShift, which the camera follows (one track)
     "colour": Configuration("colour"),
-    # seed 003: the surveillance graph with one colour particle filter per target as its tracker
-    "particles": Configuration(overrides={"tracker": {"method": "colour_particles"}}),
+    # seed 003: the motion graph with one colour particle filter per target as its tracker
+    "particles": Configuration("motion", {"tracker": {"method": "colour_particles"}}),
     # seed 002: one particle filter per person on the detector's motion mask (README, seed 002)
-    "occupancy": Configuration(overrides=OCCUPANCY),
+    "occupancy": Configuration("motion", OCCUPANCY),
     # seed 004: a fixed camera over many small movers, MOG2 and the GM-PHD tracker
     "gmphd": Configuration("small_objects", scenes=SMALL_OBJECTS),
-    # the person model (NanoDet) on every camera image and the plain gated-Hungarian tracker (its
-    # preset, without the motion-era rules config/surveillance.yaml adds): the learned baseline
+    # the plain pipeline: the person model (NanoDet) alone on every camera image, its confident
+    # boxes, and the plain gated-Hungarian tracker (its preset): the learned floor to beat
     "person": Configuration(
         overrides={
             "ssim_detector": {"method": "person"},
-            "tracker": {name: PRESETS["multi"][name] for name in _suite_tracker_settings()},
+            "tracker": {"method": "gated_hungarian"}
+            | {name: PRESETS["multi"][name] for name in _tracker_settings("surveillance")},
         }
     ),
-    # the person model's boxes, weak ones included, tracked in the manner of ByteTrack (with
-    # colours to find a missed person again); the camera keeps its person until they are lost
-    # and then waits 2 s for them before it takes another
-    "people": Configuration(
-        overrides={
-            "ssim_detector": {"method": "person", "score_threshold": 0.2},
-            "tracker": {"method": "byte", "switch_margin": 1000.0, "reacquire_time": 2.0},
-        }
+    # the suite without motion: the person model alone (weak boxes too) and the byte tracker
+    "person_byte": Configuration(
+        overrides={"ssim_detector": {"method": "person", "score_threshold": 0.2}}
     ),
-    # seed 004's GM-PHD tracker on the surveillance graph's SSIM blobs, under the moving camera
-    "gmphd_ssim": Configuration(overrides={"tracker": {"method": "gm_phd"} | GMPHD_PEOPLE}),
+    # seed 004's GM-PHD tracker on the motion graph's SSIM blobs, under the moving camera
+    "gmphd_ssim": Configuration("motion", {"tracker": {"method": "gm_phd"} | GMPHD_PEOPLE}),
     # ... without seed 004's occlusion handling (plain GM-PHD with Hungarian labels)
     "gmphd_plain": Configuration(
         "small_objects", {"tracker": {"occlusion_handling": False}}, scenes=SMALL_OBJECTS
@@ -364,7 +365,7 @@ Replay = Scene | ClipReplay
 
 def run_in_process(scene: Replay, settings: pipeline.PipelineSettings) -> scoring.RunTrace:
     steps = pipeline.run(scene.frames, scene.stamps_ns(), settings)
-    return scoring.trace_from_steps(steps, scene.fps)
+    return scoring.trace_from_steps(steps, scene.fps, settings.followed_labels)
 
 
 def run_graph(
@@ -385,7 +386,8 @@ def run_graph(
         )
     if not result.complete:
         raise RuntimeError(f"the graph run is incomplete: {'; '.join(result.problems)}")
-    return scoring.trace_from_frames(run_report.collect(result.bag))
+    labels = pipeline.PipelineSettings.from_graph(load_graph(graph_name), overrides).followed_labels
+    return scoring.trace_from_frames(run_report.collect(result.bag), labels)
 
 
 def benchmark_one(

@@ -15,6 +15,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from tracker_ptz_sim.bringup.graph import GRAPHS, load_graph
 from tracker_ptz_sim.evaluation import run_report, scoring
 from tracker_ptz_sim.simulation.scenes import label_reader
 
@@ -32,28 +33,45 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--mode", choices=("servo", "direct"), help="ptz_controller mode")
     parser.add_argument("--set", action="append", default=[], metavar="NODE.PARAM=VALUE")
     parser.add_argument("--timeout", type=float, default=1800.0)
+    parser.add_argument(
+        "--graph",
+        choices=list(GRAPHS),
+        default="surveillance",
+        help="the graph run (and, with --bag, the one that recorded it: its track_labels)",
+    )
+    parser.add_argument(
+        "--labels",
+        help="comma-separated labels of the tracks scored (default: the tracker's track_labels "
+        "in the graph with --set applied; '*' = every track)",
+    )
     args = parser.parse_args(argv)
 
     gt = args.gt or (args.scene / "gt" / "gt.txt" if args.scene else None)
     if gt is None or not gt.exists():
         parser.error(f"ground truth not found: {gt} (pass --gt)")
     args.out.mkdir(parents=True, exist_ok=True)
+    from tracker_ptz_sim.bringup import demo
+    from tracker_ptz_sim.bringup.graph import unknown_override_nodes
+    from tracker_ptz_sim.bringup.pipeline import PipelineSettings
+
+    overrides = demo.parse_overrides(args.set)
+    graph = load_graph(args.graph)
+    problem = unknown_override_nodes(overrides, [graph])
+    if problem:
+        parser.error(problem)
+    labels = (
+        tuple(args.labels.split(","))
+        if args.labels
+        else PipelineSettings.from_graph(graph, overrides).followed_labels
+    )
     bag, run = args.bag, None
     if bag is None:
-        from tracker_ptz_sim.bringup import demo
-        from tracker_ptz_sim.bringup.graph import load_graph, unknown_override_nodes
         from tracker_ptz_sim.simulation.scenes import scene_video
 
         video = args.video or scene_video(args.scene)
-        overrides = demo.parse_overrides(args.set)
-        problem = unknown_override_nodes(overrides, [load_graph()])
-        if problem:
-            parser.error(problem)
         if args.mode:
             overrides.setdefault("ptz_controller", {})["mode"] = args.mode
-        run = demo.run_graph(
-            load_graph(), video, args.out, overrides, demo.install_space(), args.timeout
-        )
+        run = demo.run_graph(graph, video, args.out, overrides, demo.install_space(), args.timeout)
         bag = run.bag
         if not run.complete:
             print(f"the run is incomplete: {'; '.join(run.problems)} (see {args.out}/logs)")
@@ -61,9 +79,11 @@ def main(argv: list[str] | None = None) -> int:
     frames = run_report.collect(bag)
     summary = run_report.summarize(frames, run_report.message_counts(frames))
     run_report.write_summary(summary, args.out / "summary.json", run.as_dict() if run else None)
-    labels = label_reader(gt.parent.parent)  # a scene directory: <scene>/gt/gt.txt, <scene>/masks
+    object_labels = label_reader(
+        gt.parent.parent
+    )  # a scene directory: <scene>/gt/gt.txt, <scene>/masks
     result = scoring.write_evaluation(
-        scoring.trace_from_frames(frames), gt, args.out, label_of=labels
+        scoring.trace_from_frames(frames, labels), gt, args.out, label_of=object_labels
     )
     print(f"Evaluation against {gt}:\n{scoring.format_scores(result)}")
     print(f"Wrote {args.out}/: summary.json, evaluation.json, tracks.txt, plots.png")

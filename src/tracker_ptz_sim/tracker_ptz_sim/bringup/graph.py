@@ -2,9 +2,11 @@
 
 One place defines which nodes run, their names, remappings and parameters; the demo runner turns
 it into processes started from the install space, the launch file into launch_ros Node actions.
-Graphs (`GRAPHS`): `surveillance` (config/graph.yaml: motion detection, multi-target tracking,
-the camera follows a walker) and `colour` (config/colour_graph.yaml: the same motion pipeline on
-motion/* topics hands its target over to CamShift, whose own tracker the camera follows),
+Graphs (`GRAPHS`): `surveillance` (config/graph.yaml: motion and the person model detect, people
+are tracked, the camera follows a person), `motion` (config/motion_graph.yaml: the same nodes
+without the person model, the motion-only baseline) and `colour` (config/colour_graph.yaml: the
+motion-only pipeline on motion/* topics hands its target over to CamShift, whose own tracker the
+camera follows),
 `standard` (config/standard_graph.yaml: surveillance behind sensor_msgs-only drivers) and
 `small_objects` (config/small_objects_graph.yaml: a fixed camera showing the whole scene, MOG2
 background subtraction and the GM-PHD tracker for many small movers; seed 004).
@@ -91,6 +93,7 @@ def without_nodes(graph: Graph, names: set[str]) -> Graph:
 #: Graph name -> its description file in config/.
 GRAPHS = {
     "surveillance": "graph.yaml",
+    "motion": "motion_graph.yaml",
     "colour": "colour_graph.yaml",
     "standard": "standard_graph.yaml",
     "small_objects": "small_objects_graph.yaml",

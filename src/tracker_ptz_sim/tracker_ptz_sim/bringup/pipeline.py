@@ -43,6 +43,7 @@ from tracker_filter.trackers import TRACKERS
 from tracker_filter.tracking import Tracker, TrackSet, TrackStatus
 from tracker_msgs_py.codec import NS_PER_S
 from tracker_msgs_py.geometry import Rect
+from tracker_msgs_py.labels import label_array
 from tracker_msgs_py.params import config_from_params
 from tracker_ptz_sim.bringup.graph import Graph, node_parameters
 from tracker_ptz_sim.control.controller import (
@@ -110,6 +111,12 @@ class PipelineSettings:
     motion: StageSettings  # ssim_detector + tracker
     controller: ControllerConfig
     colour: StageSettings | None = None  # colour_detector + colour_tracker (the colour graph)
+
+    @property
+    def followed_labels(self) -> tuple[str, ...]:
+        """The labels of the tracks the camera follows (the followed tracker's track_labels)."""
+        stage = self.colour or self.motion
+        return tuple(stage.selection["track_labels"])
 
     @classmethod
     def from_graph(cls, graph: Graph, overrides: Overrides | None = None) -> PipelineSettings:
@@ -341,6 +348,7 @@ def detections_of(detection: Detection) -> Detections:
         areas=np.array([round(b.area) for b in blobs], dtype=float),
         bboxes=np.array([(b.bbox.x, b.bbox.y, b.bbox.width, b.bbox.height) for b in blobs]),
         scores=np.array([b.score for b in blobs], dtype=float),
+        labels=label_array((b.label for b in blobs), len(blobs)),
     )
 
 

@@ -21,6 +21,7 @@ with contextlib.redirect_stdout(io.StringIO()):  # it prints which optional data
     from trackeval.metrics import HOTA
 
 from tracker_msgs_py.geometry import Rect, iou_matrix
+from tracker_msgs_py.labels import MOTION, mot_class_id
 
 Boxes = dict[int, dict[int, Rect]]  # frame -> id -> box
 
@@ -46,11 +47,15 @@ def load_mot(path: Path, ignored: bool = False) -> Boxes:
     return boxes
 
 
-def mot_row(frame: int, track_id: int, box: Rect, confidence: float = 1.0) -> str:
-    """One MOTChallenge result row (frame from 1, box in scene px), the reader of `load_mot`."""
+def mot_row(
+    frame: int, track_id: int, box: Rect, confidence: float = 1.0, label: str = MOTION
+) -> str:
+    """One MOTChallenge result row (frame from 1, box in scene px), the reader of `load_mot`:
+    `frame, id, x, y, w, h, confidence, class, -1, -1` with MOTChallenge's class id in the
+    eighth column (1 = pedestrian for `person`, -1 = unknown), where TrackEval reads it."""
     return (
         f"{frame},{track_id},{box.x:.2f},{box.y:.2f},{box.width:.2f},{box.height:.2f},"
-        f"{confidence:.3f},-1,-1,-1"
+        f"{confidence:.3f},{mot_class_id(label)},-1,-1"
     )
 
 

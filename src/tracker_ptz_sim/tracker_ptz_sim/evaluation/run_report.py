@@ -174,7 +174,7 @@ def write_mot(frames: dict[int, FrameRecord], path: Path) -> int:
     not observed boxes, so they are left out, as MOTChallenge trackers do)."""
     numbers = frame_numbers(frames)
     rows = [
-        mot_row(numbers[stamp], track.id, msg_to_rect(track.bbox), track.existence)
+        mot_row(numbers[stamp], track.id, msg_to_rect(track.bbox), track.existence, track.label)
         for stamp, record in frames.items()
         if record.tracks is not None
         for track in record.tracks.tracks

@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import json
 import math
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
@@ -31,6 +31,7 @@ import numpy as np
 from tracker_filter.tracking import TrackStatus
 from tracker_msgs_py.codec import msg_to_rect
 from tracker_msgs_py.geometry import Rect
+from tracker_msgs_py.labels import ANY_LABEL, MOTION, wanted
 from tracker_ptz_sim.evaluation import centre_scores, error_classes, metrics, run_report
 from tracker_ptz_sim.evaluation.metrics import Boxes
 
@@ -50,7 +51,8 @@ class RunTrace:
     windows: dict[int, Rect] = field(default_factory=dict)  # scene px
     pan_tilt: dict[int, tuple[float, float]] = field(default_factory=dict)  # rad
     zooms: dict[int, float] = field(default_factory=dict)  # magnification (1: the nominal view)
-    hypotheses: Boxes = field(default_factory=dict)  # observed confirmed tracks
+    hypotheses: Boxes = field(default_factory=dict)  # observed confirmed tracks it follows
+    labels: dict[int, str] = field(default_factory=dict)  # their class labels, by track id
     targets: dict[int, tuple[float, float]] = field(default_factory=dict)  # locked target
     target_ids: dict[int, int] = field(default_factory=dict)  # locked track id
     detections: dict[int, list[Rect]] = field(default_factory=dict)  # the detector's boxes
@@ -59,17 +61,21 @@ class RunTrace:
     def write_mot(self, path: Path) -> int:
         """The observed tracks in MOTChallenge format; how many rows."""
         rows = [
-            metrics.mot_row(frame, i, b)
+            metrics.mot_row(frame, i, b, label=self.labels.get(i, MOTION))
             for frame, boxes in sorted(self.hypotheses.items())
             for i, b in sorted(boxes.items())
         ]
         return metrics.write_mot(rows, path)
 
 
-def trace_from_frames(frames: dict[int, run_report.FrameRecord]) -> RunTrace:
-    """The trace of a recorded graph run (`run_report.collect`)."""
+def trace_from_frames(
+    frames: dict[int, run_report.FrameRecord], labels: Sequence[str] = (ANY_LABEL,)
+) -> RunTrace:
+    """The trace of a recorded graph run (`run_report.collect`); the confirmed tracks of the
+    `labels` the run follows (its `track_labels`) are its hypotheses."""
     numbers = run_report.frame_numbers(frames)
     trace = RunTrace(run_report.stream_fps(frames))
+    any_label = ANY_LABEL in labels
     for stamp, record in frames.items():
         number = numbers[stamp]
         if record.state is not None:
@@ -77,11 +83,13 @@ def trace_from_frames(frames: dict[int, run_report.FrameRecord]) -> RunTrace:
             trace.pan_tilt[number] = (record.state.pan, record.state.tilt)
             trace.zooms[number] = record.state.zoom
         if record.tracks is not None:
-            trace.hypotheses[number] = {
-                t.id: msg_to_rect(t.bbox)
+            followed = [
+                t
                 for t in record.tracks.tracks
-                if t.status == run_report.OBSERVED
-            }
+                if t.status == run_report.OBSERVED and (any_label or (t.label or MOTION) in labels)
+            ]
+            trace.hypotheses[number] = {t.id: msg_to_rect(t.bbox) for t in followed}
+            trace.labels.update((t.id, t.label or MOTION) for t in followed)
             trace.tentative[number] = [
                 msg_to_rect(t.bbox)
                 for t in record.tracks.tracks
@@ -95,18 +103,24 @@ def trace_from_frames(frames: dict[int, run_report.FrameRecord]) -> RunTrace:
     return trace
 
 
-def trace_from_steps(steps: Iterable[Any], fps: float) -> RunTrace:
-    """The trace of an in-process run (`pipeline.Step`s, frame n stamped (n - 1) / fps)."""
+def trace_from_steps(
+    steps: Iterable[Any], fps: float, labels: Sequence[str] = (ANY_LABEL,)
+) -> RunTrace:
+    """The trace of an in-process run (`pipeline.Step`s, frame n stamped (n - 1) / fps); the
+    confirmed tracks of the `labels` the run follows are its hypotheses."""
     trace = RunTrace(fps)
     for number, step in enumerate(steps, start=1):
         trace.windows[number] = step.camera.window
         trace.pan_tilt[number] = (step.camera.pan, step.camera.tilt)
         trace.zooms[number] = step.camera.zoom
         tracks = step.tracks
-        observed = np.flatnonzero(tracks.status == TrackStatus.CONFIRMED)
+        observed = np.flatnonzero(
+            (tracks.status == TrackStatus.CONFIRMED) & wanted(tracks.labels, labels)
+        )
         trace.hypotheses[number] = {
             int(tracks.ids[i]): Rect(*(float(v) for v in tracks.bboxes[i])) for i in observed
         }
+        trace.labels.update((int(tracks.ids[i]), str(tracks.labels[i])) for i in observed)
         updated = (tracks.status == TrackStatus.TENTATIVE) & (tracks.misses == 0)
         trace.tentative[number] = [
             Rect(*(float(v) for v in tracks.bboxes[i])) for i in np.flatnonzero(updated)

@@ -96,6 +96,7 @@ class StreetConfig:
     flutter: int = 2  # strips of red/white barrier tape between two posts, fluttering in the wind
     foliage: int = 1  # bushes whose leaves shimmer
     flicker: int = 1  # rectangles (screen, lamp) whose brightness switches at random frames
+    cars: int = 0  # cars driving across the view along the ground (not people: no ground truth)
     shadow: float = 0.3  # darkening under each person's soft ground shadow (background), 0 = none
     illumination_drift: float = 0.05  # relative amplitude of a slow sinusoidal gain
     illumination_period: float = 30.0  # s
@@ -126,6 +127,7 @@ class StreetConfig:
                 "flutter",
                 "foliage",
                 "flicker",
+                "cars",
                 "camera_jitter",
                 "occluders",
             ),
@@ -1126,6 +1128,56 @@ def _make_flicker(rng: np.random.Generator, ground: _Ground, n: int) -> _Flicker
     return _Flicker(float(y + h), x, y, dim.astype(np.float32), bright.astype(np.float32), on)
 
 
+@dataclass(eq=False)
+class _Car:
+    """A car driving across the view along one row of the ground, at a constant speed."""
+
+    depth: float
+    y: int  # top row of its picture
+    x: np.ndarray  # (N,) left column of its picture per frame
+    look: np.ndarray  # (h, w, 3) float32
+    mask: np.ndarray  # (h, w) bool
+
+    def draw(self, canvas: np.ndarray, label: np.ndarray, n: int, dx: int, dy: int) -> None:
+        _composite(canvas, label, self.look, self.mask, int(self.x[n]) + dx, self.y + dy, 0)
+
+
+CAR_LENGTH_M, CAR_HEIGHT_M, WHEEL_RADIUS_M = 4.3, 1.45, 0.33
+CAR_COLOURS = ((40, 40, 170), (150, 90, 30), (185, 185, 190), (30, 30, 35), (225, 225, 230))
+
+
+def _make_car(rng: np.random.Generator, ground: _Ground, n: int, fps: float) -> _Car:
+    """A side view of a car (body, windows, wheels) sized for its row, entering at one side in
+    the first half of the scene at 5-9 m/s and leaving at the other."""
+    W, H = ground.width, ground.height
+    foot = rng.uniform(ground.horizon + 0.3 * (H - ground.horizon), 0.95 * H)
+    metre = float(ground.person_height(foot)) / STATURE_M
+    w, h = round(CAR_LENGTH_M * metre), round(CAR_HEIGHT_M * metre)
+    body = np.array(CAR_COLOURS[int(rng.integers(len(CAR_COLOURS)))], np.float32)
+    look = np.empty((h, w, 3), np.float32)
+    look[:] = body * (1.0 + 0.04 * _noise(rng, (h, w), 2.0))[:, :, None]
+    mask = np.zeros((h, w), np.uint8)
+    roof = [(0.22 * w, 0.0), (0.72 * w, 0.0), (0.85 * w, 0.42 * h), (0.1 * w, 0.42 * h)]
+    cv2.fillPoly(mask, [np.round(roof).astype(np.int32)], 1)
+    cv2.rectangle(mask, (0, round(0.4 * h)), (w - 1, round(0.82 * h)), 1, -1)
+    glass = np.zeros((h, w), np.uint8)
+    pane = [(0.26 * w, 0.06 * h), (0.69 * w, 0.06 * h), (0.78 * w, 0.38 * h), (0.16 * w, 0.38 * h)]
+    cv2.fillPoly(glass, [np.round(pane).astype(np.int32)], 1)
+    look[glass > 0] = (70, 55, 45)
+    radius = max(2, round(WHEEL_RADIUS_M * metre))
+    for centre in (0.2 * w, 0.8 * w):
+        cv2.circle(mask, (round(centre), h - radius - 1), radius, 1, -1)
+        wheel = np.zeros((h, w), np.uint8)
+        cv2.circle(wheel, (round(centre), h - radius - 1), radius, 1, -1)
+        look[wheel > 0] = (25, 25, 25)
+    speed = rng.uniform(5.0, 9.0) * metre / fps  # px per frame
+    start = rng.uniform(0, 0.5) * n
+    rightward = rng.uniform() < 0.5
+    travelled = (np.arange(n) - start) * speed
+    x = np.where(rightward, -w + travelled, W - travelled)
+    return _Car(float(foot), round(foot - h), np.round(x).astype(np.int64), look, mask > 0)
+
+
 BOARD_GAP_M = 0.6  # how far in front of the walker's nearest point in the hidden stretch
 BOARD_HEIGHT_M = 2.5
 BODY_HALF_WIDTH = 0.25  # of the stature in px: a walking figure's half width, limbs included
@@ -1186,6 +1238,7 @@ def _distractors(
     items: list[_Drawable] = [_make_tape(rng, ground, n, fps) for _ in range(config.flutter)]
     items += [_make_foliage(rng, ground, n) for _ in range(config.foliage)]
     items += [_make_flicker(rng, ground, n) for _ in range(config.flicker)]
+    items += [_make_car(rng, ground, n, fps) for _ in range(config.cars)]
     return items
 
 
