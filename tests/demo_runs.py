@@ -20,9 +20,6 @@ ONE_WALKER = dict(
 )
 VIEW_FRACTION = 0.35  # a 168 px view on a 640x480 scene
 SWEEP_RATE = 0.6  # rad/s: 170 px/s, the search crosses the scene in about 3 s
-# The tests' scenes hold round textured blobs, not people: a notch in the top of one would be
-# cut as the dip between two heads (ssim_detector.split_depth, for people side by side).
-ROUND_OBJECTS = {"split_depth": 0.0}
 
 
 def motion_only_settings() -> list[str]:
@@ -49,7 +46,7 @@ def run_demo(
     flags=(),
 ):
     """run_demo on `video` with `graph`; `settings` are node.param=value; `small_view`: the
-    tests' 168 px view, fast sweep and round objects (else the graph's own settings)."""
+    tests' 168 px view and fast sweep (else the graph's own settings)."""
     command = [
         str(executable("tracker_ptz_sim", "run_demo")),
         "--video",
@@ -61,7 +58,6 @@ def run_demo(
     if small_view:
         command += ["--set", f"ptz_camera.view_height_fraction={VIEW_FRACTION}"]
         command += ["--set", f"ptz_controller.sweep_rate={SWEEP_RATE}"]
-        command += [f"--set=ssim_detector.{k}={v}" for k, v in ROUND_OBJECTS.items()]
     for setting in settings:
         command += ["--set", setting]
     if not render:

@@ -6,7 +6,7 @@ for frame."""
 from __future__ import annotations
 
 import pytest
-from demo_runs import ONE_WALKER, ROUND_OBJECTS, SWEEP_RATE, VIEW_FRACTION, run_demo
+from demo_runs import ONE_WALKER, SWEEP_RATE, VIEW_FRACTION, run_demo
 
 pytestmark = [pytest.mark.ros, pytest.mark.slow]
 
@@ -32,7 +32,6 @@ def test_a_pipelined_replay_matches_the_in_process_graph_with_the_same_delay(tmp
         overrides = {
             "ptz_camera": {"view_height_fraction": VIEW_FRACTION, "command_delay_frames": delay},
             "ptz_controller": {"sweep_rate": SWEEP_RATE, "mode": "servo"},
-            "ssim_detector": ROUND_OBJECTS,
         }
         settings = pipeline.PipelineSettings.from_graph(load_graph("motion"), overrides)
         steps = pipeline.run(scene.frames, scene.stamps_ns(), settings)

@@ -11,7 +11,7 @@ import subprocess
 
 import numpy as np
 import pytest
-from demo_runs import ONE_WALKER, ROUND_OBJECTS, SWEEP_RATE, VIEW_FRACTION, run_demo, with_logs
+from demo_runs import ONE_WALKER, SWEEP_RATE, VIEW_FRACTION, run_demo, with_logs
 from ros_process import executable
 
 pytestmark = [pytest.mark.ros, pytest.mark.slow]
@@ -70,7 +70,6 @@ def test_in_process_pipeline_matches_the_graph(one_walker, servo_run):
     overrides = {
         "ptz_camera": {"view_height_fraction": VIEW_FRACTION},
         "ptz_controller": {"sweep_rate": SWEEP_RATE, "mode": "servo"},
-        "ssim_detector": ROUND_OBJECTS,
     }
     settings = pipeline.PipelineSettings.from_graph(load_graph("motion"), overrides)
     steps = pipeline.run(scene.frames, scene.stamps_ns(), settings)
@@ -279,7 +278,6 @@ def test_killing_the_detector_stops_the_camera_and_tracking_resumes(one_walker, 
         },
         "ptz_controller": {"sweep_rate": SWEEP_RATE},
         "video_source": {"rate": 0.5},
-        "ssim_detector": ROUND_OBJECTS,
     }
     run = demo.run_graph(
         load_graph("motion"),

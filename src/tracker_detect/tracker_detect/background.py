@@ -21,15 +21,14 @@ silhouettes:
    image, neither are cast shadows: the background darkened (to shadow_ratio..SHADOW_MAX_RATIO
    of its brightness) with its chromaticity kept, which the mosaic learns beside the grey;
 4. the mask is closed (joins a silhouette's fragments), hole-filled and shrunk by the SSIM
-   window's spread across object edges (1 px), *not dilated*; with `split_depth`, cut between
-   people side by side (`side_by_side`: at a dip of a wide blob's top outline between two
-   heads); blobs are its connected components, boxes their tight boxes; blobs flatter than
-   `min_aspect` (height / width) are dropped when it is set (a person stands, a strip of
-   barrier tape or a foot's shadow lies; a blob cut by the view's top or bottom edge needs half
-   that: only a slice of it is in view), then a person's fragments are joined (stacked head
-   and legs: `merge_gap`; a hand or foot beside the body: `satellite_share`); with
-   `restore_legs`, a box grows down through the legs that step 3 took for shadow or flicker:
-   rows right below it that differ from the background in its columns and are no other blob's;
+   window's spread across object edges (1 px), *not dilated*; blobs are its connected
+   components, boxes their tight boxes; blobs flatter than `min_aspect` (height / width) are
+   dropped when it is set (a person stands, a strip of barrier tape or a foot's shadow lies; a
+   blob cut by the view's top or bottom edge needs half that: only a slice of it is in view),
+   then a person's fragments are joined (stacked head and legs: `merge_gap`; a hand or foot
+   beside the body: `satellite_share`); with `restore_legs`, a box grows down through the legs
+   that step 3 took for shadow or flicker: rows right below it that differ from the background
+   in its columns and are no other blob's;
 5. the mosaic learns the view: quickly (learning_rate) where nothing is foreground, at heal_rate
    where the view differs but does not change (ghosts fade, a stopped object joins the
    background), not at all under movers; with `stopped_heal_rate` below heal_rate, a still
@@ -68,9 +67,7 @@ from tracker_detect.motion import (
     paste_map,
     presence_test,
 )
-from tracker_detect.people import PeopleSplitter
 from tracker_detect.registration import View, phase_correlation_shift
-from tracker_detect.side_by_side import cut_side_by_side
 from tracker_detect.ssim import SsimParams, auto_downsample_factor, ssim_map
 from tracker_msgs_py.geometry import Rect
 from tracker_msgs_py.params import check_config
@@ -126,11 +123,9 @@ class BackgroundConfig:
     merge_gap: float = 0.0  # join stacked blobs this close (x the taller's height; 0: never)
     satellite_share: float = 0.0  # join a blob this much smaller to a big one it touches (0: never)
     min_aspect: float = 0.0  # height / width below which a blob is dropped (0: keep all)
-    split_depth: float = 0.0  # cut blobs where their top outline dips this deep (x height)
     shadow_ratio: float = 0.0  # darkest shadow, as a share of the background's brightness (0: off)
     restore_legs: bool = False  # grow boxes down through their legs lost to shadow or flicker
     register_reach: int = 0  # px: align the view with the mosaic up to this far (0: trust the pose)
-    split_people: bool = False  # replace a blob that holds several people by one per person (HOG)
     presence_fraction: float = 0.0008  # presence test, as the seed
     auto_downsample: bool = True
     ssim: SsimParams = field(default_factory=SsimParams)
@@ -165,8 +160,6 @@ class BackgroundConfig:
             found.append(f"satellite_share must be in [0, 1], got {self.satellite_share}")
         if not (math.isfinite(self.min_aspect) and 0.0 <= self.min_aspect <= 10.0):
             found.append(f"min_aspect must be in [0, 10], got {self.min_aspect}")
-        if not (math.isfinite(self.split_depth) and 0.0 <= self.split_depth <= 1.0):
-            found.append(f"split_depth must be in [0, 1], got {self.split_depth}")
         if not (math.isfinite(self.shadow_ratio) and 0.0 <= self.shadow_ratio < SHADOW_MAX_RATIO):
             found.append(
                 f"shadow_ratio must be in [0, {SHADOW_MAX_RATIO}), got {self.shadow_ratio}"
@@ -188,7 +181,7 @@ class _Lesson:
     view: View  # the view as detected (aligned, with register_reach)
     gray: np.ndarray
     different: np.ndarray  # bool: SSIM against the background at or below the threshold
-    mask: np.ndarray  # the cleaned foreground, before any cut between people
+    mask: np.ndarray  # the cleaned foreground
     background: MosaicSample  # the background the view was compared with
     chroma: np.ndarray | None
 
@@ -208,7 +201,6 @@ class BackgroundDetector:
         # the scene before anything stopped in it: learns only where the view is background
         self.long_term = SceneMosaic(self.config.warmup_observations, self.config.flicker_memory)
         self._change = MotionDetector(self._change_config(self.config))
-        self._people = PeopleSplitter()
         self._last_stamp: int | None = None
         self._size: tuple[int, int] | None = None
         self._lesson: _Lesson | None = None  # the last frame, until the models learn it
@@ -238,7 +230,6 @@ class BackgroundDetector:
         self.mosaic.clear()
         self.long_term.clear()
         self._change.reset()
-        self._people.reset()
         self._last_stamp = None
         self._size = None
         self._lesson = None
@@ -285,8 +276,6 @@ class BackgroundDetector:
         self._lesson = _Lesson(
             frame.stamp_ns, view, gray.copy(), different, mask.copy(), background, chroma
         )
-        if c.split_depth > 0:
-            mask = cut_side_by_side(mask, c.split_depth, c.connectivity)
         found = [
             b
             for b in find_blobs(mask, similarity, view, c.connectivity)
@@ -296,8 +285,6 @@ class BackgroundDetector:
         if c.restore_legs:
             excluded = self._clean(different.astype(np.uint8)) & (mask == 0)
             blobs = [_with_legs(b, excluded, view) for b in blobs]
-        if c.split_people:
-            blobs = self._people.split(blobs, frame.image, mask, view)
         compared = int(np.count_nonzero(judged))
         present = presence_test(sum(b.pixel_count for b in blobs), compared, c.presence_fraction)
         return Detection(

@@ -284,15 +284,6 @@ BACKGROUND_PARAMETERS: tuple[ParamSpec, ...] = (
         10.0,
     ),
     ParamSpec(
-        "split_depth",
-        _B.split_depth,
-        "cut a blob 0.6-3 x as wide as tall (and at least 20 px tall) where its top outline "
-        "dips this deep between two higher points [x its height] (people side by side, a "
-        "person and a strip of tape; 0: never)",
-        0.0,
-        1.0,
-    ),
-    ParamSpec(
         "shadow_ratio",
         _B.shadow_ratio,
         "ignore cast shadows: pixels darkened to between this and 0.95 of the background's "
@@ -314,12 +305,6 @@ BACKGROUND_PARAMETERS: tuple[ParamSpec, ...] = (
         "when the camera shakes more than its pose reports (0: trust the pose)",
         0,
         64,
-    ),
-    ParamSpec(
-        "split_people",
-        _B.split_people,
-        "replace a blob in which OpenCV's HOG people detector finds two or more people by one "
-        "blob per person (people walking half behind one another)",
     ),
     _like_ssim("presence_fraction", _B.presence_fraction),
     _like_ssim("auto_downsample", _B.auto_downsample),

@@ -18,9 +18,9 @@ the person model (`person`) on every camera image and returns:
 The model looks at the whole camera view at once, not at crops around the blobs (and last
 frame's people): measured on the benchmark, crops at 128 px scored the clip's in-view MOTA 0.547
 against 0.840 (parts of people and crop edges taken for people) and ran at 11 against 31
-frames/s on the busy clip, as one inference per crop adds up (docs/results/people.md). The motion detector's
-mask, similarity and registration pass through, so its debug images work as with
-`ssim_background`.
+frames/s on the busy clip, as one inference per crop adds up (docs/results/people.md). The
+motion detector's mask, similarity and registration pass through, so its debug images work as
+with `ssim_background`.
 """
 
 from __future__ import annotations

@@ -1,14 +1,17 @@
 """ros2 launch tracker_ptz_sim surveillance.launch.py video:=/path/to/video.mp4
-    [graph:=surveillance|colour|standard|small_objects] [camera:=sim|live] [namespace:=cam1]
+    [graph:=surveillance|motion|colour|standard|small_objects] [camera:=sim|live]
+    [namespace:=cam1]
     [use_sim_time:=auto|true|false] [clock:=auto|global|namespaced|off]
     [controller_mode:=graph|servo|direct|hold] [respawn:=true] [live_view:=true]
     [frames_in_flight:=N]
 
 The whole graph, built from the same config/*graph.yaml and parameter files the demo runner
-(make demo) uses, so both run exactly the same nodes with the same parameters. graph:=colour runs
-the colour-following graph (motion hands its target over to CamShift; seed 001); graph:=standard
-the surveillance graph behind a simulated camera that speaks only sensor_msgs, as real drivers do;
-graph:=small_objects a fixed camera tracking many small movers (MOG2 + GM-PHD; seed 004).
+(make demo) uses, so both run exactly the same nodes with the same parameters. The surveillance
+graph follows people (motion and the person model detect); graph:=motion runs its nodes without
+the person model (the motion-only baseline); graph:=colour runs the colour-following graph
+(motion hands its target over to CamShift; seed 001); graph:=standard the surveillance graph
+behind a simulated camera that speaks only sensor_msgs, as real drivers do; graph:=small_objects
+a fixed camera tracking many small movers (MOG2 + GM-PHD; seed 004).
 camera:=live runs the graph behind a real unit's drivers instead of the simulator (no video).
 Every argument wins over the parameter files, also under a namespace; two cameras run side by side
 in two namespaces, each on its own clock (`tracker_ptz_sim.bringup.launch_plan` has the rules).
@@ -41,9 +44,9 @@ ARGUMENTS = [
         "graph",
         "surveillance",
         list(GRAPHS),
-        "surveillance (motion), colour (hands over to "
-        "CamShift), standard (surveillance behind sensor_msgs-only drivers) or small_objects "
-        "(a fixed camera, MOG2 + GM-PHD for many small movers)",
+        "surveillance (people: motion + the person model), motion (the motion-only baseline), "
+        "colour (hands over to CamShift), standard (surveillance behind sensor_msgs-only "
+        "drivers) or small_objects (a fixed camera, MOG2 + GM-PHD for many small movers)",
     ),
     (
         "camera",

@@ -21,6 +21,7 @@ import cv2
 import numpy as np
 
 from tracker_msgs_py.codec import NS_PER_S, decode_image, msg_to_rect, stamp_to_ns
+from tracker_msgs_py.labels import MOTION
 from tracker_ptz_sim.evaluation.metrics import mot_row
 from tracker_ptz_sim.evaluation.metrics import write_mot as write_mot_rows
 from tracker_ptz_sim.evaluation.recording import read_bag
@@ -245,8 +246,12 @@ def render_video(
     return drawn
 
 
+UNCLASSIFIED_COLOUR = (200, 200, 200)  # BGR: blobs and tracks labelled motion (not followed)
+
+
 def annotate_scene(image: np.ndarray, record: FrameRecord | None) -> np.ndarray:
-    """Outside the camera window greyed (as the seed shows it); window, blobs, tracks, target drawn."""
+    """Outside the camera window greyed (as the seed shows it); window, detections (person boxes
+    red, unclassified blobs grey), tracks (motion tracks grey, labelled) and target drawn."""
     if record is None or record.state is None:
         return image
     window = record.state.window
@@ -259,7 +264,8 @@ def annotate_scene(image: np.ndarray, record: FrameRecord | None) -> np.ndarray:
     if record.detections is not None:
         for blob in record.detections.blobs:
             b = blob.bbox
-            cv2.rectangle(canvas, _pt(b.x, b.y), _pt(b.x + b.width, b.y + b.height), (0, 0, 255), 1)
+            colour = UNCLASSIFIED_COLOUR if blob.label in ("", MOTION) else (0, 0, 255)
+            cv2.rectangle(canvas, _pt(b.x, b.y), _pt(b.x + b.width, b.y + b.height), colour, 1)
     target_id = (
         record.target.track.id if record.target is not None and record.target.locked else None
     )
@@ -267,7 +273,8 @@ def annotate_scene(image: np.ndarray, record: FrameRecord | None) -> np.ndarray:
         for track in record.tracks.tracks:
             if track.status not in CONFIRMED_STATUSES:
                 continue
-            color = _track_color(track.id)
+            unclassified = track.label in ("", MOTION) and target_id != track.id
+            color = UNCLASSIFIED_COLOUR if unclassified else _track_color(track.id)
             b = track.bbox
             thick = 3 if track.id == target_id else 1
             corners = _pt(b.x, b.y), _pt(b.x + b.width, b.y + b.height)
@@ -276,7 +283,13 @@ def annotate_scene(image: np.ndarray, record: FrameRecord | None) -> np.ndarray:
             else:
                 cv2.rectangle(canvas, *corners, color, thick)
             cv2.putText(
-                canvas, f"#{track.id}", _pt(b.x, b.y - 4), cv2.FONT_HERSHEY_SIMPLEX, 0.5, color, 1
+                canvas,
+                f"#{track.id}" + (f" {MOTION}" if unclassified else ""),
+                _pt(b.x, b.y - 4),
+                cv2.FONT_HERSHEY_SIMPLEX,
+                0.5,
+                color,
+                1,
             )
     if target_id is not None:
         target = record.target
