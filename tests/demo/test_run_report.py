@@ -218,8 +218,8 @@ def test_a_set_argument_for_a_node_the_graph_lacks_is_refused_by_name(capsys):
     from tracker_ptz_sim.bringup.graph import load_graph, unknown_override_nodes
 
     graph = load_graph("surveillance")
-    assert unknown_override_nodes({"ssim_detector": {"restore_legs": True}}, [graph]) is None
-    problem = unknown_override_nodes({"detector": {"restore_legs": True}}, [graph])
+    assert unknown_override_nodes({"ssim_detector": {"min_aspect": 0.5}}, [graph]) is None
+    problem = unknown_override_nodes({"detector": {"min_aspect": 0.5}}, [graph])
     assert problem is not None and "no node detector" in problem and "ssim_detector" in problem
     # the small-objects graph names its detector `detector`: fine when that graph runs too
     both = [graph, load_graph("small_objects")]

@@ -284,32 +284,6 @@ def test_cast_shadows_are_not_objects_when_shadow_ratio_is_set():
             assert max(b.bbox.iou(walker) for b in found.blobs) < 0.5
 
 
-def test_legs_that_look_like_a_shadow_are_restored():
-    """A walker (24 x 50) in a red top (20 rows) and trousers of the ground's colour, a quarter
-    darker (30 rows), on faintly textured grey-green ground, with its cast shadow at the feet:
-    the shadow test takes the trousers for shadow, so the blob is the top alone (IoU 0.4).
-    `restore_legs` grows the box down through the rows below it that differ from the background
-    in its columns: the whole walker, not the shadow beside the feet."""
-    ground = asphalt()
-    config = BackgroundConfig(shadow_ratio=0.5, min_aspect=0.5)
-    top_only = BackgroundDetector(config)
-    restored = BackgroundDetector(replace(config, restore_legs=True))
-    halves, wholes = [], []
-    for k in range(40):
-        x = 20 + 5 * k
-        image = with_cast_shadow(ground, x, rows=slice(180, 190))
-        image[140:160, x : x + 24] = (40, 40, 200)  # BGR: red
-        image[160:190, x : x + 24] = (90, 99, 90)  # the ground's colour, a quarter darker, flat
-        walker = Rect(x, 140, 24, 50)
-        half = top_only.process(CameraFrame(k * NS, image))
-        whole = restored.process(CameraFrame(k * NS, image))
-        if k >= 25:
-            halves.append(max(b.bbox.iou(walker) for b in half.blobs))
-            wholes += [b.bbox.iou(walker) for b in whole.blobs]
-    assert max(halves) < 0.5
-    assert len(wholes) == len(halves) and min(wholes) >= 0.7
-
-
 def stopping_walker(k: int, ground: np.ndarray) -> tuple[np.ndarray, Rect]:
     """Frame k of a walker (24 x 50, red clothes with a coarse weave) crossing `ground` who
     stands still from frame 20 to 69 (5 s at 10 frames/s), and its box."""

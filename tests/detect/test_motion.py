@@ -7,7 +7,6 @@ import numpy as np
 import pytest
 from scipy import ndimage
 
-from tracker_detect.detector import Blob
 from tracker_detect.motion import (
     SEED_KERNEL,
     DetectorConfig,
@@ -17,8 +16,6 @@ from tracker_detect.motion import (
     fill_holes,
     find_blobs,
     largest_blob,
-    merge_satellites,
-    merge_stacked,
     motion_mask,
     presence_test,
     structuring_element,
@@ -126,40 +123,6 @@ def test_components_are_opencvs_labels_boxes_and_centroids(connectivity):
         )
         assert [(b.pixel_count, b.centroid_x, b.centroid_y, b.score) for b in blobs] == expected
     assert components(np.zeros((5, 5), np.uint8)).slices == []
-
-
-def _blob(x, y, w, h):
-    return Blob(x + w / 2, y + h / 2, Rect(x, y, w, h), float(w * h), w * h, 0.2)
-
-
-def test_stacked_fragments_of_one_person_are_joined():
-    torso, legs = _blob(100, 50, 30, 40), _blob(104, 96, 22, 50)  # 6 px apart, one above the other
-    beside = _blob(140, 60, 30, 80)  # a second person next to the first
-    joined = merge_stacked([torso, legs, beside], max_gap=0.45)
-    assert len(joined) == 2
-    person = next(b for b in joined if b.bbox.x == 100)
-    assert person.bbox == Rect(100, 50, 30, 96) and person.pixel_count == 30 * 40 + 22 * 50
-    expected_y = (torso.centroid_y * torso.pixel_count + legs.centroid_y * legs.pixel_count) / (
-        torso.pixel_count + legs.pixel_count
-    )
-    assert person.centroid_y == pytest.approx(expected_y)
-    assert merge_stacked([torso, legs], max_gap=0.0) == [torso, legs]
-    far_below = _blob(104, 200, 22, 50)  # 110 px below: another object
-    assert len(merge_stacked([torso, far_below], max_gap=0.45)) == 2
-
-
-def test_a_hand_beside_the_body_is_joined_and_people_of_a_size_stay_apart():
-    body = _blob(100, 50, 30, 100)
-    hand = _blob(92, 100, 6, 10)  # 2 px left of the body, within 10 % of its height
-    far_hand = _blob(70, 100, 6, 10)  # 24 px away: something else
-    neighbour = _blob(134, 52, 28, 96)  # a second person right beside the first
-    joined = merge_satellites([body, hand, neighbour, far_hand], max_share=0.35)
-    assert len(joined) == 3
-    person = next(b for b in joined if b.bbox.x == 92)
-    assert person.bbox == Rect(92, 50, 38, 100)
-    assert person.pixel_count == body.pixel_count + hand.pixel_count
-    assert far_hand in joined and neighbour in joined
-    assert merge_satellites([body, hand], max_share=0.0) == [body, hand]
 
 
 def test_presence_test_is_0_08_percent_of_the_compared_area():

@@ -24,11 +24,7 @@ silhouettes:
    window's spread across object edges (1 px), *not dilated*; blobs are its connected
    components, boxes their tight boxes; blobs flatter than `min_aspect` (height / width) are
    dropped when it is set (a person stands, a strip of barrier tape or a foot's shadow lies; a
-   blob cut by the view's top or bottom edge needs half that: only a slice of it is in view),
-   then a person's fragments are joined (stacked head and legs: `merge_gap`; a hand or foot
-   beside the body: `satellite_share`); with `restore_legs`, a box grows down through the legs
-   that step 3 took for shadow or flicker: rows right below it that differ from the background
-   in its columns and are no other blob's;
+   blob cut by the view's top or bottom edge needs half that: only a slice of it is in view);
 5. the mosaic learns the view: quickly (learning_rate) where nothing is foreground, at heal_rate
    where the view differs but does not change (ghosts fade, a stopped object joins the
    background), not at all under movers; with `stopped_heal_rate` below heal_rate, a still
@@ -50,20 +46,18 @@ which the next `process` does first when nobody called it; the detections are th
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 
 import cv2
 import numpy as np
 
-from tracker_detect.detector import Blob, CameraFrame, Detection, checked_view
+from tracker_detect.detector import CameraFrame, Detection, checked_view
 from tracker_detect.mosaic import MosaicSample, SceneMosaic
 from tracker_detect.motion import (
     DetectorConfig,
     MotionDetector,
     fill_holes,
     find_blobs,
-    merge_satellites,
-    merge_stacked,
     paste_map,
     presence_test,
 )
@@ -120,11 +114,8 @@ class BackgroundConfig:
     shrink_size: int = 3  # px, elliptic erosion that undoes the SSIM window's spread (1: none)
     connectivity: int = 8
     min_blob_area: float = 60.0  # scene px^2; smaller blobs are dropped
-    merge_gap: float = 0.0  # join stacked blobs this close (x the taller's height; 0: never)
-    satellite_share: float = 0.0  # join a blob this much smaller to a big one it touches (0: never)
     min_aspect: float = 0.0  # height / width below which a blob is dropped (0: keep all)
     shadow_ratio: float = 0.0  # darkest shadow, as a share of the background's brightness (0: off)
-    restore_legs: bool = False  # grow boxes down through their legs lost to shadow or flicker
     register_reach: int = 0  # px: align the view with the mosaic up to this far (0: trust the pose)
     presence_fraction: float = 0.0008  # presence test, as the seed
     auto_downsample: bool = True
@@ -154,10 +145,6 @@ class BackgroundConfig:
                 found.append(f"{name} must be odd and >= 1, got {getattr(self, name)}")
         if self.connectivity not in (4, 8):
             found.append(f"connectivity must be 4 or 8, got {self.connectivity}")
-        if not (math.isfinite(self.merge_gap) and 0.0 <= self.merge_gap <= 10.0):
-            found.append(f"merge_gap must be in [0, 10], got {self.merge_gap}")
-        if not (math.isfinite(self.satellite_share) and 0.0 <= self.satellite_share <= 1.0):
-            found.append(f"satellite_share must be in [0, 1], got {self.satellite_share}")
         if not (math.isfinite(self.min_aspect) and 0.0 <= self.min_aspect <= 10.0):
             found.append(f"min_aspect must be in [0, 10], got {self.min_aspect}")
         if not (math.isfinite(self.shadow_ratio) and 0.0 <= self.shadow_ratio < SHADOW_MAX_RATIO):
@@ -276,15 +263,11 @@ class BackgroundDetector:
         self._lesson = _Lesson(
             frame.stamp_ns, view, gray.copy(), different, mask.copy(), background, chroma
         )
-        found = [
+        blobs = [
             b
             for b in find_blobs(mask, similarity, view, c.connectivity)
             if b.area >= c.min_blob_area and self._upright(b.bbox, view.rect)
         ]
-        blobs = merge_satellites(merge_stacked(found, c.merge_gap), c.satellite_share)
-        if c.restore_legs:
-            excluded = self._clean(different.astype(np.uint8)) & (mask == 0)
-            blobs = [_with_legs(b, excluded, view) for b in blobs]
         compared = int(np.count_nonzero(judged))
         present = presence_test(sum(b.pixel_count for b in blobs), compared, c.presence_fraction)
         return Detection(
@@ -437,27 +420,6 @@ def _fits_better(
     there = float(cv2.absdiff(grey, aligned)[both_judged].mean())
     here = float(cv2.absdiff(grey, posed)[both_judged].mean())
     return there < REGISTER_MIN_GAIN * here
-
-
-def _with_legs(blob: Blob, excluded: np.ndarray, view: View) -> Blob:
-    """`blob` with its box grown down, at most by its own height, row after row while any of the
-    box's columns holds a pixel that differs from the background but is no object's
-    (`excluded`, image px: taken for shadow or flicker).
-
-    A person's legs are lost where they look like a cast shadow (grey trousers on grey ground are
-    darker with the ground's colour) or cross the learned flicker of barrier tape; their pixels
-    still differ from the background, right below the body. Another object below (a person
-    further down the image) is in the mask and stops the growth."""
-    box = blob.bbox
-    u0 = max(0, round((box.x - view.rect.x) / view.scale_x))
-    u1 = round((box.x + box.width - view.rect.x) / view.scale_x)
-    v0 = round((box.y - view.rect.y) / view.scale_y)
-    v1 = round((box.y + box.height - view.rect.y) / view.scale_y)
-    below = np.asarray(excluded[v1 : v1 + max(v1 - v0, 0), u0:u1].any(axis=1))
-    rows = below.size if below.all() else int(np.argmin(below))
-    if rows == 0:
-        return blob
-    return replace(blob, bbox=Rect(box.x, box.y, box.width, box.height + rows * view.scale_y))
 
 
 def _stopped_objects(

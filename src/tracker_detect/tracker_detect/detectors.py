@@ -262,21 +262,6 @@ BACKGROUND_PARAMETERS: tuple[ParamSpec, ...] = (
     _like_ssim("connectivity", _B.connectivity),
     _like_ssim("min_blob_area", _B.min_blob_area),
     ParamSpec(
-        "merge_gap",
-        _B.merge_gap,
-        "join blobs stacked one above the other this close [x the taller's height] (0: never)",
-        0.0,
-        10.0,
-    ),
-    ParamSpec(
-        "satellite_share",
-        _B.satellite_share,
-        "join a blob with at most this share of a neighbour's pixels to it when their boxes "
-        "touch (a hand or foot split from the body; 0: never)",
-        0.0,
-        1.0,
-    ),
-    ParamSpec(
         "min_aspect",
         _B.min_aspect,
         "drop blobs flatter than this height / width (0: keep all; people stand, tape lies)",
@@ -290,13 +275,6 @@ BACKGROUND_PARAMETERS: tuple[ParamSpec, ...] = (
         "brightness that keep its colour (colour images only; 0: off)",
         0.0,
         0.94,
-    ),
-    ParamSpec(
-        "restore_legs",
-        _B.restore_legs,
-        "grow a blob's box down through the rows right below it that differ from the background "
-        "in its columns, at most by its height (a person's legs lost to the shadow or flicker "
-        "tests)",
     ),
     ParamSpec(
         "register_reach",

@@ -14,10 +14,9 @@ shared detector types of `tracker_detect.detector`.
 
 from __future__ import annotations
 
-import itertools
 import math
 from collections import deque
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import cv2
@@ -36,7 +35,6 @@ from tracker_detect.registration import (
     ssim_shift_search,
 )
 from tracker_detect.ssim import SsimParams, auto_downsample_factor, ssim_map
-from tracker_msgs_py.geometry import Rect
 from tracker_msgs_py.params import check_config
 
 #: The seed's dilation element H (Principal.m), a 7x7 "diamond".
@@ -166,81 +164,6 @@ def find_blobs(
         )
     blobs.sort(key=lambda b: (-b.pixel_count, b.centroid_y, b.centroid_x))
     return blobs
-
-
-def merge_stacked(blobs: Sequence[Blob], max_gap: float) -> list[Blob]:
-    """Join blobs stacked one above the other, largest first: a person whose clothes match the
-    ground in the middle falls apart into head-and-shoulders and legs. Two blobs are stacked when
-    the narrower overlaps the other horizontally by at least half its width and the vertical gap
-    between them is at most `max_gap` x the taller one's height (0: nothing is joined)."""
-    if max_gap <= 0:
-        return list(blobs)
-    return _join(blobs, lambda a, b: _stacked(a.bbox, b.bbox, max_gap))
-
-
-def merge_satellites(blobs: Sequence[Blob], max_share: float) -> list[Blob]:
-    """Join each small blob to a big one it touches: a swinging hand or a foot that the SSIM
-    window separates from the body. A blob is a satellite of another when it has at most
-    `max_share` of the other's pixels and its box meets the other's box grown by
-    `SATELLITE_REACH` x that box's height on every side (0: nothing is joined). People of a
-    group are of a size, so they stay apart."""
-    if max_share <= 0:
-        return list(blobs)
-    return _join(blobs, lambda a, b: _satellite(a, b, max_share) or _satellite(b, a, max_share))
-
-
-SATELLITE_REACH = 0.1
-
-
-def _join(blobs: Sequence[Blob], belong: Callable[[Blob, Blob], bool]) -> list[Blob]:
-    """Join pairs of blobs that `belong` together until none do; largest first."""
-    merged = list(blobs)
-    joined = True
-    while joined:
-        joined = False
-        for i, j in itertools.combinations(range(len(merged)), 2):
-            if belong(merged[i], merged[j]):
-                union = _union(merged[i], merged[j])
-                merged = [b for k, b in enumerate(merged) if k not in (i, j)] + [union]
-                joined = True
-                break
-    merged.sort(key=lambda b: (-b.pixel_count, b.centroid_y, b.centroid_x))
-    return merged
-
-
-def _stacked(a: Rect, b: Rect, max_gap: float) -> bool:
-    overlap = min(a.x + a.width, b.x + b.width) - max(a.x, b.x)
-    gap = max(a.y, b.y) - min(a.y + a.height, b.y + b.height)
-    return overlap >= 0.5 * min(a.width, b.width) and gap <= max_gap * max(a.height, b.height)
-
-
-def _satellite(small: Blob, big: Blob, max_share: float) -> bool:
-    if small.pixel_count > max_share * big.pixel_count:
-        return False
-    reach = SATELLITE_REACH * big.bbox.height
-    s, b = small.bbox, big.bbox
-    return (
-        s.x <= b.x + b.width + reach
-        and b.x - reach <= s.x + s.width
-        and s.y <= b.y + b.height + reach
-        and b.y - reach <= s.y + s.height
-    )
-
-
-def _union(a: Blob, b: Blob) -> Blob:
-    """One blob of the pixels of both."""
-    n = a.pixel_count + b.pixel_count
-    x0, y0 = min(a.bbox.x, b.bbox.x), min(a.bbox.y, b.bbox.y)
-    x1 = max(a.bbox.x + a.bbox.width, b.bbox.x + b.bbox.width)
-    y1 = max(a.bbox.y + a.bbox.height, b.bbox.y + b.bbox.height)
-    return Blob(
-        (a.centroid_x * a.pixel_count + b.centroid_x * b.pixel_count) / n,
-        (a.centroid_y * a.pixel_count + b.centroid_y * b.pixel_count) / n,
-        Rect(x0, y0, x1 - x0, y1 - y0),
-        a.area + b.area,
-        n,
-        (a.score * a.pixel_count + b.score * b.pixel_count) / n,
-    )
 
 
 def largest_blob(blobs: Sequence[Blob]) -> Blob | None:
