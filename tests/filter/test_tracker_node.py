@@ -175,7 +175,7 @@ def test_tracks_carry_their_label_and_only_people_are_followed_by_default(harnes
 
 
 def test_track_labels_names_what_the_camera_may_follow():
-    harness = Harness([Parameter("track_labels", value=["*"])])
+    harness = Harness([Parameter("track_labels", value=["any"])])
     try:
         for k in range(5):
             _, target = harness.send(20.0 + 0.1 * k, [(100 + 3 * k, 100)], label="motion")

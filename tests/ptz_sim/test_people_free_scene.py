@@ -45,8 +45,8 @@ def test_the_camera_never_locks_on_a_flag_a_bush_a_lamp_or_a_car(people_free_sce
 
 
 def test_told_to_follow_any_label_it_follows_what_moves(people_free_scene):
-    """The same scene with `track_labels: ['*']`: the camera follows the motion tracks (the cars),
+    """The same scene with `track_labels: ['any']`: the camera follows the motion tracks (the cars),
     so it is the label, not a lack of tracks, that keeps it still above."""
-    steps = run(people_free_scene, {"tracker": {"track_labels": ["*"]}})
+    steps = run(people_free_scene, {"tracker": {"track_labels": ["any"]}})
     locked = np.mean([s.target_id is not None for s in steps])
     assert locked > 0.05, f"locked {locked:.0%}"

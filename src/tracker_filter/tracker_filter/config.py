@@ -264,8 +264,10 @@ SELECTION_PARAMETERS: tuple[ParamSpec, ...] = (
         "track_labels",
         _MULTI["track_labels"],
         "labels of the tracks the camera may follow automatically: person (the person model), "
-        "motion (an unclassified blob), * (any)",
-        validator=lambda v: None if v and all(v) else "track_labels must name a label ('*': any)",
+        "motion (an unclassified blob), any (every label)",
+        validator=lambda v: (
+            None if v and all(v) else "track_labels must name a label (any: every label)"
+        ),
     ),
 )
 

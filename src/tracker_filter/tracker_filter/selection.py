@@ -2,7 +2,7 @@
 
 Policies match tracker_msgs/Target SELECT_*. Automatic ones score the confirmed tracks (CONFIRMED or
 COASTING) of the labels the selector follows (`labels`: e.g. only "person", so the camera never
-follows a flag, a tree or a car unless asked; "*" = any label) every frame:
+follows a flag, a tree or a car unless asked; "any" = every label) every frame:
 
 - LARGEST_BLOB (seed 000): area of the track's last associated detection;
 - LONGEST_LIVED: track age;
@@ -143,7 +143,9 @@ class TargetSelector:
         if not (math.isfinite(reacquire_time) and reacquire_time >= 0.0):
             raise ValueError(f"reacquire_time must be >= 0 s, got {reacquire_time}")
         if not labels or not all(labels):
-            raise ValueError(f"track_labels must name at least one label ('*': any), got {labels}")
+            raise ValueError(
+                f"track_labels must name at least one label ('any': every label), got {labels}"
+            )
         self.policy, self.min_lock_time, self.switch_margin = policy, min_lock_time, switch_margin
         self.max_misses, self.reacquire_time = max_misses, reacquire_time
         self.labels = tuple(labels)

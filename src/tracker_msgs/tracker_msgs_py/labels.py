@@ -14,7 +14,7 @@ import numpy as np
 
 PERSON = "person"
 MOTION = "motion"
-ANY_LABEL = "*"
+ANY_LABEL = "any"  # a word, not "*": YAML reads a bare * as an alias
 MOT_CLASS_IDS = {PERSON: 1}  # MOTChallenge's class ids; other labels are -1 (unknown)
 
 

@@ -42,7 +42,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument(
         "--labels",
         help="comma-separated labels of the tracks scored (default: the tracker's track_labels "
-        "in the graph with --set applied; '*' = every track)",
+        "in the graph with --set applied; 'any' = every track)",
     )
     args = parser.parse_args(argv)
 
