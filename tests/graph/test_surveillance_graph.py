@@ -80,7 +80,8 @@ def test_in_process_pipeline_matches_the_graph(one_walker, servo_run):
 
 
 def test_the_camera_zooms_out_for_a_person_taller_than_its_view(tmp_path):
-    """A walker comes near the camera (up to 300 px tall; the view is 220 px at zoom 1): while
+    """A walker comes near the camera (up to 300 px tall; the view is 220 px at zoom 1; a drawn
+    figure, which the shipped graph's person model takes for a person): while
     following them the camera zooms out (a wider window), and it is back at zoom 1 once they
     are small again. The in-process pipeline (the benchmark's path) zooms the same way."""
     from tracker_ptz_sim.bringup import pipeline
@@ -94,13 +95,13 @@ def test_the_camera_zooms_out_for_a_person_taller_than_its_view(tmp_path):
     )
     scene = generate_street(config, None)
     paths = write_scene(scene, tmp_path / "scene")
-    run_demo(paths.video, tmp_path / "run", small_view=False)
+    run_demo(paths.video, tmp_path / "run", small_view=False, graph="surveillance")
     graph = scoring.trace_from_frames(run_report.collect(tmp_path / "run" / "bag"))
     nominal = 220.0
     zoomed = [f for f, window in graph.windows.items() if window.height > nominal]
     assert len(zoomed) >= 5 and all(f in graph.targets for f in zoomed[:3])
     assert graph.windows[max(graph.windows)].height == nominal
-    settings = pipeline.PipelineSettings.from_graph(load_graph("motion"))
+    settings = pipeline.PipelineSettings.from_graph(load_graph("surveillance"))
     fast = scoring.trace_from_steps(
         pipeline.run(scene.frames, scene.stamps_ns(), settings), scene.fps
     )

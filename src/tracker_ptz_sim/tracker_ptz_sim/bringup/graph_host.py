@@ -77,6 +77,8 @@ def start_graph(group: NodeGroup, graph: Graph, overrides: dict[str, dict]) -> N
         group.add(node_class(node)(cli_args=arguments))
 
     for node in graph.nodes:
+        if stop_signals.requested():
+            return  # stopped while starting (a node loading a model takes a while): no more
         if node.name != SOURCE:
             start(node)
     probe = group.nodes[0]
