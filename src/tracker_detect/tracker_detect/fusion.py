@@ -34,7 +34,7 @@ import numpy as np
 
 from tracker_detect.background import BackgroundConfig, BackgroundDetector
 from tracker_detect.detector import Blob, CameraFrame, Detection
-from tracker_detect.person import PersonConfig, PersonDetector, box_blob
+from tracker_detect.person import PersonConfig, PersonModel, box_blob
 from tracker_msgs_py.geometry import intersection_areas
 from tracker_msgs_py.labels import MOTION
 from tracker_msgs_py.params import check_config, config_from_params
@@ -122,12 +122,12 @@ class FusionDetector:
         self, background: BackgroundConfig, person: PersonConfig, fusion: FusionConfig
     ) -> None:
         self.motion = BackgroundDetector(background)
-        self.person = PersonDetector(person)
+        self.model = PersonModel(person)
         self.config = fusion
 
     def process(self, frame: CameraFrame) -> Detection:
         moving = self.motion.process(frame)  # raises on a stale frame or a wrong view first
-        boxes = self.person.model.detect(frame.image)
+        boxes = self.model.detect(frame.image)
         if moving.compared and moving.mask is not None:
             boxes[:, 4] = vouched_scores(boxes, moving.mask, self.config)
         view = moving.view
@@ -149,10 +149,9 @@ class FusionDetector:
 
     def reset(self) -> None:
         self.motion.reset()
-        self.person.reset()
 
     def reconfigure(self, values: Mapping[str, Any]) -> None:
         """New parameter values from the next frame on (the background and model are kept)."""
         self.motion.reconfigure(config_from_params(BackgroundConfig, values))
-        self.person.reconfigure(dict(values))
+        self.model = PersonModel(config_from_params(PersonConfig, values))
         self.config = config_from_params(FusionConfig, values)
