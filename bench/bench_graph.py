@@ -154,18 +154,17 @@ def motion_only_run(video: Path) -> dict:
 
 
 def model_alone_ms(bag: Path) -> float:
-    """Mean time of the detector's person model alone (its parameters as the graph sets them)
-    on the camera images the graph recorded, decoded first (one thread, like the node)."""
+    """Mean time of the detector's person model alone (its parameters as the graph sets them:
+    input size, threads, precision) on the camera images the graph recorded, decoded first."""
     import cv2
     import numpy as np
 
     from tracker_detect.person import PersonConfig, PersonModel
+    from tracker_msgs_py.params import config_from_params
     from tracker_ptz_sim.evaluation.recording import read_bag
 
     detector = pipeline.PipelineSettings.from_graph(load_graph(), {}).motion.detector_values
-    model = PersonModel(
-        PersonConfig(input_size=detector["input_size"], score_threshold=detector["score_threshold"])
-    )
+    model = PersonModel(config_from_params(PersonConfig, detector))
     images = [
         cv2.imdecode(np.frombuffer(bytes(m.data), np.uint8), cv2.IMREAD_COLOR)
         for _, _, m in read_bag(bag, {"/camera/image_raw/compressed"})

@@ -27,6 +27,8 @@ and needs neither TensorFlow nor npm. What it does:
    float16-quantized, so nothing is lost; onnxruntime folds the casts when it loads the model):
    half the file size. Checked: the converted model's outputs equal the float32 conversion's.
 6. Writes SHA256SUMS (checked by the detector at load and by the tests) and LICENSE.
+
+A new nanodet.onnx needs its int8 quantisation made anew: scripts/quantize_person_model.py.
 """
 
 from __future__ import annotations
@@ -53,7 +55,8 @@ package {package}, MIT License:
 {mit}
 
 nanodet.onnx: NanoDet by RangiLyu (https://github.com/RangiLyu/nanodet), Apache License 2.0,
-converted to TensorFlow.js by Vladimir Mandic. centernet.onnx: a MobileNetV3 CenterNet from the
+converted to TensorFlow.js by Vladimir Mandic; nanodet_int8.onnx is it quantised to int8
+(scripts/quantize_person_model.py), the same licence. centernet.onnx: a MobileNetV3 CenterNet from the
 same package (its credits: https://github.com/vladmandic/human/wiki/Models).
 """
 

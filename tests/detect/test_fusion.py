@@ -82,3 +82,31 @@ def test_a_still_person_shape_is_never_confident_and_a_walker_is(vtest_clip):
             (walker_scores if centre_y > 120 else still_scores).append(b.score)
     assert len(walker_scores) >= 15 and min(walker_scores) > 0.5
     assert len(still_scores) >= 15 and max(still_scores) <= 0.45
+
+
+def test_the_model_beside_the_motion_detector_gives_the_model_s_own_boxes(vtest_clip):
+    """The model runs on a thread of its own while the motion detector works: every person box
+    is the one the model alone finds on that image, and a frame the motion detector refuses (a
+    stale one) raises its error and leaves the next frame as good."""
+    from tracker_detect.detector import StaleFrameError
+    from tracker_detect.person import PersonModel
+    from tracker_ptz_sim.simulation.frame_sources import video_frames
+
+    config = PersonConfig(score_threshold=0.2)
+    detector = FusionDetector(BackgroundConfig(), config, FusionConfig(still_score=1.0))
+    alone = PersonModel(config)
+    frames = itertools.islice(video_frames(vtest_clip), 0, 40, 4)
+    for k, frame in enumerate(frames):
+        image = frame[100:298, 200:464].copy()
+        if k == 5:
+            with pytest.raises(StaleFrameError):
+                detector.process(CameraFrame(1 + (k - 1) * 100_000_000, image))  # k = 4 again
+        detection = detector.process(CameraFrame(1 + k * 100_000_000, image))
+        detector.learn_last_frame()
+        people = sorted(
+            (b.bbox.x, b.bbox.y, b.score) for b in detection.blobs if b.label == "person"
+        )
+        expected = sorted(
+            (max(0.0, float(b[0])), max(0.0, float(b[1])), float(b[4])) for b in alone.detect(image)
+        )
+        np.testing.assert_allclose(people, expected, atol=1e-4)

