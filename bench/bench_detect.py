@@ -14,11 +14,12 @@ out/bench/detect.json. Everything runs on ONE core (OpenCV and BLAS limited to o
   through a fixed 256x256 window and as the whole 640x480 frame (BGR in, blobs out; mog2 is a
   static-camera method, so it is timed here, not on the sweeping window).
 - registration: the shift estimators alone, at the seed's 110x110 window and at 256x256.
-- person model: the `person` detector (NanoDet) per 264x264 camera view (the surveillance graph's
-  view at zoom 1) sweeping over vtest.avi, at input sizes 256 and 320 with onnxruntime and at 256
-  with OpenCV's DNN, beside `ssim_background` on the same views (colour in, boxes out), the
-  surveillance graph's `person_motion` (both on every view; target <= 1.5x the model alone), and
-  the other way to fuse them: the model on each motion blob's crop at 128 px.
+- person model: the `person` detector (NanoDet, int8 as shipped) per 264x264 camera view (the
+  surveillance graph's view at zoom 1) sweeping over vtest.avi, at input sizes 256 and 320 with
+  onnxruntime, the float32 model at 256, and at 256 with OpenCV's DNN, beside `ssim_background`
+  on the same views (colour in, boxes out), the surveillance graph's `person_motion` (both on
+  every view; target <= 1.5x the model alone), and the other way to fuse them: the model on each
+  motion blob's crop at 128 px.
 """
 
 from __future__ import annotations
@@ -229,6 +230,7 @@ def bench_registration(quick: bool) -> dict:
 
 PERSON_CASES = (
     ("person, 256 px input, onnxruntime", "person", {"input_size": 256}),
+    ("person, 256 px, float32 (not quantised)", "person", {"precision": "float32"}),
     ("person, 320 px input, onnxruntime", "person", {"input_size": 320}),
     ("person, 256 px input, OpenCV DNN", "person", {"input_size": 256, "runtime": "opencv"}),
     ("ssim_background (the same views)", "ssim_background", {}),

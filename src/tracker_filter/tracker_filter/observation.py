@@ -9,8 +9,10 @@ miss rather than fail.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from enum import Enum
+from typing import Protocol
 
 import numpy as np
 
@@ -27,6 +29,34 @@ class Need(Enum):
     IMAGE = "image"  # camera image, BGR uint8 (H, W, 3), camera pixels (camera/image_raw)
     MASK = "mask"  # detector's motion mask, uint8 (H, W), camera pixels (detector/motion_mask)
     WINDOW = "window"  # the camera window in scene pixels (ptz/state)
+
+
+class _Box(Protocol):
+    @property
+    def x(self) -> float: ...
+    @property
+    def y(self) -> float: ...
+    @property
+    def width(self) -> float: ...
+    @property
+    def height(self) -> float: ...
+
+
+class BlobLike(Protocol):
+    """What a detector's blob offers, as tracker_msgs/Blob or tracker_detect's `Blob`."""
+
+    @property
+    def centroid_x(self) -> float: ...
+    @property
+    def centroid_y(self) -> float: ...
+    @property
+    def area(self) -> float: ...
+    @property
+    def bbox(self) -> _Box: ...
+    @property
+    def score(self) -> float: ...
+    @property
+    def label(self) -> str: ...
 
 
 @dataclass(frozen=True, eq=False)
@@ -60,6 +90,22 @@ class Detections:
     @classmethod
     def empty(cls) -> Detections:
         return cls(np.zeros((0, AXES)), np.zeros(0), np.zeros((0, 4)), np.zeros(0))
+
+    @classmethod
+    def from_blobs(cls, blobs: Sequence[BlobLike], present: bool = True) -> Detections:
+        """A detector's blobs as the tracker measures them (areas in whole pixels, as
+        tracker_msgs/Blob carries them); none when the detector's presence test failed."""
+        if not present or not blobs:
+            return cls.empty()
+        return cls(
+            positions=np.array([(b.centroid_x, b.centroid_y) for b in blobs], dtype=float),
+            areas=np.array([round(b.area) for b in blobs], dtype=float),
+            bboxes=np.array(
+                [(b.bbox.x, b.bbox.y, b.bbox.width, b.bbox.height) for b in blobs], dtype=float
+            ),
+            scores=np.array([b.score for b in blobs], dtype=float),
+            labels=label_array((b.label for b in blobs), len(blobs)),
+        )
 
     @classmethod
     def from_positions(

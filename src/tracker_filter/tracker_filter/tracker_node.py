@@ -40,7 +40,6 @@ from tracker_msgs_py.codec import (
     result_qos,
     stamp_to_ns,
 )
-from tracker_msgs_py.labels import label_array
 from tracker_msgs_py.node_main import SuiteNode, run_node
 from tracker_msgs_py.pairing import Frame, FrameAssembler
 from tracker_msgs_py.params import ParameterError, ParamSpec, declare_parameters
@@ -53,18 +52,7 @@ LIVE_PARAMETERS = frozenset(SELECTION_DEFAULTS) | {"scene_frame_id"}
 
 def detections_from_msg(msg: BlobArray) -> Detections:
     """The BlobArray's blobs as Detections; none when the detector's presence test failed."""
-    if not msg.target_present or not msg.blobs:
-        return Detections.empty()
-    blobs = msg.blobs
-    return Detections(
-        positions=np.array([(b.centroid_x, b.centroid_y) for b in blobs], dtype=float),
-        areas=np.array([b.area for b in blobs], dtype=float),
-        bboxes=np.array(
-            [(b.bbox.x, b.bbox.y, b.bbox.width, b.bbox.height) for b in blobs], dtype=float
-        ),
-        scores=np.array([b.score for b in blobs], dtype=float),
-        labels=label_array((b.label for b in blobs), len(blobs)),
-    )
+    return Detections.from_blobs(msg.blobs, msg.target_present)
 
 
 def track_to_msg(tracks: TrackSet, i: int) -> Track:

@@ -22,12 +22,17 @@ def mot_class_id(label: str) -> int:
     return MOT_CLASS_IDS.get(label, -1)
 
 
+def label_of(text: str) -> str:
+    """A message's label: an empty one (a sender that sets none) is `MOTION`."""
+    return str(text) or MOTION
+
+
 def label_array(labels: Iterable[str] | None, count: int) -> np.ndarray:
     """(count,) object array of labels; `MOTION` for each when `labels` is None."""
     if labels is None:
         return np.full(count, MOTION, dtype=object)
     array = np.empty(count, dtype=object)
-    values = [str(label) or MOTION for label in labels]
+    values = [label_of(label) for label in labels]
     if len(values) != count:
         raise ValueError(f"{len(values)} labels for {count} detections")
     array[:] = values

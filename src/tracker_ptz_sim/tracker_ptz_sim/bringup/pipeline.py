@@ -43,7 +43,6 @@ from tracker_filter.trackers import TRACKERS
 from tracker_filter.tracking import Tracker, TrackSet, TrackStatus
 from tracker_msgs_py.codec import NS_PER_S
 from tracker_msgs_py.geometry import Rect
-from tracker_msgs_py.labels import label_array
 from tracker_msgs_py.params import config_from_params
 from tracker_ptz_sim.bringup.graph import Graph, node_parameters
 from tracker_ptz_sim.control.controller import (
@@ -338,18 +337,8 @@ class InProcessGraph:
 
 
 def detections_of(detection: Detection) -> Detections:
-    """The detector's blobs as the tracker receives them (tracker_msgs/BlobArray: integer areas,
-    nothing when the presence test failed)."""
-    if not detection.target_present or not detection.blobs:
-        return Detections.empty()
-    blobs = detection.blobs
-    return Detections(
-        positions=np.array([(b.centroid_x, b.centroid_y) for b in blobs], dtype=float),
-        areas=np.array([round(b.area) for b in blobs], dtype=float),
-        bboxes=np.array([(b.bbox.x, b.bbox.y, b.bbox.width, b.bbox.height) for b in blobs]),
-        scores=np.array([b.score for b in blobs], dtype=float),
-        labels=label_array((b.label for b in blobs), len(blobs)),
-    )
+    """The detector's blobs as the tracker receives them (tracker_msgs/BlobArray)."""
+    return Detections.from_blobs(detection.blobs, detection.target_present)
 
 
 def run(

@@ -21,7 +21,7 @@ import cv2
 import numpy as np
 
 from tracker_msgs_py.codec import NS_PER_S, decode_image, msg_to_rect, stamp_to_ns
-from tracker_msgs_py.labels import MOTION
+from tracker_msgs_py.labels import MOTION, label_of
 from tracker_ptz_sim.evaluation.metrics import mot_row
 from tracker_ptz_sim.evaluation.metrics import write_mot as write_mot_rows
 from tracker_ptz_sim.evaluation.recording import read_bag
@@ -264,7 +264,7 @@ def annotate_scene(image: np.ndarray, record: FrameRecord | None) -> np.ndarray:
     if record.detections is not None:
         for blob in record.detections.blobs:
             b = blob.bbox
-            colour = UNCLASSIFIED_COLOUR if blob.label in ("", MOTION) else (0, 0, 255)
+            colour = UNCLASSIFIED_COLOUR if label_of(blob.label) == MOTION else (0, 0, 255)
             cv2.rectangle(canvas, _pt(b.x, b.y), _pt(b.x + b.width, b.y + b.height), colour, 1)
     target_id = (
         record.target.track.id if record.target is not None and record.target.locked else None
@@ -273,7 +273,7 @@ def annotate_scene(image: np.ndarray, record: FrameRecord | None) -> np.ndarray:
         for track in record.tracks.tracks:
             if track.status not in CONFIRMED_STATUSES:
                 continue
-            unclassified = track.label in ("", MOTION) and target_id != track.id
+            unclassified = label_of(track.label) == MOTION and target_id != track.id
             color = UNCLASSIFIED_COLOUR if unclassified else _track_color(track.id)
             b = track.bbox
             thick = 3 if track.id == target_id else 1

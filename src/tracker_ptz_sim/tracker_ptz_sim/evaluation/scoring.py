@@ -31,7 +31,7 @@ import numpy as np
 from tracker_filter.tracking import TrackStatus
 from tracker_msgs_py.codec import msg_to_rect
 from tracker_msgs_py.geometry import Rect
-from tracker_msgs_py.labels import ANY_LABEL, MOTION, wanted
+from tracker_msgs_py.labels import ANY_LABEL, MOTION, label_of, wanted
 from tracker_ptz_sim.evaluation import centre_scores, error_classes, metrics, run_report
 from tracker_ptz_sim.evaluation.metrics import Boxes
 
@@ -86,10 +86,10 @@ def trace_from_frames(
             followed = [
                 t
                 for t in record.tracks.tracks
-                if t.status == run_report.OBSERVED and (any_label or (t.label or MOTION) in labels)
+                if t.status == run_report.OBSERVED and (any_label or label_of(t.label) in labels)
             ]
             trace.hypotheses[number] = {t.id: msg_to_rect(t.bbox) for t in followed}
-            trace.labels.update((t.id, t.label or MOTION) for t in followed)
+            trace.labels.update((t.id, label_of(t.label)) for t in followed)
             trace.tentative[number] = [
                 msg_to_rect(t.bbox)
                 for t in record.tracks.tracks
