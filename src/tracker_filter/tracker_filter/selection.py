@@ -13,7 +13,9 @@ follows a flag, a tree or a car unless asked; "any" = every label) every frame:
   flickers in place however long it lives and however far its blob wanders.
 
 Hysteresis: once locked, the selector keeps its track for at least `min_lock_time` seconds (scene
-time) and afterwards switches only to a track scoring better by `switch_margin` x |current score|.
+time) and afterwards switches only to a track scoring better by `switch_margin` x |current score|
+(|current score| taken as at least `SCORE_UNIT`: a margin relative to a score near zero -- a
+track whose travel came out near nothing -- would be no margin at all).
 When its track is lost (deleted, or coasting past `max_misses`) it re-selects at once, or, with a
 `reacquire_time`, waits that long for the same person first: their track found again, or a track
 started after the loss where the lost one was heading (`LostTarget.taken_up_by`). Meanwhile
@@ -46,6 +48,10 @@ class SelectionPolicy(IntEnum):
     MANUAL_RECT = 4
     FARTHEST_TRAVELLED = 5
 
+
+#: One unit of every policy's score (1 px of travel or distance, 1 px^2, one frame): the least
+#: |score| the switch margin is relative to.
+SCORE_UNIT = 1.0
 
 AUTOMATIC_POLICIES = {
     "largest_blob": SelectionPolicy.LARGEST_BLOB,
@@ -296,14 +302,14 @@ class TargetSelector:
         view_centre: tuple[float, float] | None,
     ) -> None:
         """Hysteresis: leave the selected track (row `incumbent`) only after `min_lock_time`
-        and for a track scoring better by `switch_margin` x |its score|."""
+        and for a track scoring better by `switch_margin` x |its score| (at least SCORE_UNIT)."""
         current = self.selection
         assert current is not None, "called only with a selection"
         if tracks.time - current.since < self.min_lock_time:
             return
         scores = self._scores(tracks, view_centre)
         best = int(candidates[np.argmax(scores[candidates])])  # ties: the oldest (lowest) row
-        threshold = scores[incumbent] + self.switch_margin * abs(scores[incumbent])
+        threshold = scores[incumbent] + self.switch_margin * max(abs(scores[incumbent]), SCORE_UNIT)
         if best != incumbent and scores[best] > threshold:
             self.selection = Selection(int(tracks.ids[best]), self.policy, tracks.time)
 
