@@ -86,6 +86,20 @@ def test_hysteresis_keeps_the_target_for_the_minimum_lock_time_then_needs_a_marg
     )
 
 
+def test_a_large_margin_keeps_a_target_whose_score_came_out_near_zero():
+    """`switch_margin` 1000 keeps the followed person until they are lost, also when their
+    travel x straightness is about 0 (a track that went back and forth): the margin is relative
+    to at least one unit of the score, not to a vanishing one."""
+    selector = TargetSelector(SelectionPolicy.FARTHEST_TRAVELLED, switch_margin=1000.0)
+    positions = [[0, 0], [100, 100]]
+    assert selector.update(track_set(0.0, [1, 2], positions, travel=[50, 5])).track_id == 1
+    kept = selector.update(track_set(5.0, [1, 2], positions, travel=[0.1, 124]))
+    assert kept.track_id == 1
+    small = TargetSelector(SelectionPolicy.FARTHEST_TRAVELLED, switch_margin=0.2)
+    assert small.update(track_set(0.0, [1, 2], positions, travel=[50, 5])).track_id == 1
+    assert small.update(track_set(5.0, [1, 2], positions, travel=[0.1, 124])).track_id == 2
+
+
 def test_manual_id_until_the_track_is_lost():
     selector = TargetSelector(SelectionPolicy.LONGEST_LIVED, min_lock_time=10.0)
     tracks = track_set(1.0, [1, 2], [[0, 0], [50, 50]], ages=[5, 1])
