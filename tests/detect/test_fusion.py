@@ -110,3 +110,22 @@ def test_the_model_beside_the_motion_detector_gives_the_model_s_own_boxes(vtest_
             (max(0.0, float(b[0])), max(0.0, float(b[1])), float(b[4])) for b in alone.detect(image)
         )
         np.testing.assert_allclose(people, expected, atol=1e-4)
+
+
+def test_a_frame_the_motion_detector_refuses_is_reported_with_its_cause(monkeypatch):
+    """A stale frame the model also fails on raises the motion detector's error (the cause), not
+    the model's, and the next frame is processed as usual."""
+    from tracker_detect.detector import StaleFrameError
+
+    detector = FusionDetector(BackgroundConfig(), PersonConfig(), FusionConfig())
+    image = np.full((198, 264, 3), 100, np.uint8)
+    detector.process(CameraFrame(200_000_000, image))
+
+    def broken(_image):
+        raise RuntimeError("the model cannot read this frame")
+
+    monkeypatch.setattr(detector.model, "detect", broken)
+    with pytest.raises(StaleFrameError):
+        detector.process(CameraFrame(100_000_000, image))
+    monkeypatch.undo()
+    assert detector.process(CameraFrame(300_000_000, image)).compared

@@ -29,7 +29,7 @@ from __future__ import annotations
 
 import functools
 from collections.abc import Mapping
-from concurrent.futures import ThreadPoolExecutor
+from concurrent.futures import ThreadPoolExecutor, wait
 from dataclasses import dataclass, replace
 from typing import Any
 
@@ -142,8 +142,10 @@ class FusionDetector:
         looking = _model_worker().submit(self.model.detect, frame.image)
         try:
             moving = self.motion.process(frame)  # raises on a stale frame or a wrong view
-        finally:
-            boxes = looking.result()
+        except Exception:
+            wait([looking])  # the model is done with this frame; the motion detector's error
+            raise  # names the cause, not what the model made of the same bad frame
+        boxes = looking.result()
         if moving.compared and moving.mask is not None:
             boxes[:, 4] = vouched_scores(boxes, moving.mask, self.config)
         view = moving.view
