@@ -56,8 +56,8 @@ package {package}, MIT License:
 
 nanodet.onnx: NanoDet by RangiLyu (https://github.com/RangiLyu/nanodet), Apache License 2.0,
 converted to TensorFlow.js by Vladimir Mandic; nanodet_int8.onnx is it quantised to int8
-(scripts/quantize_person_model.py), the same licence. centernet.onnx: a MobileNetV3 CenterNet from the
-same package (its credits: https://github.com/vladmandic/human/wiki/Models).
+(scripts/quantize_person_model.py), the same licence. centernet.onnx: a MobileNetV3 CenterNet
+from the same package (its credits: https://github.com/vladmandic/human/wiki/Models).
 """
 
 
