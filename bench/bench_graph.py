@@ -1,13 +1,14 @@
 """Full-graph benchmark: the surveillance graph on vtest.avi (768x576) as fast as lockstep allows,
 next to its in-process ceiling and the motion-only graph (no person model) measured in the same
-run, and the detector node's CPU time per frame beside the person model's alone on the camera
-images the graph recorded (targets: >= 0.6 x the motion-only graph, >= 3 x the clip's real time,
-the detector <= 1.5 x the model).
+run, and the detector node's time per frame (wall time in its callbacks, from its diagnostics) and
+CPU time per frame beside the person model's alone on the camera images the graph recorded
+(targets: >= 0.6 x the motion-only graph, >= 3 x the clip's real time, the detector <= 1.5 x the
+model).
 
 Prints the graph's throughput (scene images from the first to the last at the recorder, so node
 start-up is left out in both modes), the frames video_source published and the recorder got,
-per-hop latency (p50/p95), CPU time per process (every node, video_source included, and the
-recorder), and the in-process ceiling: the same components stepped in one plain
+per-hop latency (p50/p95), CPU time per process during the replay (every node, video_source
+included, and the recorder), and the in-process ceiling: the same components stepped in one plain
 loop (`bringup/pipeline.py`, tested equal to the graph) on the same frames, decoding included.
 The nodes and the recorder spin rclpy's EventsExecutor (the default); the same replay with the
 SingleThreadedExecutor in every process follows, checked for the same tracks. Then the same
@@ -67,6 +68,7 @@ def main() -> int:
     ceiling_fps = in_process_frames_per_second(graph, video)
     motion = motion_only_run(video)
     detector_ms = 1000 * run.cpu_seconds.get("ssim_detector", 0.0) / max(1, summary.frames)
+    detector_busy_ms = busy_ms_per_image(run, "/ssim_detector")
     model_ms = model_alone_ms(run.bag)
     clip_fps = run_report.stream_fps(frames)
     print(f"\nFull graph on {video.name} (lockstep, reliable images, recorder on):")
@@ -81,9 +83,11 @@ def main() -> int:
         f"{graph_fps / clip_fps:.1f} x the clip's real time (target >= 3)"
     )
     print(
-        f"  detector node                        {detector_ms:.1f} ms of CPU per frame, "
-        f"{detector_ms / model_ms:.2f} x the person model alone on the same camera images "
-        f"({model_ms:.1f} ms; target <= 1.5)"
+        f"  detector node                        {detector_busy_ms:.1f} ms per frame in its "
+        f"callbacks, {detector_busy_ms / model_ms:.2f} x the person model alone on the same "
+        f"camera images ({model_ms:.1f} ms; target <= 1.5); {detector_ms:.1f} ms of CPU per "
+        f"frame ({detector_ms / model_ms:.2f} x; the model and the motion detector run on a "
+        "thread each)"
     )
     print(
         f"  camera image -> command p50 / p95      "
@@ -134,6 +138,7 @@ def main() -> int:
         "graph_over_motion_only": graph_fps / motion["fps"],
         "graph_over_real_time": graph_fps / clip_fps,
         "detector_cpu_ms_per_frame": detector_ms,
+        "detector_busy_ms_per_frame": detector_busy_ms,
         "person_model_alone_ms": model_ms,
         "frames_in_flight": in_flight,
         "processes_single_executor": processes_single,
@@ -250,6 +255,14 @@ def in_process_steps(
         (frame.stamp_ns for frame in stamps),
         pipeline.PipelineSettings.from_graph(graph, overrides),
     )
+
+
+def busy_ms_per_image(run: demo.RunResult, node: str) -> float:
+    """A node's wall time in its callbacks per camera image it received (ms): its time per frame
+    (NaN when its diagnostics never reached the recorder)."""
+    load = run.callback_load.get(node)
+    per_image = None if load is None else load.per_message("/camera/image_raw")
+    return float("nan") if per_image is None else 1000 * per_image
 
 
 def in_process_frames_per_second(graph: Graph, video: Path) -> float:

@@ -72,7 +72,6 @@ def test_a_still_person_shape_is_never_confident_and_a_walker_is(vtest_clip):
         x = 100 + 4 * k
         image[120 : 120 + h, x : x + w] = person
         detection = detector.process(CameraFrame(1 + k * 100_000_000, image))
-        detector.learn_last_frame()
         if k < 10:
             continue
         for b in detection.blobs:
@@ -102,7 +101,6 @@ def test_the_model_beside_the_motion_detector_gives_the_model_s_own_boxes(vtest_
             with pytest.raises(StaleFrameError):
                 detector.process(CameraFrame(1 + (k - 1) * 100_000_000, image))  # k = 4 again
         detection = detector.process(CameraFrame(1 + k * 100_000_000, image))
-        detector.learn_last_frame()
         people = sorted(
             (b.bbox.x, b.bbox.y, b.score) for b in detection.blobs if b.label == "person"
         )

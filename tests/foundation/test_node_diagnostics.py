@@ -23,6 +23,7 @@ def test_input_stats_report_a_period_and_start_the_next():
         "/camera/image_raw rate [Hz]": "0.00",
         "/camera/image_raw received": "3",
     }
+    assert stats.busy_s == pytest.approx(0.009)  # since the start, not per period
 
 
 def test_the_controller_reports_its_state_and_its_inputs():
@@ -32,7 +33,7 @@ def test_the_controller_reports_its_state_and_its_inputs():
     from ptz_messages import state_msg, target_msg
 
     from tracker_msgs.msg import PtzState, Target
-    from tracker_msgs_py.node_main import matched_readers, matched_writers
+    from tracker_msgs_py.node_main import callback_load, matched_readers, matched_writers
     from tracker_ptz_sim.control.ptz_controller_node import PtzControllerNode
 
     h = NodeHarness(
@@ -48,16 +49,15 @@ def test_the_controller_reports_its_state_and_its_inputs():
 
         def report():
             for array in h.received["/diagnostics"]:
-                statuses = {s.name: s for s in array.status}
-                inputs = statuses.get("/ptz_controller: input")
+                inputs = {s.name: s for s in array.status}.get("/ptz_controller: input")
                 if inputs and any(
                     v.key == "/target received" and v.value == "5" for v in inputs.values
                 ):
-                    return statuses
+                    return array
             return None
 
         h.spin_until(lambda: report() is not None, timeout=5.0)
-        statuses = report()
+        statuses = {s.name: s for s in report().status}
         assert statuses["/ptz_controller: state"].message == "track"
         values = {v.key: v.value for v in statuses["/ptz_controller: input"].values}
         assert {"/target rate [Hz]", "/ptz/state processing mean/max [ms]"} <= values.keys()
@@ -69,5 +69,11 @@ def test_the_controller_reports_its_state_and_its_inputs():
         writers = matched_writers(next(a for a in h.received["/diagnostics"] if a.status))
         assert writers["/ptz_controller"]["/target"] == 1
         assert writers["/ptz_controller"]["/ptz/state"] == 1
+        # ... and its time in callbacks since the start, with the messages of the same moment
+        load = callback_load(report())["/ptz_controller"]
+        assert load.received["/target"] == 5 and load.received["/ptz/state"] == 5
+        assert 0 < load.busy_s < 5.0
+        assert load.per_message("/target") == pytest.approx(load.busy_s / 5)
+        assert load.per_message("/not/an/input") is None
     finally:
         h.close()

@@ -125,7 +125,11 @@ def _model_worker() -> ThreadPoolExecutor:
 
 
 class FusionDetector:
-    """The background detector's blobs and the person model's boxes of one frame, labelled."""
+    """The background detector's blobs and the person model's boxes of one frame, labelled.
+
+    Not `DeferredLearning`: the background models learn the frame before at the start of
+    `process`, while the model looks at this one on the other core, so learning adds no time to
+    a frame (deferred past publishing, it would run with the second core idle)."""
 
     estimates_ego_motion = False
 
@@ -161,9 +165,6 @@ class FusionDetector:
             compared=True,
             compared_area=view.rect.width * view.rect.height,
         )
-
-    def learn_last_frame(self) -> None:
-        self.motion.learn_last_frame()
 
     def reset(self) -> None:
         self.motion.reset()

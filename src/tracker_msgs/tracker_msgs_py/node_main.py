@@ -33,6 +33,7 @@ import threading
 import time
 import traceback
 from collections.abc import Callable, Sequence
+from dataclasses import dataclass
 from typing import Any
 
 import rclpy
@@ -51,7 +52,7 @@ from rclpy.timer import Timer
 from tracker_msgs_py import stop_signals
 from tracker_msgs_py.codec import stamp_to_ns
 from tracker_msgs_py.exit_deadline import ExitDeadline
-from tracker_msgs_py.node_stats import InputStats
+from tracker_msgs_py.node_stats import RECEIVED_SUFFIX, InputStats
 from tracker_msgs_py.params import ParameterError, parameters_for_every_node
 from tracker_msgs_py.problems import ProblemLog
 
@@ -59,6 +60,7 @@ OUTPUT_SUFFIX = ": output"  # the diagnostic status of a node's published topics
 READERS_SUFFIX = " readers"  # its values: "<topic> readers" = readers matched by the publisher
 INPUT_SUFFIX = ": input"  # the diagnostic status of a node's subscribed topics
 WRITERS_SUFFIX = " writers"  # among its values: "<topic> writers" = writers its reader matched
+BUSY_KEY = "busy in callbacks [s]"  # among them too: wall time handling messages since the start
 SIGNAL_POLL_S = 0.1  # longest a stop signal waits for the executor to return to Python
 WORKER_JOIN_S = 1.5  # workers get this long to leave (the node must exit within 2 s)
 TEARDOWN_S = 1.8  # the whole teardown, workers included, before the process exits regardless
@@ -292,6 +294,7 @@ class SuiteNode(Node):
         figures = [(c, str(n)) for c, n in sorted(self.problems.counts.items())]
         for topic, stats in self._inputs.items():
             figures += stats.report(self.resolve_topic_name(topic), period)
+        figures.append((BUSY_KEY, f"{sum(s.busy_s for s in self._inputs.values()):.6f}"))
         figures += [
             (f"{topic}{WRITERS_SUFFIX}", str(min(r.get_publisher_count() for r in readers)))
             for topic, readers in sorted(self._readers.items())
@@ -445,6 +448,40 @@ def matched_writers(array: DiagnosticArray) -> dict[str, dict[str, int]]:
                 if value.key.endswith(WRITERS_SUFFIX) and value.value.isdigit()
             }
     return nodes
+
+
+@dataclass(frozen=True)
+class CallbackLoad:
+    """A node's wall time in its callbacks since it started and the messages it had received
+    per topic, from one of its diagnostics reports (the two agree: the same moment)."""
+
+    busy_s: float
+    received: dict[str, int]
+
+    def per_message(self, topic: str) -> float | None:
+        """Busy seconds per message of `topic` (None before the first)."""
+        count = self.received.get(topic, 0)
+        return self.busy_s / count if count else None
+
+
+def callback_load(array: DiagnosticArray) -> dict[str, CallbackLoad]:
+    """Per node, its `CallbackLoad` from nodes' diagnostics (the "<node>: input" status)."""
+    loads: dict[str, CallbackLoad] = {}
+    for status in array.status:
+        if not status.name.endswith(INPUT_SUFFIX):
+            continue
+        values = {value.key: value.value for value in status.values}
+        try:
+            busy = float(values[BUSY_KEY])
+        except (KeyError, ValueError):
+            continue
+        received = {
+            key[: -len(RECEIVED_SUFFIX)]: int(value)
+            for key, value in values.items()
+            if key.endswith(RECEIVED_SUFFIX) and value.isdigit()
+        }
+        loads[status.name[: -len(INPUT_SUFFIX)]] = CallbackLoad(busy, received)
+    return loads
 
 
 def matched_readers(array: DiagnosticArray) -> dict[str, int]:

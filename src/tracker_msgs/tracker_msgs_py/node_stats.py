@@ -2,13 +2,17 @@
 rclpy): message rate, time spent handling a message, and the data's age on arrival.
 
 `InputStats.record(processing_s, age_s)` is called once per message received; `report(period_s)`
-returns the figures since the previous report as (key, value) strings and starts a new period.
+returns the figures since the previous report as (key, value) strings and starts a new period;
+`busy_s` adds up the handling time since the node started (a node's time per frame, as wall time
+in its callbacks, beside the CPU time its threads use).
 """
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+
+RECEIVED_SUFFIX = " received"  # "<topic> received": the messages since the node started
 
 
 @dataclass
@@ -21,10 +25,12 @@ class InputStats:
     processing_max_s: float = 0.0
     age_sum_s: float = 0.0
     aged: int = 0  # messages with a stamp (ages summed)
+    busy_s: float = 0.0  # handling time since the node started
 
     def record(self, processing_s: float, age_s: float | None = None) -> None:
         self.messages += 1
         self.total += 1
+        self.busy_s += processing_s
         self.processing_sum_s += processing_s
         self.processing_max_s = max(self.processing_max_s, processing_s)
         if age_s is not None and math.isfinite(age_s):
@@ -36,7 +42,7 @@ class InputStats:
         stamped) and `topic received`, then a new period begins."""
         figures = [
             (f"{topic} rate [Hz]", f"{self.messages / period_s:.2f}" if period_s > 0 else "0"),
-            (f"{topic} received", str(self.total)),
+            (f"{topic}{RECEIVED_SUFFIX}", str(self.total)),
         ]
         if self.messages:
             mean_ms = 1e3 * self.processing_sum_s / self.messages

@@ -60,6 +60,8 @@ from tracker_msgs_py.codec import header_stamp_ns, ns_to_stamp, result_qos, stam
 from tracker_msgs_py.node_main import (
     DEFAULT_EXECUTOR,
     EXECUTORS,
+    CallbackLoad,
+    callback_load,
     matched_readers,
     matched_writers,
 )
@@ -212,6 +214,7 @@ class Recorder(Node):
         self.writers: dict[str, dict[str, int]] = {}  # per node and topic, its reader's writers
         # the camera's own image-to-command latency, from its latest diagnostics
         self.camera_latency: dict[str, float] = {}
+        self.callback_load: dict[str, CallbackLoad] = {}  # by node, from its latest diagnostics
         self.create_subscription(DiagnosticArray, "/diagnostics", self._on_diagnostics, 50)
 
     def _incompatible(self, topic: str, _event: object) -> None:
@@ -282,6 +285,7 @@ class Recorder(Node):
     def _on_diagnostics(self, array: DiagnosticArray) -> None:
         self.readers.update(matched_readers(array))
         self.writers.update(matched_writers(array))
+        self.callback_load.update(callback_load(array))
         for status in array.status:
             latency = from_diagnostics((v.key, v.value) for v in status.values)
             if latency:
@@ -344,7 +348,11 @@ class Progress:
 class RunResult:
     bag: Path
     exit_codes: dict[str, int] = field(default_factory=dict)  # by node, at the end of the run
-    cpu_seconds: dict[str, float] = field(default_factory=dict)  # by node, plus "recorder"
+    # by node, plus "recorder": CPU time during the replay (start-up left out, as in the
+    # throughput)
+    cpu_seconds: dict[str, float] = field(default_factory=dict)
+    # by node ("/ssim_detector"): wall time in callbacks and messages received, at its last report
+    callback_load: dict[str, CallbackLoad] = field(default_factory=dict)
     wall_seconds: float = 0.0  # from the first frame published to the end of the stream
     complete: bool = True  # the whole stream went through the graph
     problems: list[str] = field(default_factory=list)  # why not, and nodes that died
@@ -678,6 +686,7 @@ def _supervise(
     progress = Progress(f"replaying {source}")
     started = time.monotonic()
     recorder_cpu = time.process_time()
+    cpu_at_start = nodes.cpu_seconds()
     deadline = started + timeout
     watch = Watch.RUNNING
     while watch is Watch.RUNNING and not _stopped(result):
@@ -698,7 +707,13 @@ def _supervise(
             recorder.wait_for_camera_latency(recorder.status.frames_published)
         result.camera_latency = dict(recorder.camera_latency)
     progress.done()
-    result.cpu_seconds = {**nodes.cpu_seconds(), "recorder": time.process_time() - recorder_cpu}
+    result.cpu_seconds = {
+        **{
+            name: spent - cpu_at_start.get(name, 0.0) for name, spent in nodes.cpu_seconds().items()
+        },
+        "recorder": time.process_time() - recorder_cpu,
+    }
+    result.callback_load = dict(recorder.callback_load)
 
 
 def _replay_summary(status: ReplayStatus | None) -> dict[str, Any]:
