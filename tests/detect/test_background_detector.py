@@ -8,6 +8,7 @@ after the background has been learned.
 
 from __future__ import annotations
 
+import re
 from dataclasses import replace
 
 import cv2
@@ -480,3 +481,44 @@ def test_learning_after_the_detections_are_out_changes_nothing(scene):
     eager.reset()
     eager.learn_last_frame()
     assert not eager.mosaic.sample(whole).observations.any()
+
+
+def test_a_view_the_mosaic_cannot_hold_is_refused_before_anything_changes():
+    """A pose far off the scene or a window of absurd size would need a mosaic of TiB: the frame
+    is refused (UnusableViewError, naming the size) and the next frames detect as if it had never
+    come."""
+    from tracker_detect.background import MAX_MOSAIC_PIXELS
+    from tracker_detect.detector import UnusableViewError
+
+    rng = np.random.default_rng(1)
+    ground = cv2.GaussianBlur(rng.integers(0, 255, (90, 120), dtype=np.uint8), (5, 5), 1.5)
+    mosaic = SceneMosaic()
+    assert mosaic.pixels_covering(View(Rect(0, 0, 120, 90), 120, 90)) == 120 * 90
+
+    def frames(bad: bool):
+        for k in range(30):
+            image = ground.copy()
+            image[30:60, 10 + 3 * k : 22 + 3 * k] = 20
+            if bad and k == 20:
+                for far in (
+                    Rect(1e6, 1e6, 120, 90),
+                    Rect(-1e5, -1e5, 120, 90),
+                    Rect(0, 0, 1e5, 7.5e4),
+                ):
+                    yield CameraFrame(k * 10**8 + 1, image, View(far, 120, 90)), True
+            yield CameraFrame(k * 10**8 + 2, image, View(Rect(0, 0, 120, 90), 120, 90)), False
+
+    def boxes(bad: bool) -> list[list[Rect]]:
+        detector, found = BackgroundDetector(BackgroundConfig()), []
+        for frame, refused in frames(bad):
+            if refused:
+                with pytest.raises(
+                    UnusableViewError, match=re.escape(f"at most {MAX_MOSAIC_PIXELS:.3g}")
+                ):
+                    detector.process(frame)
+                continue
+            found.append([b.bbox for b in detector.process(frame).blobs])
+        return found
+
+    clean = boxes(False)
+    assert boxes(True) == clean and any(clean[-5:])

@@ -313,3 +313,47 @@ def test_estimate_needs_an_estimator(context):
                 Parameter("compensation", value="known"),
             ],
         )
+
+
+def test_a_bad_pose_is_one_warning_an_empty_answer_and_changes_nothing(harness_factory, capfd):
+    """Extra frames between good ones whose pose has a window far off the scene either way, or
+    one 1e5 px wide (the background mosaic would need TiB), or a NaN focal length: one warning
+    per kind, an empty answer for the windows, the node lives, and the good frames' detections
+    are the clean run's (the background detector, which person_motion runs too)."""
+    frames, windows = scene_and_windows()
+    bad_windows = [(1e6, 1e6, 120, 90), (-1e5, -1e5, 120, 90), (0, 0, 1e5, 1e5 * 0.75)]
+
+    def run(with_bad: bool) -> list[list[tuple[float, ...]]]:
+        h = harness_factory(pose_source="ptz_state", method="ssim_background")
+        answers = []
+        for k, (frame, (x, y, w, hh)) in enumerate(zip(frames, windows, strict=True)):
+            if with_bad and 3 <= k < 3 + len(bad_windows):
+                stamp = k * NS - NS // 2
+                h.states.publish(state_msg(bad_windows[k - 3], stamp))
+                h.images.publish(image_msg(frame[y : y + hh, x : x + w], stamp))
+                h.spin_until(lambda: len(h.detections) > len(answers))
+                assert not h.detections.pop().blobs
+            if with_bad and k == 3 + len(bad_windows):  # a lone pose, of the next good image
+                nan_focal = state_msg(windows[k], k * NS)
+                nan_focal.focal_length = float("nan")
+                h.states.publish(nan_focal)
+            h.states.publish(state_msg(windows[k], k * NS))
+            h.images.publish(image_msg(frame[y : y + hh, x : x + w], k * NS))
+            wanted = k * NS
+            h.spin_until(lambda: any(_stamp(d) == wanted for d in h.detections))  # noqa: B023
+            good = next(d for d in h.detections if _stamp(d) == wanted)
+            answers.append(
+                [(b.centroid_x, b.centroid_y, b.bbox.width, b.bbox.height) for b in good.blobs]
+            )
+        return answers
+
+    clean = run(False)
+    capfd.readouterr()
+    assert run(True) == clean and any(clean)
+    err = capfd.readouterr().err
+    assert err.count("would grow the background") == 1
+    assert err.count("focal_length nan") == 1
+
+
+def _stamp(msg: BlobArray) -> int:
+    return msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec

@@ -51,7 +51,7 @@ from dataclasses import dataclass, field
 import cv2
 import numpy as np
 
-from tracker_detect.detector import CameraFrame, Detection, checked_view
+from tracker_detect.detector import CameraFrame, Detection, UnusableViewError, checked_view
 from tracker_detect.mosaic import MosaicSample, SceneMosaic
 from tracker_detect.motion import (
     DetectorConfig,
@@ -82,6 +82,9 @@ REGISTER_JUDGED_SHARE = 0.5
 REGISTER_MIN_PEAK = 0.05
 REGISTER_MIN_GAIN = 0.9  # ... and the aligned view must differ from it by less than this x before
 MAX_REGISTER_REACH = 64
+# The background mosaic's largest size, scene px: 16.8 Mpx (a 360-degree pan at a 1000 px focal
+# length and 2000 px of tilt fits; ~400 MB with colour). A view that would need more is refused.
+MAX_MOSAIC_PIXELS = 2**24
 # A blob is a stopped object, held at stopped_heal_rate, when at most this share of it moves and
 # its outline is this many times a stronger edge in the view than in the background.
 STOPPED_MOVING_SHARE = 0.25
@@ -228,6 +231,7 @@ class BackgroundDetector:
             raise ValueError(f"expected a grey uint8 (H, W) image, got {gray.dtype} {gray.shape}")
         height, width = gray.shape
         view = checked_view(frame, self._last_stamp)
+        self._check_room(view)
         self.learn_last_frame()  # the frame before's step 5, when the caller left it
         history_reset = self._size is not None and self._size != (width, height)
         if history_reset and frame.view is None:
@@ -281,6 +285,17 @@ class BackgroundDetector:
             mask=mask,
             history_reset=history_reset,
         )
+
+    def _check_room(self, view: View) -> None:
+        """UnusableViewError when the mosaic would outgrow MAX_MOSAIC_PIXELS to hold `view` (a
+        pose far off the scene, a window of absurd size)."""
+        needed = self.mosaic.pixels_covering(view)
+        if needed > MAX_MOSAIC_PIXELS:
+            r = view.rect
+            raise UnusableViewError(
+                f"the view {r.width:.0f}x{r.height:.0f} at ({r.x:.0f}, {r.y:.0f}) scene px would "
+                f"grow the background to {needed:.3g} px (at most {MAX_MOSAIC_PIXELS:.3g})"
+            )
 
     def learn_last_frame(self) -> None:
         """Steps 2 and 5 (module doc) for the last frame `process`ed, if not done yet: which of

@@ -39,6 +39,11 @@ class StaleFrameError(ValueError):
     """A frame whose stamp is not newer than the last accepted one (out of order or duplicate)."""
 
 
+class UnusableViewError(ValueError):
+    """A frame whose view the detector cannot work with (one that would grow its background
+    beyond what it can hold); raised before any state changes, so the next frame is as good."""
+
+
 @dataclass(frozen=True)
 class Blob:
     """A detected region, in scene coordinates (tracker_msgs/Blob)."""

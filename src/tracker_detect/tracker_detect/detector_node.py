@@ -32,6 +32,7 @@ from tracker_detect.detector import (
     DetectorUnavailableError,
     SeededDetector,
     StaleFrameError,
+    UnusableViewError,
 )
 from tracker_detect.detectors import DETECTORS, PLUGIN_GROUP
 from tracker_detect.image_pose_pairing import (
@@ -341,6 +342,12 @@ class DetectorNode(SuiteNode):
         except ValueError as error:
             self.problems.report("invalid PtzState window", f"ignored a PtzState window: {error}")
             return
+        if not math.isfinite(msg.focal_length):
+            self.problems.report(
+                "non-finite focal length",
+                f"ignored a PtzState with focal_length {msg.focal_length}",
+            )
+            return
         pose = (window.x, window.y, window.width, window.height, msg.focal_length)
         self._handle(self.pairing.add_pose(stamp_to_ns(msg.header.stamp), pose))
 
@@ -424,6 +431,10 @@ class DetectorNode(SuiteNode):
                 detection = self._seeded_step(self.session, frame, offer)
         except StaleFrameError:
             self.counters.stale_stamp += 1
+            return
+        except UnusableViewError as error:
+            self.problems.report("unusable view", f"answered an image with no detections: {error}")
+            self._publish_empty(image.token)
             return
         previous, self.last_frame = self.last_frame, frame
         self.recent_frames[frame.stamp_ns] = frame

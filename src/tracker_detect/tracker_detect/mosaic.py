@@ -146,27 +146,46 @@ class SceneMosaic:
         y1 = min(int(np.ceil(view.rect.y + view.rect.height - oy)), h)
         return x0, y0, x1, y1
 
-    def _cover(self, view: View) -> None:
-        """Grow the mosaic (by at least GROW_MARGIN) until it contains `view`."""
+    def pixels_covering(self, view: View) -> int:
+        """Mosaic pixels once it contains `view` (its size now when it already does)."""
+        bounds = self._covering_bounds(view)
+        if bounds is None:
+            return int(self.mean.size)
+        left, top, right, bottom = bounds
+        return (right - left) * (bottom - top)
+
+    def _covering_bounds(self, view: View) -> tuple[int, int, int, int] | None:
+        """Scene px (left, top, right, bottom) of the mosaic grown (by at least GROW_MARGIN) to
+        contain `view`; None when it already does."""
         r = view.rect
         ox, oy = self.origin
         h, w = self.mean.shape
         if not self.empty and (
             r.x >= ox and r.y >= oy and r.x + r.width <= ox + w and r.y + r.height <= oy + h
         ):
-            return
+            return None
         if self.empty:
             left, top = int(np.floor(r.x)), int(np.floor(r.y))
             right, bottom = int(np.ceil(r.x + r.width)), int(np.ceil(r.y + r.height))
-        else:
-            left = min(ox, int(np.floor(r.x)) - GROW_MARGIN) if r.x < ox else ox
-            top = min(oy, int(np.floor(r.y)) - GROW_MARGIN) if r.y < oy else oy
-            right = max(ox + w, int(np.ceil(r.x + r.width)) + GROW_MARGIN)
-            bottom = max(oy + h, int(np.ceil(r.y + r.height)) + GROW_MARGIN)
-            if r.x + r.width <= ox + w:
-                right = ox + w
-            if r.y + r.height <= oy + h:
-                bottom = oy + h
+            return left, top, right, bottom
+        left = min(ox, int(np.floor(r.x)) - GROW_MARGIN) if r.x < ox else ox
+        top = min(oy, int(np.floor(r.y)) - GROW_MARGIN) if r.y < oy else oy
+        right = max(ox + w, int(np.ceil(r.x + r.width)) + GROW_MARGIN)
+        bottom = max(oy + h, int(np.ceil(r.y + r.height)) + GROW_MARGIN)
+        if r.x + r.width <= ox + w:
+            right = ox + w
+        if r.y + r.height <= oy + h:
+            bottom = oy + h
+        return left, top, right, bottom
+
+    def _cover(self, view: View) -> None:
+        """Grow the mosaic until it contains `view`."""
+        bounds = self._covering_bounds(view)
+        if bounds is None:
+            return
+        left, top, right, bottom = bounds
+        ox, oy = self.origin
+        h, w = self.mean.shape
         shape = (bottom - top, right - left)
 
         def grown(old: np.ndarray) -> np.ndarray:
