@@ -219,6 +219,52 @@ def test_parameters_are_validated_at_startup_and_on_change():
         rclpy.shutdown(context=context)
 
 
+def test_decimal_parameters_take_whole_numbers_and_refuse_non_finite_values_and_inverted_ranges():
+    """`max_speed:=2` is 2.0 at start and at run time (also for arrays); NaN in an array and a
+    [min, max] pair the wrong way round are refused at start and at run time, naming the
+    parameter and what it must be."""
+    import rclpy
+    from rclpy.node import Node
+    from rclpy.parameter import Parameter
+
+    from tracker_msgs_py.params import ParameterError, ParamSpec, declare_parameters
+
+    specs = [
+        ParamSpec("max_speed", 1.0, "rad/s", 0.0, 10.0),
+        ParamSpec("pan_limits", [-1.0, 1.0], "[min, max] rad", interval=True),
+        ParamSpec("home", [0.0, 0.0], "rad"),
+    ]
+    context = rclpy.Context()
+    rclpy.init(context=context)
+    try:
+        given = [Parameter("max_speed", value=2), Parameter("pan_limits", value=[-2, 2])]
+        node = Node("whole_numbers", context=context, parameter_overrides=given)
+        values = declare_parameters(node, specs)
+        assert values["max_speed"] == 2.0 and isinstance(values["max_speed"], float)
+        assert values["pan_limits"] == [-2.0, 2.0]
+        assert node.set_parameters([Parameter("max_speed", value=3)])[0].successful
+        assert values["max_speed"] == 3.0 and node.get_parameter("max_speed").value == 3.0
+        for name, value, reason in [
+            ("max_speed", 11, "max_speed out of range Min: 0.0, Max: 10.0, value: 11.0"),
+            ("pan_limits", [float("nan"), 1.0], "pan_limits must hold finite numbers"),
+            ("pan_limits", [1.0, -1.0], "pan_limits must be [min, max] with min < max"),
+            ("home", [float("nan"), float("nan")], "home must hold finite numbers"),
+        ]:
+            result = node.set_parameters([Parameter(name, value=value)])[0]
+            assert not result.successful and reason in result.reason, result.reason
+        assert values["pan_limits"] == [-2.0, 2.0] and values["home"] == [0.0, 0.0]
+        for bad, reason in [
+            (Parameter("pan_limits", value=[float("nan"), 1.0]), "must hold finite numbers"),
+            (Parameter("pan_limits", value=[1.0, -1.0]), "with min < max"),
+            (Parameter("max_speed", value=-5), "max_speed.*out of range"),
+        ]:
+            with pytest.raises(ParameterError, match=reason):
+                declare_parameters(Node("bad", context=context, parameter_overrides=[bad]), specs)
+        node.destroy_node()
+    finally:
+        rclpy.shutdown(context=context)
+
+
 def test_parameters_given_to_every_node_are_read_from_the_ros_arguments(tmp_path):
     from tracker_msgs_py.params import parameters_for_every_node, ros_sections
 

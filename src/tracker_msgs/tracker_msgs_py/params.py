@@ -62,11 +62,18 @@ class ParamSpec:
     choices: tuple[str, ...] | None = None  # allowed values of a string parameter
     read_only: bool = False  # may only be set at start-up
     validator: Validator | None = None  # returns a reason when the value is unacceptable
+    interval: bool = False  # a [min, max] pair: two numbers, min < max
 
     def check(self, value: Any) -> str | None:
         """Why `value` is not acceptable for this parameter, or None when it is."""
         if isinstance(value, float) and not math.isfinite(value):
             return f"{self.name} must be a finite number, got {value}"
+        if isinstance(value, list | tuple) and any(
+            isinstance(v, float) and not math.isfinite(v) for v in value
+        ):
+            return f"{self.name} must hold finite numbers, got {list(value)}"
+        if self.interval and not (len(value) == 2 and value[0] < value[1]):
+            return f"{self.name} must be [min, max] with min < max, got {list(value)}"
         is_number = isinstance(value, int | float) and not isinstance(value, bool)
         both = self.min is not None and self.max is not None
         if is_number and both and not self.min <= value <= self.max:
@@ -145,6 +152,8 @@ def declare_parameters(
     from rcl_interfaces.msg import SetParametersResult
 
     by_name = {spec.name: spec for spec in specs}
+    _widen_overrides(node, by_name)
+    node.add_pre_set_parameters_callback(lambda params: [_widened(p, by_name) for p in params])
     values: dict[str, Any] = {}
     for spec in specs:
         try:
@@ -188,6 +197,31 @@ def declare_parameters(
     node.add_on_set_parameters_callback(validate)
     node.add_post_set_parameters_callback(apply)
     return values
+
+
+def _widened(param: Parameter, by_name: Mapping[str, ParamSpec]) -> Parameter:
+    """An integer (or integer array) given for a decimal parameter, as that decimal: users type
+    `max_speed:=2`, and rclpy would refuse it as the wrong type."""
+    from rclpy.parameter import Parameter
+
+    spec = by_name.get(param.name)
+    if spec is None:
+        return param
+    default = spec.default
+    if isinstance(default, float) and param.type_ == Parameter.Type.INTEGER:
+        return Parameter(param.name, Parameter.Type.DOUBLE, float(param.value))
+    decimals = isinstance(default, list) and bool(default) and isinstance(default[0], float)
+    if decimals and param.type_ == Parameter.Type.INTEGER_ARRAY:
+        return Parameter(param.name, Parameter.Type.DOUBLE_ARRAY, [float(v) for v in param.value])
+    return param
+
+
+def _widen_overrides(node: Node, by_name: Mapping[str, ParamSpec]) -> None:
+    """`_widened` for the start-up values (command line, params files), which rclpy checks
+    against the declared type before any callback runs."""
+    overrides = node._parameter_overrides  # noqa: SLF001 -- rclpy has no public hook for this
+    for name in by_name.keys() & overrides.keys():
+        overrides[name] = _widened(overrides[name], by_name)
 
 
 def _as_python(value: Any, default: ParamValue) -> Any:

@@ -62,8 +62,11 @@ PARAMS = [
         "pan_limits",
         list(_DEFAULTS.pan_limits),
         "[min, max] pan [rad]: no command leaves it, the sweep reverses at it",
+        interval=True,
     ),
-    ParamSpec("tilt_limits", list(_DEFAULTS.tilt_limits), "[min, max] tilt [rad] commanded"),
+    ParamSpec(
+        "tilt_limits", list(_DEFAULTS.tilt_limits), "[min, max] tilt [rad] commanded", interval=True
+    ),
     ParamSpec("presets", [0.0, 0.0], "search presets as [pan1, tilt1, pan2, tilt2, ...] [rad]"),
     ParamSpec(
         "preset_dwell_time", _DEFAULTS.preset_dwell_time, "time at each preset [s]", 0.1, 600.0
