@@ -51,6 +51,11 @@ def command(stamp_ns, mode=PtzCommand.MODE_VELOCITY, pan_rate=0.0):
     return msg
 
 
+def replace_zoom(msg, zoom):
+    msg.zoom = zoom
+    return msg
+
+
 def send_command(h, stamp_ns, pan_rate):
     """A velocity command, delivered before the next scene image is sent."""
     count = h.node.commands_received
@@ -98,15 +103,23 @@ def test_different_bad_commands_each_get_their_own_warning(harness, capfd):
     harness.publish("ptz/command", command(0, mode=7))
     harness.publish("ptz/command", command(0, pan_rate=math.inf))
     harness.publish("ptz/command", command(50 * NS))  # after the latest image
-    harness.spin_until(lambda: harness.node.problems.total == 4)
+    negative = command(0, pan_rate=0.3)
+    negative.header.stamp.sec = -3  # before zero: it answers no image
+    harness.publish("ptz/command", negative)
+    for zoom in (math.inf, -5.0):
+        harness.publish("ptz/command", replace_zoom(command(NS, pan_rate=0.3), zoom))
+    harness.spin_until(lambda: harness.node.problems.total == 7)
     err = capfd.readouterr().err
     assert err.count("non-finite values") == 1
     assert err.count("unknown mode 7") == 1
     assert err.count("after the latest scene image") == 1
+    assert err.count("command stamped -3.000 s") == 1 and err.count("with zoom inf") == 1
     assert harness.node.problems.counts == {
         "non-finite command": 2,
         "unknown command mode": 1,
         "command from the future": 1,
+        "negative stamp": 1,
+        "invalid zoom": 2,
     }
     # The camera still acts on good commands.
     send_command(harness, NS, pan_rate=-1.0)

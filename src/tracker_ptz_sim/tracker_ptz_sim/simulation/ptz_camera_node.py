@@ -225,6 +225,11 @@ class PtzCameraNode(SuiteNode):
         self._apply(self._joint_command_from(msg), stamp_to_ns(msg.header.stamp))
 
     def _apply(self, command: PtzCommand | None, stamp: int) -> None:
+        if stamp < 0:  # no image has one (they are dropped): it answers nothing
+            self.problems.report(
+                "negative stamp", f"ignored a pan-tilt command stamped {stamp / NS_PER_S:.3f} s"
+            )
+            return
         self.latency.command_received(stamp, time.monotonic_ns())
         self.commands_received += 1
         if command is not None and self.last_image_ns is not None and stamp > self.last_image_ns:
@@ -261,6 +266,12 @@ class PtzCameraNode(SuiteNode):
             self.problems.report(
                 "non-finite command", f"ignored a pan-tilt command with non-finite values {values}"
             )
+        elif not _usable_zoom(msg.zoom):
+            self.problems.report(
+                "invalid zoom",
+                f"ignored a pan-tilt command with zoom {msg.zoom} (a positive number, or 0 or "
+                "NaN to keep the zoom)",
+            )
         else:
             return PtzCommand(
                 stamp / NS_PER_S, mode, msg.pan, msg.tilt, msg.pan_rate, msg.tilt_rate, msg.zoom
@@ -282,6 +293,13 @@ class PtzCameraNode(SuiteNode):
         zoom_joint = self.params["zoom_joint"]
         if zoom_joint in names and len(msg.position) == len(names):
             zoom = float(msg.position[names.index(zoom_joint)])
+        if not _usable_zoom(zoom):
+            self.problems.report(
+                "invalid zoom",
+                f"ignored a JointState command with {zoom_joint} {zoom} (a positive number, or 0 "
+                "or NaN to keep the zoom)",
+            )
+            return None
 
         def pick(values: Any) -> tuple[float, float] | None:
             if len(values) != len(names):
@@ -454,3 +472,8 @@ def main(args: list[str] | None = None) -> int:
 
 if __name__ == "__main__":
     raise SystemExit(main())
+
+
+def _usable_zoom(zoom: float) -> bool:
+    """A commanded zoom the camera can act on: 0 or NaN (keep the zoom), or a positive number."""
+    return math.isnan(zoom) or (math.isfinite(zoom) and zoom >= 0)
