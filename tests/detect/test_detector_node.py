@@ -162,19 +162,22 @@ def test_bad_encodings_repeated_stamps_and_a_new_epoch(harness_factory):
     h.images.publish(image_msg(frames[0][:90, :120], 0))
     h.settle(1)
     depth = Image(height=2, width=2, encoding="16UC1", step=4, data=bytes(8))
-    depth.header.stamp = ns_to_stamp(NS)
+    depth.header.stamp = ns_to_stamp(1000 * NS)  # far ahead: refused, it moves no clock
     h.images.publish(depth)
     h.settle(2)
     assert h.node.counters.unsupported_encoding == 1
     assert not h.detections[1].target_present and not h.detections[1].blobs  # acknowledged
+    h.images.publish(image_msg(frames[1][:90, :120], NS))  # the next frame, not a jump back
+    h.settle(3)
+    assert h.detections[2].compared_area > 0 and h.node.image_order.epochs == 0
     h.images.publish(image_msg(frames[1][:90, :120], NS))  # repeated stamp: dropped
     h.spin_until(lambda: h.node.counters.stale_stamp >= 1)
-    assert len(h.detections) == 2 and h.node.problems.count("repeat image stamp") == 1
+    assert len(h.detections) == 3 and h.node.problems.count("repeat image stamp") == 1
     # Stamps going back are a restarted source: a new epoch, answered, with a fresh history.
     h.images.publish(image_msg(frames[2][:90, :120], NS // 2))
     h.images.publish(image_msg(frames[3][:90, :120], NS // 2 + NS))
-    h.settle(4)
-    assert [d.compared_area > 0 for d in h.detections[2:]] == [False, True]
+    h.settle(5)
+    assert [d.compared_area > 0 for d in h.detections[3:]] == [False, True]
     assert h.node.image_order.epochs == 1
 
 

@@ -128,6 +128,21 @@ def test_different_bad_commands_each_get_their_own_warning(harness, capfd):
     assert after < before
 
 
+def test_a_dropped_scene_image_far_ahead_moves_no_clock(harness, capfd):
+    """An image of an unsupported encoding stamped 1000 s ahead is dropped with one warning, and
+    the next good image is the next frame (no new epoch): the camera keeps its pan rate."""
+    send_scene(harness, 10 * NS)
+    send_command(harness, 10 * NS, pan_rate=0.5)
+    moving = send_scene(harness, 11 * NS)
+    depth = Image(height=2, width=2, encoding="16UC1", step=4, data=bytes(8))
+    depth.header.stamp = ns_to_stamp(1011 * NS)
+    harness.publish("scene/image_raw", depth)
+    harness.spin_until(lambda: harness.node.problems.total == 1)
+    later = send_scene(harness, 12 * NS)
+    assert harness.node.scene_order.epochs == 0 and "jumped back" not in capfd.readouterr().err
+    assert later.moving and later.pan > moving.pan
+
+
 def test_repeated_scene_images_are_dropped_and_a_jump_back_is_a_new_epoch(harness):
     send_scene(harness, 10 * NS)
     send_command(harness, 10 * NS, pan_rate=0.5)  # turning left

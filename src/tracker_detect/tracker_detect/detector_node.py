@@ -298,6 +298,15 @@ class DetectorNode(SuiteNode):
 
     def _on_image(self, msg: Image) -> None:
         stamp = stamp_to_ns(msg.header.stamp)
+        try:  # before its stamp counts: a dropped image must not move the detector's clock
+            pixels = image_to_array(msg) if msg.encoding == "mono8" else image_to_bgr(msg)
+        except UnsupportedEncodingError as error:
+            self.counters.unsupported_encoding += 1
+            self.problems.report(
+                error.cause, f"{error}; such images are answered with an empty BlobArray"
+            )
+            self._publish_empty(msg.header)
+            return
         order = self.image_order.check(stamp)
         if order in (Order.REPEAT, Order.INVALID):
             self.counters.stale_stamp += 1
@@ -309,15 +318,6 @@ class DetectorNode(SuiteNode):
             return
         if order is Order.NEW_EPOCH:
             self._start_epoch(stamp)
-        try:
-            pixels = image_to_array(msg) if msg.encoding == "mono8" else image_to_bgr(msg)
-        except UnsupportedEncodingError as error:
-            self.counters.unsupported_encoding += 1
-            self.problems.report(
-                error.cause, f"{error}; such images are answered with an empty BlobArray"
-            )
-            self._publish_empty(msg.header)
-            return
         self._handle(self.pairing.add_image(msg.header, stamp, pixels.copy()))
 
     def _start_epoch(self, stamp_ns: int) -> None:

@@ -27,6 +27,7 @@ from collections import deque
 from dataclasses import fields
 from typing import Any
 
+import numpy as np
 from sensor_msgs.msg import CameraInfo, Image, JointState
 
 from tracker_msgs.msg import PtzCommand as PtzCommandMsg
@@ -165,7 +166,7 @@ class PtzCameraNode(SuiteNode):
         self.commands_received = 0
         # Lockstep: scene images waiting for their command, oldest first, and since when the
         # oldest waits; the stamps of the images processed last (the gate reads the oldest).
-        self.pending: deque[Image] = deque()
+        self.pending: deque[tuple[Image, np.ndarray]] = deque()  # with its decoded pixels
         self.pending_since = 0.0
         self.processed_ns: deque[int] = deque(maxlen=self.params["command_delay_frames"])
         self.early_commands: list[PtzCommand] = []
@@ -323,6 +324,11 @@ class PtzCameraNode(SuiteNode):
 
     def _on_scene(self, msg: Image) -> None:
         stamp = stamp_to_ns(msg.header.stamp)
+        try:  # before its stamp counts: a dropped image must not move the camera's clock
+            scene = image_to_array(msg)
+        except UnsupportedEncodingError as error:
+            self.problems.report(error.cause, f"dropped a scene image: {error}")
+            return
         order = self.scene_order.check(stamp)
         if order is Order.REPEAT:
             self.repeated_images += 1
@@ -334,11 +340,11 @@ class PtzCameraNode(SuiteNode):
             self._start_epoch(stamp)
         elif len(self.pending) >= self.params["command_delay_frames"]:
             # More images in flight than commands may lag (or no lockstep): the oldest goes on.
-            self._process(self.pending.popleft())
+            self._process(*self.pending.popleft())
             self.pending_since = time.monotonic()
         if not self.pending:
             self.pending_since = time.monotonic()
-        self.pending.append(msg)
+        self.pending.append((msg, scene))
         self._process_pending()
 
     def _start_epoch(self, stamp_ns: int) -> None:
@@ -369,7 +375,7 @@ class PtzCameraNode(SuiteNode):
 
     def _process_pending(self) -> None:
         while self.pending and self._acknowledged():
-            self._process(self.pending.popleft())
+            self._process(*self.pending.popleft())
             self.pending_since = time.monotonic()
 
     def _on_lockstep_timer(self) -> None:
@@ -381,17 +387,12 @@ class PtzCameraNode(SuiteNode):
                 f"{self.params['lockstep_timeout']} s; going on without it",
                 throttle_duration_sec=5.0,
             )
-            self._process(self.pending.popleft())
+            self._process(*self.pending.popleft())
             self.pending_since = time.monotonic()
             self._process_pending()
 
-    def _process(self, msg: Image) -> None:
+    def _process(self, msg: Image, scene: np.ndarray) -> None:
         stamp = stamp_to_ns(msg.header.stamp)
-        try:
-            scene = image_to_array(msg)
-        except UnsupportedEncodingError as error:
-            self.problems.report(error.cause, f"dropped a scene image: {error}")
-            return
         size_changed = self.model is None or (self.model.width, self.model.height) != (
             msg.width,
             msg.height,
