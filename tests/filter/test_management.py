@@ -8,10 +8,12 @@ import pytest
 from tracker_filter.association import Association
 from tracker_filter.config import TrackerConfig
 from tracker_filter.filters import PerTrackFactory
-from tracker_filter.management import OverlapRecovery, TrackManager
+from tracker_filter.management import BoxGate, MergedSplitter, OverlapRecovery, TrackManager
+from tracker_filter.object_scale import HeightByRow
 from tracker_filter.observation import Detections, Observation
 from tracker_filter.synthetic import bouncing_scene, piecewise_constant_velocity
 from tracker_filter.tracking import OutOfOrderError, TrackStatus
+from tracker_msgs_py.geometry import Rect
 
 DT = 0.12
 FILTERS = ["kalman_cv", "alpha_beta", "kalman_ca", "alpha_beta_gamma"]
@@ -238,6 +240,55 @@ def test_a_track_keeps_a_detection_whose_centroid_jumped_when_their_boxes_overla
     assert len(recovery.recover(none, track_boxes, found, np.array([False, True])).tracks) == 0
 
 
+def test_box_edges_that_jump_are_kept_until_the_change_persists():
+    """A walker's box loses its legs for 3 frames and a flickering sign joins it from above for
+    2 (both paired by box overlap): the track's box keeps the walker's height (IoU with the
+    walker >= 0.9 throughout). A change that lasts (a person who sits down: half the height from
+    frame 20 on) is taken after `patience` frames."""
+    tracker = multi(box_tolerance=0.2, recover_overlap=0.3)
+    for k in range(40):
+        box = _person(40.0 + 4.0 * k, legs=not 10 <= k < 13)
+        if 15 <= k < 17:  # a 24 x 40 sign 10 px above the head joins the blob
+            box = np.array([box[0], 50.0, 24.0, 100.0])
+        if k >= 20:
+            box = np.array([box[0], 125.0, 24.0, 25.0])
+        tracks = tracker.step(Observation(k * 0.1, _boxes([box])))
+        (x, y, w, h), expected = tracks.bboxes[0], _person(40.0 + 4.0 * k)
+        if 5 <= k < 20:
+            assert Rect(x, y, w, h).iou(Rect(*expected)) >= 0.9, k
+        if k >= 20 + BoxGate().patience:
+            assert (y, h) == pytest.approx((125.0, 25.0), abs=1.0)
+    assert tracks.ids.tolist() == [1]
+
+
+def test_the_learned_height_says_which_box_edge_to_believe():
+    """People here are half as tall as the row of their feet (learned from ten boxes). A track
+    whose box held a sign above the person (100 px tall at row 150, where people are 75) takes
+    the person's 75 px box at once; a track on the person keeps its top edge when the sign joins
+    the detection. Without the learned height both jumps are held; before the line is learned,
+    nothing is."""
+    scale = HeightByRow(0.5, min_samples=10)
+    rows = np.linspace(100.0, 300.0, 10)
+    scale.observe(np.column_stack([np.zeros(10), rows / 2, np.full(10, 20.0), rows / 2]))
+    person, merged = np.array([100.0, 75.0, 24.0, 75.0]), np.array([100.0, 50.0, 24.0, 100.0])
+
+    def gated(gate: BoxGate, predicted: np.ndarray, found: np.ndarray) -> np.ndarray:
+        one = np.array([0])
+        strikes = np.zeros((1, 4), np.int64)
+        result: np.ndarray = gate.gate(_boxes([found]), one, one, predicted[None], strikes).bboxes[
+            0
+        ]
+        return result
+
+    informed, blind = BoxGate(0.2, scale=scale), BoxGate(0.2)
+    assert gated(informed, merged, person) == pytest.approx(person)
+    assert gated(informed, person, merged) == pytest.approx(person)
+    assert gated(blind, merged, person) == pytest.approx(merged)
+    assert gated(blind, person, merged) == pytest.approx(person)
+    unlearned = BoxGate(0.2, scale=HeightByRow(0.5, min_samples=10))  # nothing held yet
+    assert gated(unlearned, person, merged) == pytest.approx(merged)
+
+
 def test_many_targets_with_clutter_keep_their_ids():
     # paths that stay clear of the borders: a bounce reverses a target within one frame, which a
     # constant-velocity gate cannot follow (the track is lost and restarted under a new id)
@@ -418,3 +469,67 @@ def test_object_bank_plugs_in_and_gives_the_same_tracks():
         np.testing.assert_array_equal(a.ids, b.ids)
         np.testing.assert_array_equal(a.status, b.status)
         np.testing.assert_allclose(a.means, b.means, rtol=1e-9, atol=1e-8)
+
+
+def test_a_detection_holding_two_tracked_objects_is_split_between_them():
+    splitter = MergedSplitter(min_growth=1.25)
+    merged = Detections(
+        np.array([[130.0, 125.0]]),
+        np.array([4000.0]),
+        np.array([[100.0, 100.0, 60.0, 52.0]]),
+        [0.3],
+    )
+    boxes = np.array([[96.0, 100.0, 24.0, 50.0], [134.0, 101.0, 26.0, 50.0]])  # left, right
+    positions = boxes[:, :2] + boxes[:, 2:] / 2
+    pieces = splitter.split(merged, boxes, positions, np.array([True, True]))
+    assert len(pieces) == 2
+    left, right = pieces.bboxes
+    assert list(left) == [100.0, 100.0, 24.0, 50.0]  # pushed 4 px inside the detection
+    assert list(right) == [134.0, 101.0, 26.0, 50.0]
+    assert pieces.positions[0] == pytest.approx(positions[0] + [4.0, 0.0])
+    assert pieces.areas.sum() == pytest.approx(4000.0)
+    # a tentative track, a head track inside a body track, a detection no bigger than one object:
+    # the detection is one object's
+    assert splitter.split(merged, boxes, positions, np.array([True, False])) is merged
+    nested = np.array([[100.0, 100.0, 60.0, 52.0], [120.0, 100.0, 20.0, 20.0]])
+    assert splitter.split(merged, nested, positions, np.array([True, True])) is merged
+    assert MergedSplitter(min_growth=3.0).split(merged, boxes, positions, np.array([True] * 2)) is (
+        merged
+    )
+
+
+def test_people_walking_past_each_other_keep_their_tracks_while_one_blob():
+    """Two people (24 x 50) walk towards each other, pass and walk on; while their boxes overlap
+    the detector sees one blob. Split by the predicted tracks, both stay observed with their own
+    ids as the blob forms (once one hides the other by half, nothing tells two people from two
+    tracks on one, and one coasts), and both come out of it with their ids."""
+
+    def run(split_merged: float) -> tuple[list[int], dict[int, float]]:
+        tracker = multi(split_merged=split_merged, filter="kalman_cv")
+        observed_while_forming = []
+        for k in range(40):
+            t = k * 0.1
+            a = np.array([40.0 + 40.0 * t, 100.0, 24.0, 50.0])  # walks right
+            b = np.array([240.0 - 40.0 * t, 104.0, 24.0, 50.0])  # walks left
+            if abs(a[0] - b[0]) < 24.0:
+                x0, y0 = min(a[0], b[0]), min(a[1], b[1])
+                x1, y1 = max(a[0], b[0]) + 24.0, max(a[1], b[1]) + 50.0
+                box = np.array([[x0, y0, x1 - x0, y1 - y0]])
+            else:
+                box = np.array([a, b])
+            centres = box[:, :2] + box[:, 2:] / 2
+            tracks = tracker.step(
+                Observation(t, Detections(centres, box[:, 2] * box[:, 3], box, np.zeros(len(box))))
+            )
+            observed = tracks.status == TrackStatus.CONFIRMED
+            if len(box) == 1 and a[0] < b[0] and box[0, 2] >= 1.5 * 24.0:
+                observed_while_forming.append(int(observed.sum()))
+        return observed_while_forming, dict(
+            zip(tracks.ids.tolist(), tracks.bboxes[:, 0], strict=True)
+        )
+
+    forming, last_x = run(1.25)
+    assert forming == [2]
+    assert last_x == pytest.approx({1: 40.0 + 40.0 * 3.9, 2: 240.0 - 40.0 * 3.9})
+    forming, _ = run(0.0)
+    assert forming == [1]

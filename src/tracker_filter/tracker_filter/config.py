@@ -23,10 +23,13 @@ from tracker_filter.filters import FilterFactory, FilterKind
 from tracker_filter.gains import GainRule
 from tracker_filter.management import (
     AllDetections,
+    BoxGate,
     CappedInitiator,
     LargestDetection,
+    MergedSplitter,
     MissCountDeleter,
     MofNConfirmation,
+    NoSplit,
     OverlapRecovery,
     TrackManager,
 )
@@ -88,7 +91,9 @@ _MULTI: dict[str, Any] = {
     "confirm_min_height": 0.0,
     "confirm_height_ratio": 0.0,
     "max_misses": 12,
+    "split_merged": 0.0,
     "recover_overlap": 0.0,
+    "box_tolerance": 0.0,
     "selection_policy": "longest_lived",
     "min_lock_time": 2.0,
     "switch_margin": 0.2,
@@ -210,11 +215,25 @@ TRACKING_PARAMETERS: tuple[ParamSpec, ...] = (
     ),
     _spec("max_misses", "consecutive missed frames before a track is lost", 1, 10000),
     _spec(
+        "split_merged",
+        "split a detection holding two or more confirmed tracks' predicted boxes into one piece "
+        "per track when its box is at least this x the largest of theirs in area (0: never)",
+        0.0,
+        100.0,
+    ),
+    _spec(
         "recover_overlap",
         "pair a confirmed track and a detection the centroid gate kept apart when the track's "
         "predicted box and the detection's box overlap by at least this IoU (0: never)",
         0.0,
         1.0,
+    ),
+    _spec(
+        "box_tolerance",
+        "keep a track's box edge where the detection's moved more than this x its height "
+        "(legs lost, a sign joined above) for up to 5 frames (0: boxes as detected)",
+        0.0,
+        10.0,
     ),
 )
 
@@ -319,7 +338,9 @@ class TrackerConfig:
     confirm_min_height: float
     confirm_height_ratio: float
     max_misses: int
+    split_merged: float
     recover_overlap: float
+    box_tolerance: float
     selection_policy: SelectionPolicy
     min_lock_time: float
     switch_margin: float
@@ -346,6 +367,8 @@ class TrackerConfig:
         if params["confirm_hits"] > params["confirm_window"]:
             hits, window = params["confirm_hits"], params["confirm_window"]
             raise ValueError(f"confirm_hits ({hits}) must not exceed confirm_window ({window})")
+        if 0.0 < params["split_merged"] < 1.0:
+            raise ValueError(f"split_merged must be 0 (off) or >= 1, got {params['split_merged']}")
         return cls(
             filter=filter_factory,
             gate_probability=params["gate_probability"],
@@ -360,7 +383,9 @@ class TrackerConfig:
             confirm_min_height=params["confirm_min_height"],
             confirm_height_ratio=params["confirm_height_ratio"],
             max_misses=params["max_misses"],
+            split_merged=params["split_merged"],
             recover_overlap=params["recover_overlap"],
+            box_tolerance=params["box_tolerance"],
             selection_policy=AUTOMATIC_POLICIES[params["selection_policy"]],
             min_lock_time=params["min_lock_time"],
             switch_margin=params["switch_margin"],
@@ -396,7 +421,13 @@ class TrackerConfig:
             MissCountDeleter(self.max_misses),
             LargestDetection() if self.measurements == "largest" else AllDetections(),
             first_id=first_id,
+            splitter=MergedSplitter(self.split_merged) if self.split_merged else NoSplit(),
             recovery=OverlapRecovery(self.recover_overlap) if self.recover_overlap else None,
+            box_gate=(
+                BoxGate(self.box_tolerance, scale=confirmation.scale)
+                if self.box_tolerance
+                else None
+            ),
         )
 
     def build_selector(self) -> TargetSelector:

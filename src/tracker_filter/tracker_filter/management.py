@@ -24,7 +24,7 @@ from tracker_filter.layout import StateLayout
 from tracker_filter.object_scale import HeightByRow
 from tracker_filter.observation import Detections, Need, Observation
 from tracker_filter.tracking import TrackBook, TrackSet
-from tracker_msgs_py.geometry import iou_matrix
+from tracker_msgs_py.geometry import intersection_areas, iou_matrix
 
 # --- components --------------------------------------------------------------------------------
 
@@ -47,6 +47,112 @@ class LargestDetection:
         if len(detections) <= 1:
             return detections
         return detections.subset(np.array([int(np.argmax(detections.areas))]))
+
+
+class Splitter(Protocol):
+    def split(
+        self, detections: Detections, boxes: np.ndarray, positions: np.ndarray, live: np.ndarray
+    ) -> Detections: ...
+
+
+class NoSplit:
+    """Detections are measurements as they come."""
+
+    def split(
+        self, detections: Detections, boxes: np.ndarray, positions: np.ndarray, live: np.ndarray
+    ) -> Detections:
+        return detections
+
+
+class MergedSplitter:
+    """Split a detection that holds several tracked objects into one measurement per object.
+
+    People walking together or crossing make one blob. When the predicted box centres of two or
+    more `live` tracks (confirmed ones) lie inside a detection's box and that box is at least
+    `min_growth` x the largest of their boxes in area, their boxes fill at least `MIN_FILL` of it,
+    and no box lies half inside another (a head and a torso track on one person are parts of one
+    object, not two objects), the detection is replaced by one piece per
+    track: the track's box (its size, at most the detection's) at its predicted place, pushed
+    inside the detection's box; the piece's centroid is the predicted position moved as far as
+    its box was pushed, its area the detection's shared in proportion to the boxes' areas. So
+    each track keeps its own box and identity while the group is one blob, and is still pulled
+    by the blob's outline.
+    """
+
+    def __init__(self, min_growth: float = 1.25) -> None:
+        if not min_growth >= 1.0:
+            raise ValueError(f"min_growth must be >= 1, got {min_growth}")
+        self.min_growth = min_growth
+
+    def split(
+        self, detections: Detections, boxes: np.ndarray, positions: np.ndarray, live: np.ndarray
+    ) -> Detections:
+        """`boxes` (N, 4) and `positions` (N, 2): the tracks' predicted boxes and centroids."""
+        if len(detections) == 0 or np.count_nonzero(live) < 2:
+            return detections
+        centres = boxes[:, :2] + boxes[:, 2:] / 2.0
+        kept, pieces = [], []
+        for j, (x, y, w, h) in enumerate(detections.bboxes):
+            inside = live & (
+                (centres[:, 0] >= x)
+                & (centres[:, 0] <= x + w)
+                & (centres[:, 1] >= y)
+                & (centres[:, 1] <= y + h)
+            )
+            members = np.flatnonzero(inside)
+            if not self._holds_several(w * h, boxes[members]):
+                kept.append(j)
+                continue
+            pieces.append(self._pieces(detections, j, boxes[members], positions[members]))
+        if not pieces:
+            return detections
+        rest = detections.subset(np.array(kept, dtype=np.int64))
+        return Detections(
+            np.concatenate([rest.positions, *(p.positions for p in pieces)]),
+            np.concatenate([rest.areas, *(p.areas for p in pieces)]),
+            np.concatenate([rest.bboxes, *(p.bboxes for p in pieces)]),
+            np.concatenate([rest.scores, *(p.scores for p in pieces)]),
+            np.concatenate([rest.labels, *(p.labels for p in pieces)]),
+        )
+
+    def _holds_several(self, area: float, boxes: np.ndarray) -> bool:
+        """Whether a detection box of `area` holds the objects of these predicted boxes."""
+        areas = boxes[:, 2] * boxes[:, 3]
+        return (
+            len(boxes) >= 2
+            and area >= self.min_growth * float(np.max(areas))
+            and float(np.sum(areas)) >= MIN_FILL * area
+            and not _nested(boxes)
+        )
+
+    @staticmethod
+    def _pieces(
+        detections: Detections, j: int, boxes: np.ndarray, positions: np.ndarray
+    ) -> Detections:
+        x, y, w, h = detections.bboxes[j]
+        sizes = np.minimum(boxes[:, 2:], [w, h])
+        corners = np.clip(boxes[:, :2], [x, y], [x + w, y + h] - sizes)
+        shares = np.prod(sizes, axis=1) / max(float(np.sum(np.prod(sizes, axis=1))), 1e-12)
+        return Detections(
+            positions + (corners - boxes[:, :2]),
+            detections.areas[j] * shares,
+            np.column_stack([corners, sizes]),
+            np.full(len(boxes), detections.scores[j]),
+            np.full(len(boxes), detections.labels[j], dtype=object),
+        )
+
+
+MIN_FILL = 0.6  # share of a merged detection's box that its members' boxes cover
+
+
+def _nested(boxes: np.ndarray) -> bool:
+    """Whether any of the boxes (N, 4) has half its area or more inside another."""
+    inter = intersection_areas(boxes, boxes)
+    areas = boxes[:, 2] * boxes[:, 3]
+    smaller = np.minimum.outer(areas, areas)
+    inside = np.divide(inter, smaller, out=np.ones_like(inter), where=smaller > 0)
+    np.fill_diagonal(inside, 0.0)
+    return bool((inside >= 0.5).any())
 
 
 class OverlapRecovery:
@@ -88,6 +194,93 @@ class OverlapRecovery:
         )
         order = np.argsort(all_tracks, kind="stable")
         return Association(all_tracks[order], all_measurements[order])
+
+
+class BoxGate:
+    """Per box edge, keep a track's edge where the detection's jumps away from it.
+
+    A person's blob loses its legs for a few frames, or gains a strip of tape or a flickering
+    sign joined above; its box then jumps by a third of the person's height or more, while a
+    real change of size (walking towards the camera) is a few per cent a frame. Each edge (left,
+    top, right, bottom) of an associated detection's box is compared with the track's predicted
+    box: one that moved more than `tolerance` x the predicted height is replaced by the predicted
+    edge, unless it has disagreed `patience` frames in a row (then the detection is believed: the
+    object has changed). The detection's centroid moves with its box's centre, so the filter is
+    corrected by the same cleaned measurement.
+
+    With `scale` (the height rule's `HeightByRow`) the gate asks which box looks more like a
+    person where it stands: the detection is believed at once when its height is at least as
+    close to the learned height at its bottom row as the gated box's (ratio on a log scale). A
+    track that was started on a merged or partial blob then takes the person's box when the
+    detector finds it, instead of holding the wrong edges for `patience` frames. Until `scale`
+    has learned its line nothing is held: a box that grows as its object comes into view cannot
+    be told from one that joined a sign. The manager gates confirmed tracks only: a tentative
+    track's box is still being found."""
+
+    def __init__(
+        self, tolerance: float = 0.2, patience: int = 5, scale: HeightByRow | None = None
+    ) -> None:
+        if not tolerance > 0 or patience < 1:
+            raise ValueError(f"need tolerance > 0 and patience >= 1, got {tolerance}, {patience}")
+        self.tolerance, self.patience = tolerance, patience
+        self.scale = scale
+
+    def gate(
+        self,
+        detections: Detections,
+        rows: np.ndarray,
+        cols: np.ndarray,
+        predicted: np.ndarray,
+        strikes: np.ndarray,
+    ) -> Detections:
+        """`detections` with the boxes and centroids of the associated ones (`cols`, paired with
+        track rows `rows` whose predicted boxes are `predicted` (N, 4)) gated; `strikes` (N, 4),
+        the consecutive disagreements per edge, is updated in place."""
+        if len(rows) == 0 or (self.scale is not None and self.scale.line is None):
+            return detections
+        found = _edges(detections.bboxes[cols])
+        expected = _edges(predicted[rows])
+        height = np.maximum(predicted[rows, 3], 1.0)[:, None]
+        off = np.abs(found - expected) > self.tolerance * height
+        counted = np.where(off, strikes[rows] + 1, 0)
+        keep = off & (counted < self.patience)
+        held = _boxes(np.where(keep, expected, found))
+        keep &= ~self._detection_fits(detections.bboxes[cols], held)[:, None]
+        strikes[rows] = np.where(keep, counted, 0)
+        edges = np.where(keep, expected, found)
+        edges[:, 2] = np.maximum(edges[:, 2], edges[:, 0] + 1.0)
+        edges[:, 3] = np.maximum(edges[:, 3], edges[:, 1] + 1.0)
+        boxes = detections.bboxes.copy()
+        positions = detections.positions.copy()
+        gated = _boxes(edges)
+        shift = (gated[:, :2] + gated[:, 2:] / 2) - (boxes[cols, :2] + boxes[cols, 2:] / 2)
+        boxes[cols] = gated
+        positions[cols] += shift
+        return Detections(positions, detections.areas, boxes, detections.scores, detections.labels)
+
+    def _detection_fits(self, detected: np.ndarray, held: np.ndarray) -> np.ndarray:
+        """Per pair of boxes (N, 4), whether the detection's is at least as close to the learned
+        height where it stands as the held one (all False without `scale`)."""
+        if self.scale is None:
+            return np.zeros(len(detected), dtype=bool)
+        return _height_error(detected, self.scale) <= _height_error(held, self.scale)
+
+
+def _height_error(boxes: np.ndarray, scale: HeightByRow) -> np.ndarray:
+    """|log(height / learned height at the bottom row)| per box (N, 4)."""
+    learned = np.maximum(scale.expected_heights(boxes), 1.0)
+    result: np.ndarray = np.abs(np.log(np.maximum(boxes[:, 3], 1.0) / learned))
+    return result
+
+
+def _edges(boxes: np.ndarray) -> np.ndarray:
+    """x, y, width, height (N, 4) -> left, top, right, bottom."""
+    return np.column_stack([boxes[:, :2], boxes[:, :2] + boxes[:, 2:]])
+
+
+def _boxes(edges: np.ndarray) -> np.ndarray:
+    """left, top, right, bottom (N, 4) -> x, y, width, height."""
+    return np.column_stack([edges[:, :2], edges[:, 2:] - edges[:, :2]])
 
 
 class Initiator(Protocol):
@@ -219,7 +412,9 @@ class TrackManager:
         deleter: Deleter,
         selector: MeasurementSelector | None = None,
         first_id: int = 1,
+        splitter: Splitter | None = None,
         recovery: OverlapRecovery | None = None,
+        box_gate: BoxGate | None = None,
     ) -> None:
         self.filter_factory = filter_factory
         self.associator = associator
@@ -227,7 +422,9 @@ class TrackManager:
         self.confirmation = confirmation
         self.deleter = deleter
         self.selector = selector or AllDetections()
+        self.splitter = splitter or NoSplit()
         self.recovery = recovery
+        self.box_gate = box_gate
         self.bank = filter_factory.new_bank()
         self.layout = StateLayout.from_names(self.bank.state_layout)
         self.book = TrackBook(first_id, confirmation.path_step)
@@ -271,6 +468,7 @@ class TrackManager:
         self.bank.predict(t)
         predicted = self.layout.positions(self.bank.means)
         predicted_boxes = book.moved_boxes(predicted)
+        detections = self.splitter.split(detections, predicted_boxes, predicted, book.confirmed)
         association = self.associator.associate(
             *self.bank.measurement_prediction(), detections.positions
         )
@@ -279,6 +477,11 @@ class TrackManager:
                 association, predicted_boxes, detections.bboxes, book.confirmed
             )
         rows, cols = association.tracks, association.measurements
+        if self.box_gate is not None:
+            held = book.confirmed[rows]  # a tentative track's box is still being found
+            detections = self.box_gate.gate(
+                detections, rows[held], cols[held], predicted_boxes, book.edge_strikes
+            )
         self.bank.update(rows, detections.positions[cols])
         updated = book.record_frame(rows, cols, detections, self.layout.positions(self.bank.means))
         travel = book.measured_travel()

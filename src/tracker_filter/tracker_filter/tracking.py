@@ -251,6 +251,7 @@ class TrackBook:
         self.born = np.zeros(0)
         self.confirmed = np.zeros(0, dtype=bool)
         self.bboxes = np.zeros((0, 4))
+        self.edge_strikes = np.zeros((0, 4), dtype=np.int64)  # frames each box edge disagreed
         self.anchors = np.zeros((0, AXES))  # estimated position when the box was measured
         self.origins = np.zeros((0, AXES))  # the initiating detection's position
         self.measured = np.zeros((0, AXES))  # the last associated detection's position
@@ -348,6 +349,7 @@ class TrackBook:
         self.born = np.concatenate([self.born, np.full(count, float(t))])
         self.confirmed = np.concatenate([self.confirmed, confirmed])
         self.bboxes = np.concatenate([self.bboxes, detections.bboxes[new]])
+        self.edge_strikes = np.concatenate([self.edge_strikes, np.zeros((count, 4), np.int64)])
         self.anchors = np.concatenate([self.anchors, detections.positions[new]])
         self.origins = np.concatenate([self.origins, detections.positions[new]])
         self.measured = np.concatenate([self.measured, detections.positions[new]])
@@ -405,6 +407,7 @@ class TrackBook:
             "born",
             "confirmed",
             "bboxes",
+            "edge_strikes",
             "anchors",
             "origins",
             "measured",
