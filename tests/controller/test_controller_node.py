@@ -138,3 +138,44 @@ def test_a_restarted_source_starts_a_new_epoch(harness):
     assert harness.node.target_order.epochs == 1
     assert [mode for _, mode, _ in again] == [mode for _, mode, _ in first]
     assert [stamp for stamp, _, _ in again] == [k * NS for k in range(10)]
+
+
+def test_an_unusable_locked_target_is_answered_with_hold_and_changes_nothing(harness, capfd):
+    """Locked targets with x NaN, vx inf, predicted_x NaN, lead_time NaN or x = 1e308, mixed in
+    between good frames (stamped half a frame after one, even 1000 s ahead): each answered with
+    HOLD, one log line for the cause, and every good frame's command is the clean run's."""
+
+    def spoiled(stamp_ns, field):
+        target = target_msg(stamp_ns)
+        if field == "predicted_x":
+            target.predicted_x = math.nan
+        elif field == "lead_time":
+            target.lead_time = math.nan
+        elif field == "vx":
+            target.track.vx = math.inf
+        else:
+            target.track.x = 1e308 if field == "huge x" else math.nan
+        return target
+
+    bad = ["x", "vx", "predicted_x", "lead_time", "huge x"]
+    mixed = []
+    for k in range(10, 20):
+        command = answer(harness, state_msg(k * NS), target_msg(k * NS, x=430.0 + 3 * k))
+        mixed.append((stamp_to_ns(command.header.stamp), command.mode, command.pan_rate))
+        if bad:
+            stamp = k * NS + NS // 2 if len(bad) > 1 else 1000 * 10 * NS
+            held = answer(harness, None, spoiled(stamp, bad.pop(0)))
+            assert held.mode == PtzCommand.MODE_HOLD and stamp_to_ns(held.header.stamp) == stamp
+    assert harness.node.problems.counts == {"unusable target": 5}
+    reference = NodeHarness(
+        PtzControllerNode,
+        inputs={"ptz/state": (PtzState, 50), "target": (Target, 50)},
+        outputs={"ptz/command": (PtzCommand, 50)},
+        mode="servo",
+    )
+    try:
+        assert mixed == good_run(reference, 10)
+    finally:
+        reference.close()
+    logged = [line for line in capfd.readouterr().err.splitlines() if "unusable target" in line]
+    assert len(logged) == 1 and "x is nan" in logged[0]

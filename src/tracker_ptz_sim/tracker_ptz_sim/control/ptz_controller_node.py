@@ -210,6 +210,13 @@ class PtzControllerNode(SuiteNode):
 
     def _on_target(self, target: Target) -> None:
         stamp = stamp_to_ns(target.header.stamp)
+        problem = unusable_target(target)
+        if problem is not None:  # refused before its stamp counts or the control sees it
+            self.problems.report(
+                "unusable target", f"answered a target stamped {stamp} ns with HOLD: {problem}"
+            )
+            self._publish(Command(CommandMode.HOLD), target.header.stamp)
+            return
         order = self.target_order.check(stamp)
         if order in (Order.REPEAT, Order.INVALID):
             self.problems.report(
@@ -267,12 +274,7 @@ class PtzControllerNode(SuiteNode):
             self._report_missing_pose(stamp)
             self._publish(Command(CommandMode.HOLD), target.header.stamp)
             return
-        estimate = estimate_of(target)
-        if target.locked and estimate is None:
-            self.problems.report(
-                "non-finite target", f"a locked target stamped {stamp} ns has non-finite values"
-            )
-        command = self.controller.step(stamp / NS_PER_S, pose, estimate)
+        command = self.controller.step(stamp / NS_PER_S, pose, estimate_of(target))
         self._publish(command, target.header.stamp)
 
     def _report_missing_pose(self, stamp_ns: int) -> None:
@@ -336,13 +338,40 @@ def pose_of(state: PtzState) -> tuple[CameraPose | None, str | None]:
     return pose, None
 
 
+MAX_TARGET_VALUE = 1e7  # scene px (px/s): beyond any pan range at any focal length
+
+
+def _target_values(target: Target) -> dict[str, float]:
+    track = target.track
+    return {
+        "x": track.x,
+        "y": track.y,
+        "vx": track.vx,
+        "vy": track.vy,
+        "predicted_x": target.predicted_x,
+        "predicted_y": target.predicted_y,
+        "lead_time": target.lead_time,
+        "height": track.bbox.height,
+    }
+
+
+def unusable_target(target: Target) -> str | None:
+    """Why a locked target cannot be followed (a value not finite, or beyond MAX_TARGET_VALUE),
+    or None; an unlocked target's fields are not read."""
+    if not target.locked:
+        return None
+    for name, value in _target_values(target).items():
+        if not math.isfinite(value) or abs(value) > MAX_TARGET_VALUE:
+            return f"{name} is {value} (finite, within +-{MAX_TARGET_VALUE:g}, expected)"
+    return None
+
+
 def estimate_of(target: Target) -> TargetEstimate | None:
+    """The controller's view of a usable target (`unusable_target` None); None when unlocked."""
     if not target.locked:
         return None
     track = target.track
     values = (track.x, track.y, track.vx, track.vy, target.predicted_x, target.predicted_y)
-    if not all(math.isfinite(v) for v in values):
-        return None
     return TargetEstimate(*values, height=float(track.bbox.height))
 
 
