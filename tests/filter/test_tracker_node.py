@@ -185,34 +185,42 @@ def test_track_labels_names_what_the_camera_may_follow():
 
 
 def test_hostile_blobs_never_become_tracks(harness, capfd):
+    """Blobs beyond 1e6 px, with a NaN score or angle, an infinite oriented size, a negative
+    box: dropped with one line per cause. A frame of nothing else is refused whole (not
+    answered) before its stamp counts, even 1000 s ahead: good detections afterwards are tracked
+    as on a fresh tracker."""
     hostile = [
         dict(centroid_x=1e308, centroid_y=50.0),
         dict(centroid_x=200.0, centroid_y=50.0, score=float("nan")),
         dict(centroid_x=300.0, centroid_y=50.0, width=-10.0),
+        dict(centroid_x=400.0, centroid_y=50.0, angle=float("nan")),
+        dict(centroid_x=500.0, centroid_y=50.0, oriented_width=float("inf")),
     ]
     for k in range(4):
         msg = BlobArray(target_present=True)
-        msg.header.stamp.sec, msg.header.stamp.nanosec = 1, 100_000_000 * k
+        msg.header.stamp.sec, msg.header.stamp.nanosec = 1 + 1000 * (k == 3), 100_000_000 * k
         for fields in hostile:
             blob = Blob(centroid_x=fields["centroid_x"], centroid_y=fields["centroid_y"], area=100)
             blob.score = fields.get("score", 0.2)
             blob.bbox.x, blob.bbox.y = fields["centroid_x"] - 5.0, fields["centroid_y"] - 5.0
             blob.bbox.width, blob.bbox.height = fields.get("width", 10.0), 10.0
+            blob.angle = fields.get("angle", 0.0)
+            blob.oriented_width = fields.get("oriented_width", 0.0)
             msg.blobs.append(blob)
-        expected = len(harness.targets) + 1
         harness.detections.publish(msg)
-        harness.wait(lambda n=expected: len(harness.targets) >= n)  # every frame is answered
-        assert harness.tracks[-1].tracks == [] and not harness.targets[-1].locked
+        harness.wait(lambda n=k + 1: harness.tracker.problems.count("no usable detection") == n)
+    assert harness.tracks == [] and harness.targets == []
     assert harness.tracker.problems.counts == {
-        "centroid beyond 1e+06 px": 4,
-        "non-finite score": 4,
-        "negative box size": 4,
+        "non-finite oriented box": 8,
+        "no usable detection": 4,
     }
     err = capfd.readouterr().err
-    assert err.count("dropped a detection") == 3  # one line per cause
+    assert err.count("angle or oriented size is not finite") == 1
+    assert err.count("none of their 3 blobs can be a measurement") == 1
     for k in range(4):  # good detections afterwards are tracked as on a fresh tracker
         tracks, target = harness.send(2.0 + 0.1 * k, [(100 + 5 * k, 50)])
     assert [t.id for t in tracks.tracks] == [1] and target.locked
+    assert harness.tracker._order.epochs == 0  # the frame 1000 s ahead moved no clock
 
 
 def test_services_select_and_reset(harness):

@@ -12,6 +12,7 @@ declares parameters, converts messages and wires topics.
 
 from __future__ import annotations
 
+import math
 from dataclasses import replace
 from functools import partial
 from typing import Any
@@ -26,6 +27,7 @@ from tracker_filter.observation import Detections, Need, Observation
 from tracker_filter.selection import SelectionPolicy, TargetSelector
 from tracker_filter.trackers import PLUGIN_GROUP, TRACKERS
 from tracker_filter.tracking import Tracker, TrackSet
+from tracker_msgs.msg import Blob as BlobMsg
 from tracker_msgs.msg import BlobArray, PtzState, Rect, Target, Track, TrackArray
 from tracker_msgs.srv import ResetTracker, SelectTarget
 from tracker_msgs_py.codec import (
@@ -53,6 +55,12 @@ LIVE_PARAMETERS = frozenset(SELECTION_DEFAULTS) | {"scene_frame_id"}
 def detections_from_msg(msg: BlobArray) -> Detections:
     """The BlobArray's blobs as Detections; none when the detector's presence test failed."""
     return Detections.from_blobs(msg.blobs, msg.target_present)
+
+
+def has_finite_orientation(blob: BlobMsg) -> bool:
+    """Whether a Blob's oriented box is finite: the trackers do not read it, but a blob with a
+    NaN anywhere is not a measurement (`Detections.invalid_by_cause` checks the rest)."""
+    return all(math.isfinite(v) for v in (blob.angle, blob.oriented_width, blob.oriented_height))
 
 
 def track_to_msg(tracks: TrackSet, i: int) -> Track:
@@ -300,6 +308,22 @@ class TrackerNode(SuiteNode):
                 f"'{self._params['scene_frame_id']}'; tracking them as scene pixels",
             )
         stamp_ns = stamp_to_ns(msg.header.stamp)
+        oriented = [blob for blob in msg.blobs if has_finite_orientation(blob)]
+        if len(oriented) < len(msg.blobs):
+            self.problems.report(
+                "non-finite oriented box",
+                "dropped a detection: its angle or oriented size is not finite",
+                len(msg.blobs) - len(oriented),
+            )
+            msg.blobs = oriented
+        if msg.blobs and msg.target_present and not len(detections_from_msg(msg).validated()[0]):
+            # refused before its stamp counts (and not answered): it moves no clock
+            self.problems.report(
+                "no usable detection",
+                f"dropped the detections stamped {stamp_ns} ns: none of their {len(msg.blobs)} "
+                "blobs can be a measurement (values not finite or out of range)",
+            )
+            return
         order = self._order.check(stamp_ns)
         if order in (Order.REPEAT, Order.INVALID):
             self.problems.report(
