@@ -422,8 +422,14 @@ def test_the_nodes_warnings_are_collected_from_their_logs(tmp_path):
     (tmp_path / "video_source.log").write_text(
         "[ERROR] [1795997803.195329155] [video_source]: replay of x failed: no frame\n"
     )
+    (tmp_path / "ptz_controller.log").write_text(
+        "[FATAL] pan_limits must hold finite numbers, got [nan, 1.0]\n"  # a node that cannot start
+    )
     assert node_warnings(tmp_path) == [
+        "ptz_controller: pan_limits must hold finite numbers, got [nan, 1.0]",
         "tracker: ignored parameter(s) lead_tme: ...",
         "video_source: replay of x failed: no frame",
     ]
-    assert node_warnings(tmp_path, limit=1) == ["tracker: ignored parameter(s) lead_tme: ..."]
+    assert node_warnings(tmp_path, limit=1) == [
+        "ptz_controller: pan_limits must hold finite numbers, got [nan, 1.0]"
+    ]

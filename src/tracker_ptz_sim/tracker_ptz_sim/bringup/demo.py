@@ -598,7 +598,11 @@ def run_graph(
     return result
 
 
-LOGGED_PROBLEM = re.compile(r"^\[(?:WARN|ERROR|FATAL)\] \[[0-9.]+\] \[([^\]]+)\]: (.*)$")
+# rclpy's "[WARN] [stamp] [node]: message", and node_main's "[FATAL] message" (a node that
+# cannot start: its log file names the node)
+LOGGED_PROBLEM = re.compile(
+    r"^\[(?:WARN|ERROR|FATAL)\] (?:\[[0-9.]+\] \[(?P<node>[^\]]+)\]: )?(?P<message>.*)$"
+)
 
 
 def node_warnings(log_dir: Path, limit: int = 20) -> list[str]:
@@ -609,7 +613,7 @@ def node_warnings(log_dir: Path, limit: int = 20) -> list[str]:
     for log in sorted(log_dir.glob("*.log")):
         for line in log.read_text(errors="replace").splitlines():
             match = LOGGED_PROBLEM.match(line)
-            warning = match and f"{match.group(1)}: {match.group(2)}"
+            warning = match and f"{match['node'] or log.stem}: {match['message']}"
             if warning and warning not in found:
                 found.append(warning)
                 if len(found) == limit:
