@@ -302,6 +302,7 @@ def test_bag_replays_with_identical_pixels_and_stamps(scene, tmp_path):
         "start_past_end_looping",
         "end_before_start",
         "mp4_without_index",
+        "unreadable_images",
     ],
 )
 def test_bad_inputs_exit_with_one_clear_error(case, scene, tmp_path):
@@ -321,6 +322,11 @@ def test_bad_inputs_exit_with_one_clear_error(case, scene, tmp_path):
         BagWriter(path, {"/status": "tracker_msgs/msg/ReplayStatus"}).close()
     elif case == "empty_path":
         path, expected = "", "no input"  # not the current directory
+    elif case == "unreadable_images":
+        path, expected = tmp_path / "frames", "no frame could be read"
+        path.mkdir()
+        for name in ("000.png", "001.png"):
+            (path / name).write_bytes(b"not a png")
     elif case == "mp4_without_index":
         path, expected = clip(tmp_path / "unfinished.mp4", "mp4v", 30), "'moov' atom not found"
         data = path.read_bytes()

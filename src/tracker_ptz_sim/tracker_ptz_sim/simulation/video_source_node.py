@@ -252,6 +252,11 @@ class VideoSourceNode(SuiteNode):
         except Exception as error:  # anything reading the input: report it, exit non-zero
             if self.stopping.is_set():
                 return  # a shutdown interrupted the replay: not a failure
+            if isinstance(error, SourceError) and self.status.frames_published == 0:
+                # the input itself is bad (a folder of unreadable images): as at start-up
+                self.get_logger().fatal(str(error))
+                self._end(ReplayStatus.STATE_FAILED, str(error), 2)
+                return
             self.get_logger().error(f"replay of {self.source.path} failed: {error}")
             self._end(ReplayStatus.STATE_FAILED, str(error), 1)
 
