@@ -471,10 +471,10 @@ def main(args: list[str] | None = None) -> int:
     return run_node(PtzCameraNode, args)
 
 
-if __name__ == "__main__":
-    raise SystemExit(main())
-
-
 def _usable_zoom(zoom: float) -> bool:
     """A commanded zoom the camera can act on: 0 or NaN (keep the zoom), or a positive number."""
     return math.isnan(zoom) or (math.isfinite(zoom) and zoom >= 0)
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
