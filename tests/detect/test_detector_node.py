@@ -343,7 +343,7 @@ def test_a_bad_pose_is_one_warning_an_empty_answer_and_changes_nothing(harness_f
             h.states.publish(state_msg(windows[k], k * NS))
             h.images.publish(image_msg(frame[y : y + hh, x : x + w], k * NS))
             wanted = k * NS
-            h.spin_until(lambda: any(_stamp(d) == wanted for d in h.detections))  # noqa: B023
+            h.spin_until(lambda w=wanted: any(_stamp(d) == w for d in h.detections))
             good = next(d for d in h.detections if _stamp(d) == wanted)
             answers.append(
                 [(b.centroid_x, b.centroid_y, b.bbox.width, b.bbox.height) for b in good.blobs]

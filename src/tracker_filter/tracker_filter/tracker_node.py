@@ -316,7 +316,8 @@ class TrackerNode(SuiteNode):
                 len(msg.blobs) - len(oriented),
             )
             msg.blobs = oriented
-        if msg.blobs and msg.target_present and not len(detections_from_msg(msg).validated()[0]):
+        detections = detections_from_msg(msg)
+        if len(detections) and not len(detections.validated()[0]):
             # refused before its stamp counts (and not answered): it moves no clock
             self.problems.report(
                 "no usable detection",
@@ -334,12 +335,12 @@ class TrackerNode(SuiteNode):
             return
         if order is Order.NEW_EPOCH:
             self._start_epoch()
-        self._track(self._frames.add_primary(stamp_ns, msg))
+        self._track(self._frames.add_primary(stamp_ns, (msg, detections)))
 
     def _track(self, frames: list[Frame]) -> None:
         """Step the tracker once per released frame and publish its tracks and target."""
         for frame in frames:
-            msg = frame.primary
+            msg, detections = frame.primary  # the BlobArray and its Detections
             if frame.missing:
                 self.problems.report(
                     f"no {' and '.join(frame.missing)} for detections",
@@ -351,7 +352,7 @@ class TrackerNode(SuiteNode):
             tracks = self._tracker.step(
                 Observation(
                     time=(frame.stamp_ns - self._epoch_ns) / NS_PER_S,
-                    detections=detections_from_msg(msg),
+                    detections=detections,
                     present=bool(msg.target_present),
                     image=frame.parts.get(Need.IMAGE.value),
                     mask=frame.parts.get(Need.MASK.value),

@@ -270,8 +270,7 @@ class PtzCameraNode(SuiteNode):
         elif not _usable_zoom(msg.zoom):
             self.problems.report(
                 "invalid zoom",
-                f"ignored a pan-tilt command with zoom {msg.zoom} (a positive number, or 0 or "
-                "NaN to keep the zoom)",
+                f"ignored a pan-tilt command with zoom {msg.zoom} ({ZOOM_RULE})",
             )
         else:
             return PtzCommand(
@@ -297,8 +296,7 @@ class PtzCameraNode(SuiteNode):
         if not _usable_zoom(zoom):
             self.problems.report(
                 "invalid zoom",
-                f"ignored a JointState command with {zoom_joint} {zoom} (a positive number, or 0 "
-                "or NaN to keep the zoom)",
+                f"ignored a JointState command with {zoom_joint} {zoom} ({ZOOM_RULE})",
             )
             return None
 
@@ -467,13 +465,16 @@ class PtzCameraNode(SuiteNode):
         self.joint_pub.publish(joints)
 
 
-def main(args: list[str] | None = None) -> int:
-    return run_node(PtzCameraNode, args)
+ZOOM_RULE = "a positive number, or 0 or NaN to keep the zoom"
 
 
 def _usable_zoom(zoom: float) -> bool:
-    """A commanded zoom the camera can act on: 0 or NaN (keep the zoom), or a positive number."""
+    """A commanded zoom the camera can act on (ZOOM_RULE)."""
     return math.isnan(zoom) or (math.isfinite(zoom) and zoom >= 0)
+
+
+def main(args: list[str] | None = None) -> int:
+    return run_node(PtzCameraNode, args)
 
 
 if __name__ == "__main__":
