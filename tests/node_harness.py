@@ -47,6 +47,12 @@ class NodeHarness:
     def publish(self, topic: str, msg: Any) -> None:
         self.publishers[topic].publish(msg)
 
+    def feed(self, topic: str, msg: Any, timeout: float = 5.0) -> None:
+        """Publish `msg` and spin until the node has handled it (a SuiteNode counts them)."""
+        handled = self.node.messages_handled(topic)
+        self.publish(topic, msg)
+        self.spin_until(lambda: self.node.messages_handled(topic) > handled, timeout)
+
     def spin_until(self, condition: Callable[[], bool], timeout: float = 5.0) -> None:
         deadline = time.monotonic() + timeout
         while not condition():

@@ -5,10 +5,19 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 import pytest
 
 rclpy = pytest.importorskip("rclpy")
 
+from hostile_messages import (  # noqa: E402
+    Field,
+    HostileSource,
+    all_finite,
+    record_publishes,
+    spoil,
+    warning_lines,
+)  # noqa: E402
 from node_harness import NodeHarness  # noqa: E402
 from ptz_messages import state_msg, target_msg  # noqa: E402
 
@@ -174,3 +183,114 @@ def test_an_unusable_locked_target_is_answered_with_hold_and_changes_nothing(har
     assert mixed == clean_run(10)
     logged = [line for line in capfd.readouterr().err.splitlines() if "unusable target" in line]
     assert len(logged) == 1 and "x is nan" in logged[0]
+
+
+def test_targets_that_stop_are_answered_with_hold_once_two_states_confirm_it(harness, capfd):
+    """The tracker goes quiet while states keep coming: past target_timeout (1 s) every image is
+    acknowledged with HOLD, the first once the next state confirms the timeout, with one line."""
+    good_run(harness, 0)  # the last target at frame 9
+    for k in range(10, 25):
+        harness.publish("ptz/state", state_msg(k * NS))
+    harness.spin_until(lambda: len(commands(harness)) == 10 + 5)
+    harness.spin_for(0.1)
+    held = commands(harness)[10:]
+    assert [stamp_to_ns(c.header.stamp) for c in held] == [k * NS for k in range(20, 25)]
+    assert all(c.mode == PtzCommand.MODE_HOLD for c in held)
+    logged = [line for line in capfd.readouterr().err.splitlines() if "no target for" in line]
+    assert len(logged) == 1 and "holding the camera" in logged[0]
+
+
+def test_a_lone_state_stamped_far_ahead_changes_nothing(harness, capfd):
+    """One PtzState 1000 s ahead between good frames: no HOLD for it, no reset of the control, one
+    line when the states return to their time, and every good frame's command is the clean run's."""
+    mixed = []
+    for k in range(10, 20):
+        command = answer(harness, state_msg(k * NS), target_msg(k * NS, x=430.0 + 3 * k))
+        mixed.append((stamp_to_ns(command.header.stamp), command.mode, command.pan_rate))
+        if k == 11:
+            harness.publish("ptz/state", state_msg(10_000 * NS + 2 * NS))
+            harness.spin_for(0.1)
+    assert len(commands(harness)) == 10
+    assert mixed == clean_run(10)
+    logged = [line for line in capfd.readouterr().err.splitlines() if "jumped back" in line]
+    assert len(logged) == 1 and "forgot the 1 state" in logged[0]
+
+
+def test_a_state_stamped_before_zero_is_ignored_with_one_line(harness, capfd):
+    bad = state_msg(0)
+    bad.header.stamp.sec = -3
+    harness.publish("ptz/state", bad)
+    harness.spin_until(lambda: harness.node.problems.count("invalid state stamp") == 1)
+    assert harness.node.states == {}
+    assert good_run(harness, 10) == clean_run(10)
+
+
+TARGET_FIELDS = [
+    Field("track.x"),
+    Field("track.y"),
+    Field("track.vx"),
+    Field("track.vy"),
+    Field("predicted_x"),
+    Field("predicted_y"),
+    Field("lead_time"),
+    Field("track.bbox.height", positive=True),
+]
+STATE_FIELDS = [
+    Field("pan"),
+    Field("tilt"),
+    Field("focal_length", positive=True),
+    Field("window.x"),
+    Field("window.y"),
+    Field("window.width", positive=True),
+    Field("window.height", positive=True),
+]
+
+
+def command_values(command):
+    return (command.pan, command.tilt, command.pan_rate, command.tilt_rate, command.zoom)
+
+
+def test_hundreds_of_hostile_messages_change_no_good_answer_and_no_command_is_non_finite(capfd):
+    """Seeded: 20 good frames of a walking target, and after each 15 hostile targets (locked) or
+    states, a field non-finite, huge or negative, stamped between frames, far ahead, back in
+    time, on the last frame or before zero. The good frames' commands are the clean run's, every
+    command published is finite, the node lives, and each cause is logged once."""
+    rng = np.random.default_rng(67)
+    sources = [
+        HostileSource("target", lambda ns: target_msg(ns, x=470.0), TARGET_FIELDS),
+        HostileSource("ptz/state", state_msg, STATE_FIELDS),
+    ]
+
+    def run(hostile: bool) -> tuple[list, dict[str, int]]:
+        h = NodeHarness(
+            PtzControllerNode,
+            inputs={"ptz/state": (PtzState, 50), "target": (Target, 50)},
+            outputs={"ptz/command": (PtzCommand, 500)},
+            mode="servo",
+            zoom_control=True,
+        )
+        published = record_publishes(h.node.command_pub)
+        try:
+            good = []
+            for k in range(20):
+                stamp = k * NS
+                h.feed("ptz/state", state_msg(stamp))
+                h.feed("target", target_msg(stamp, x=430.0 + 3 * k))
+                good.append(published[-1])
+                assert stamp_to_ns(good[-1].header.stamp) == stamp
+                for _ in range(15 if hostile else 0):
+                    source = sources[int(rng.integers(len(sources)))]
+                    msg, _ = spoil(rng, source.make_good(stamp), source.fields, stamp, NS)
+                    h.feed(source.topic, msg)
+            assert all(all_finite(command_values(c)) for c in published)
+            answers = [(stamp_to_ns(c.header.stamp), c.mode, *command_values(c)) for c in good]
+            return answers, dict(h.node.problems.counts)
+        finally:
+            h.close()
+
+    clean, _ = run(False)
+    capfd.readouterr()
+    hostile, causes = run(True)
+    assert hostile == clean
+    warnings = warning_lines(capfd.readouterr().err)
+    assert sum(causes.values()) >= 200 and len(warnings) <= len(causes), "\n".join(warnings)

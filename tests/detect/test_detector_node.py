@@ -358,5 +358,24 @@ def test_a_bad_pose_is_one_warning_an_empty_answer_and_changes_nothing(harness_f
     assert err.count("focal_length nan") == 1
 
 
+def test_the_seed_method_answers_far_off_and_huge_views_and_keeps_detecting(harness_factory):
+    """Seed 000's k-3 SSIM holds no background, so a view far off or 1e5 px wide is a view like any
+    other (it enters the k-3 history as every frame does): each is answered without comparing
+    (nothing overlaps), no value is non-finite, and the good frames three later detect again."""
+    frames, windows = scene_and_windows(n=12)
+    bad_windows = [(1e6, 1e6, 120, 90), (-1e5, -1e5, 120, 90), (0, 0, 1e5, 1e5 * 0.75)]
+    h = harness_factory(pose_source="ptz_state", method="ssim")
+    for k, (frame, (x, y, w, hh)) in enumerate(zip(frames, windows, strict=True)):
+        window = bad_windows[k - 4] if 4 <= k < 4 + len(bad_windows) else (x, y, w, hh)
+        h.states.publish(state_msg(window, k * NS))
+        h.images.publish(image_msg(frame[y : y + hh, x : x + w], k * NS))
+        h.settle(k + 1)
+        blobs = h.detections[-1].blobs
+        assert all(np.isfinite([b.centroid_x, b.centroid_y, b.area]).all() for b in blobs)
+        if 4 <= k < 4 + len(bad_windows):
+            assert not blobs
+    assert h.detections[-1].blobs  # the k-3 history holds good views again
+
+
 def _stamp(msg: BlobArray) -> int:
     return msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec

@@ -222,6 +222,11 @@ class SuiteNode(Node):
         self._readers.setdefault(subscription.topic_name, []).append(subscription)
         return subscription
 
+    def messages_handled(self, topic: str) -> int:
+        """Messages of `topic` (as subscribed) whose callback has run since the node started."""
+        stats = self._inputs.get(topic)
+        return stats.total if stats is not None else 0
+
     def destroy_subscription(self, subscription: Subscription) -> bool:
         readers = self._readers.get(subscription.topic_name, [])
         if subscription in readers:

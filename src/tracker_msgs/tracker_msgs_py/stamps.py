@@ -33,16 +33,19 @@ class StampOrder:
         self.jumped_from_ns: int | None = None  # the last stamp before the latest new epoch
         self.epochs = 0  # new epochs seen after the first message
 
-    def check(self, stamp_ns: int) -> Order:
-        """Classify `stamp_ns` and, unless it is a repeat or invalid, accept it as the last."""
+    def classify(self, stamp_ns: int) -> Order:
+        """What `check` would answer, without accepting anything."""
         if stamp_ns < 0:
             return Order.INVALID
-        if self.last_ns is None:
-            self.last_ns = stamp_ns
+        if self.last_ns is None or stamp_ns > self.last_ns:
             return Order.NEXT
-        if stamp_ns == self.last_ns:
-            return Order.REPEAT
-        order = Order.NEXT if stamp_ns > self.last_ns else Order.NEW_EPOCH
+        return Order.REPEAT if stamp_ns == self.last_ns else Order.NEW_EPOCH
+
+    def check(self, stamp_ns: int) -> Order:
+        """Classify `stamp_ns` and, unless it is a repeat or invalid, accept it as the last."""
+        order = self.classify(stamp_ns)
+        if order in (Order.REPEAT, Order.INVALID):
+            return order
         if order is Order.NEW_EPOCH:
             self.epochs += 1
             self.jumped_from_ns = self.last_ns

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import math
 import time
+from collections import deque
 from typing import Any
 
 from sensor_msgs.msg import JointState
@@ -141,12 +142,19 @@ class PtzControllerNode(SuiteNode):
         super().__init__("ptz_controller", **node_options)
         self.params = declare_parameters(self, PARAMS, on_change=self._on_change, check_all=_check)
         self.controller = PanTiltController(controller_config(self.params))
-        # Pan-tilt states by stamp; None marks a state that came but is unusable.
-        self.states: dict[int, CameraPose | None] = {}
+        # Usable pan-tilt states by stamp, and the stamps of the latest unusable ones (their
+        # images' targets are answered with HOLD).
+        self.states: dict[int, CameraPose] = {}
+        self.unusable_states: deque[int] = deque(maxlen=STATE_BUFFER)
         # Targets whose image's PtzState has not arrived yet (the two travel on different paths),
         # with the wall time they came.
         self.waiting: dict[int, tuple[Target, float]] = {}
         self.target_order = StampOrder()
+        self.state_order = StampOrder()
+        # The target watchdog: the image of the first state past the target timeout (answered once
+        # the next state confirms the timeout), and whether targets are known to have stopped.
+        self.unanswered_overdue: Any = None
+        self.targets_stopped = False
         self.last_target_ns: int | None = None
         self.last_mode = CommandMode.HOLD
         self.command_pub = self.create_publisher(PtzCommand, "ptz/command", result_qos())
@@ -182,27 +190,68 @@ class PtzControllerNode(SuiteNode):
 
     def _on_state(self, state: PtzState) -> None:
         stamp = stamp_to_ns(state.header.stamp)
-        if self.states and stamp < max(self.states):
-            self._forget_states_after(stamp)
         pose, problem = pose_of(state)
-        if problem is not None:
+        if problem is not None:  # refused before its stamp counts
             self.problems.report(problem, f"unusable PtzState stamped {stamp} ns: {problem}")
+            if stamp not in self.unusable_states:
+                self.unusable_states.append(stamp)
+            if stamp in self.waiting:  # its target need not wait: it is answered with HOLD
+                self._respond(self.waiting.pop(stamp)[0])
+            return
+        order = self.state_order.check(stamp)
+        if order in (Order.REPEAT, Order.INVALID):
+            self.problems.report(
+                f"{order.value} state stamp",
+                f"ignored a PtzState stamped {stamp} ns ({order.value}): "
+                + ("the first one counts" if order is Order.REPEAT else "before zero"),
+            )
+            return
+        if order is Order.NEW_EPOCH:
+            self._forget_states_after(stamp)
         self.states[stamp] = pose
+        if stamp in self.unusable_states:  # a usable state of the same image wins
+            self.unusable_states.remove(stamp)
         while len(self.states) > STATE_BUFFER:
             del self.states[min(self.states)]
         for target_stamp in sorted(t for t in self.waiting if t <= stamp):
             # A state this new came: the target's own is here, or it will not come.
             self._respond(self.waiting.pop(target_stamp)[0])
+        self._watch_targets(stamp, state.header.stamp)
+
+    def _watch_targets(self, stamp_ns: int, stamp: Any) -> None:
+        """Targets stopped (detector or tracker down) when two states in a row are more than
+        `target_timeout` past the last target (one alone may carry a bad stamp): stop the camera,
+        and acknowledge those states' images with HOLD until targets return."""
         timeout_ns = self.params["target_timeout"] * NS_PER_S
-        if self.last_target_ns is not None and stamp - self.last_target_ns > timeout_ns:
-            # Targets stopped (detector or tracker down): stop the camera, and acknowledge the image.
+        if self.last_target_ns is None or stamp_ns - self.last_target_ns <= timeout_ns:
+            self.unanswered_overdue = None
+            return
+        if not self.targets_stopped:
+            if self.unanswered_overdue is None:
+                self.unanswered_overdue = stamp  # confirmed (or not) by the next state
+                return
+            self.targets_stopped = True
+            self.problems.report(
+                "targets stopped",
+                f"no target for {(stamp_ns - self.last_target_ns) / NS_PER_S:.3f} s of scene time "
+                "(is the detector or tracker running?): holding the camera until targets return",
+            )
             self.controller.reset()
-            self._publish(Command(CommandMode.HOLD), state.header.stamp)
+            self._publish(Command(CommandMode.HOLD), self.unanswered_overdue)
+            self.unanswered_overdue = None
+        self._publish(Command(CommandMode.HOLD), stamp)
 
     def _forget_states_after(self, stamp_ns: int) -> None:
-        """The state stream jumped back (a new replay epoch): the newer states are of the old one."""
-        for old in [s for s in self.states if s > stamp_ns]:
+        """The state stream jumped back (a new replay epoch, or past a lone state stamped ahead):
+        the newer states are not of this stream's time."""
+        newer = [s for s in self.states if s > stamp_ns]
+        for old in newer:
             del self.states[old]
+        self.get_logger().info(
+            f"ptz/state: {self.state_order.describe_jump()}; forgot the {len(newer)} state(s) "
+            "stamped after it"
+        )
+        self.unanswered_overdue = None
         if self.last_target_ns is not None and self.last_target_ns > stamp_ns:
             self.last_target_ns = stamp_ns  # the target timeout counts from the new epoch
 
@@ -211,7 +260,9 @@ class PtzControllerNode(SuiteNode):
     def _on_target(self, target: Target) -> None:
         stamp = stamp_to_ns(target.header.stamp)
         problem = unusable_target(target)
-        if problem is not None:  # refused before its stamp counts or the control sees it
+        already_answered = self.target_order.classify(stamp) in (Order.REPEAT, Order.INVALID)
+        if problem is not None and not already_answered:
+            # refused before its stamp counts or the control sees it; its image is acknowledged
             self.problems.report(
                 "unusable target", f"answered a target stamped {stamp} ns with HOLD: {problem}"
             )
@@ -227,7 +278,9 @@ class PtzControllerNode(SuiteNode):
         if order is Order.NEW_EPOCH:
             self._start_epoch(stamp)
         self.last_target_ns = stamp
-        if stamp in self.states or self._paired_pose(stamp) is not None:
+        self.targets_stopped = False
+        self.unanswered_overdue = None
+        if self._pose_known(stamp):
             self._respond(target)
         else:
             self.waiting[stamp] = (target, time.monotonic())
@@ -250,6 +303,11 @@ class PtzControllerNode(SuiteNode):
                 del self.waiting[stamp]
                 self._respond(target)
 
+    def _pose_known(self, stamp_ns: int) -> bool:
+        """Whether the target of this image can be answered now (its pose came, usable or not,
+        or a newer state says it will not come)."""
+        return stamp_ns in self.unusable_states or self._paired_pose(stamp_ns) is not None
+
     def _paired_pose(self, stamp_ns: int) -> CameraPose | None:
         """The pose of the target's image: its own state, or (when that was lost, i.e. a newer
         one exists) the latest earlier one at most `max_state_age` older."""
@@ -269,7 +327,7 @@ class PtzControllerNode(SuiteNode):
         """Step the controller with the target and the camera pose of the same image, or HOLD
         (reported) when that pose is unknown or unusable."""
         stamp = stamp_to_ns(target.header.stamp)
-        pose = self._paired_pose(stamp)
+        pose = None if stamp in self.unusable_states else self._paired_pose(stamp)
         if pose is None:
             self._report_missing_pose(stamp)
             self._publish(Command(CommandMode.HOLD), target.header.stamp)
@@ -278,14 +336,14 @@ class PtzControllerNode(SuiteNode):
         self._publish(command, target.header.stamp)
 
     def _report_missing_pose(self, stamp_ns: int) -> None:
-        if not self.states:
+        if stamp_ns in self.unusable_states:
+            pass  # its state came but was unusable: reported when it came
+        elif not self.states:
             self.problems.report(
                 "no ptz/state yet",
                 "targets arrive but no ptz/state has: is the camera or pan-tilt driver publishing "
                 "ptz/state? Answering with HOLD",
             )
-        elif stamp_ns in self.states:
-            pass  # its state came but was unusable: reported when it came
         else:
             self.problems.report(
                 "no ptz/state for a target",
@@ -320,25 +378,33 @@ class PtzControllerNode(SuiteNode):
             )
 
 
+MAX_VALUE = 1e7  # scene px (px/s, rad): beyond any pan range at any focal length
+
+
+def _usable_value(value: float) -> bool:
+    return math.isfinite(value) and abs(value) <= MAX_VALUE
+
+
 def pose_of(state: PtzState) -> tuple[CameraPose | None, str | None]:
     """The camera pose a PtzState describes, or None and the reason it cannot be used."""
-    if not (math.isfinite(state.focal_length) and state.focal_length > 0.0):
+    if not (_usable_value(state.focal_length) and state.focal_length > 0.0):
         return None, "focal_length is not a positive number (unset by the driver?)"
-    if not (math.isfinite(state.pan) and math.isfinite(state.tilt)):
-        return None, "non-finite pan or tilt"
+    if not all(_usable_value(v) for v in (state.pan, state.tilt)):
+        return None, f"pan or tilt not finite or beyond +-{MAX_VALUE:g}"
     try:
         window = msg_to_window(state.window)
     except ValueError:
-        return None, "window is not a finite rectangle of positive size"
+        window = None
+    if window is None or not all(
+        map(_usable_value, (window.x, window.y, window.width, window.height))
+    ):
+        return None, f"window is not a finite rectangle of positive size within +-{MAX_VALUE:g}"
     center_x, center_y = window.center
     zoom = state.zoom if math.isfinite(state.zoom) and state.zoom > 0.0 else 1.0
     pose = CameraPose(
         state.pan, state.tilt, center_x, center_y, state.focal_length, zoom, window.height
     )
     return pose, None
-
-
-MAX_TARGET_VALUE = 1e7  # scene px (px/s): beyond any pan range at any focal length
 
 
 def _target_values(target: Target) -> dict[str, float]:
@@ -356,13 +422,15 @@ def _target_values(target: Target) -> dict[str, float]:
 
 
 def unusable_target(target: Target) -> str | None:
-    """Why a locked target cannot be followed (a value not finite, or beyond MAX_TARGET_VALUE),
-    or None; an unlocked target's fields are not read."""
+    """Why a locked target cannot be followed (a value not finite, or beyond MAX_VALUE), or
+    None; an unlocked target's fields are not read."""
     if not target.locked:
         return None
     for name, value in _target_values(target).items():
-        if not math.isfinite(value) or abs(value) > MAX_TARGET_VALUE:
-            return f"{name} is {value} (finite, within +-{MAX_TARGET_VALUE:g}, expected)"
+        if not _usable_value(value):
+            return f"{name} is {value} (finite, within +-{MAX_VALUE:g}, expected)"
+    if target.track.bbox.height < 0.0:
+        return f"height is {target.track.bbox.height} (not negative expected)"
     return None
 
 

@@ -1,0 +1,134 @@
+"""Seeded hostile messages for the nodes' property tests (issue: hostile inputs).
+
+A hostile message is a good one with one field the node reads made non-finite, huge or (where the
+field must be positive) negative, stamped where no good message is (between two frames, far ahead,
+back in time, before zero) or where one is too (the last frame again, the next frame's before its
+good message comes). A node must refuse it or answer it
+harmlessly: the answers to the good messages around it are a clean run's.
+"""
+
+from __future__ import annotations
+
+import copy
+import math
+import re
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+NON_FINITE_OR_HUGE = (math.nan, math.inf, -math.inf, 1e308, -1e308, 1e12, -1e12)
+NEGATIVE = (-1.0, -1e-9, -1e6)
+FAR_AHEAD_NS = 10_000 * 10**9
+
+
+@dataclass(frozen=True)
+class Field:
+    """A numeric field of a message by its path ('track.x', 'window.width', 'position[1]', or
+    'blobs[*].area' for every element); `positive` when a negative value is invalid too."""
+
+    path: str
+    positive: bool = False
+
+
+def set_field(msg: Any, path: str, value: float) -> None:
+    """Set the field at `path` (see `Field`) to `value`."""
+    *parents, leaf = path.split(".")
+    owners = [msg]
+    for part in parents:
+        owners = [child for owner in owners for child in _children(owner, part)]
+    name, index = _split_index(leaf)
+    for owner in owners:
+        if index is None:
+            setattr(owner, name, value)
+            continue
+        values = list(getattr(owner, name))
+        if index == "*":
+            values = [value] * len(values)
+        else:
+            values[int(index)] = value
+        setattr(owner, name, values)
+
+
+def _children(owner: Any, part: str) -> list[Any]:
+    name, index = _split_index(part)
+    child = getattr(owner, name)
+    if index is None:
+        return [child]
+    return list(child) if index == "*" else [child[int(index)]]
+
+
+def _split_index(part: str) -> tuple[str, str | None]:
+    match = re.fullmatch(r"(\w+)\[(\*|\d+)\]", part)
+    return (match.group(1), match.group(2)) if match else (part, None)
+
+
+def hostile_stamp(rng: np.random.Generator, last_good_ns: int, frame_ns: int) -> int | None:
+    """A stamp no good message carries (None: before zero, which a Time cannot hold in ns)."""
+    kind = rng.integers(6)
+    if kind == 5:
+        return last_good_ns + frame_ns  # the next frame's, before its good message comes
+    if kind == 0:
+        return last_good_ns + int(rng.integers(1, frame_ns))  # between two frames
+    if kind == 1:
+        return last_good_ns + FAR_AHEAD_NS + int(rng.integers(frame_ns))
+    if kind == 2:
+        return max(0, last_good_ns - int(rng.integers(1, 6)) * frame_ns)  # back in time
+    if kind == 3:
+        return last_good_ns  # the last good frame again
+    return None
+
+
+def spoil(
+    rng: np.random.Generator,
+    good: Any,
+    fields: Sequence[Field],
+    last_good_ns: int,
+    frame_ns: int,
+) -> tuple[Any, str]:
+    """A copy of `good` with one of `fields` spoiled and a hostile stamp; and what was done."""
+    msg = copy.deepcopy(good)
+    field = fields[int(rng.integers(len(fields)))]
+    choices = NON_FINITE_OR_HUGE + (NEGATIVE if field.positive else ())
+    value = float(choices[int(rng.integers(len(choices)))])
+    set_field(msg, field.path, value)
+    stamp = hostile_stamp(rng, last_good_ns, frame_ns)
+    if stamp is None:
+        msg.header.stamp.sec = -int(rng.integers(1, 100))
+    else:
+        msg.header.stamp.sec, msg.header.stamp.nanosec = divmod(stamp, 10**9)
+    return msg, f"{field.path} = {value} at {stamp if stamp is not None else 'sec < 0'}"
+
+
+@dataclass(frozen=True)
+class HostileSource:
+    """Hostile messages for one input topic of a node: `make_good(stamp_ns)` gives a message that
+    is good at that stamp, `fields` what may be spoiled."""
+
+    topic: str
+    make_good: Callable[[int], Any]
+    fields: Sequence[Field]
+
+
+def all_finite(values: Sequence[float]) -> bool:
+    return all(math.isfinite(v) for v in values)
+
+
+def warning_lines(stderr: str) -> list[str]:
+    """The WARN / ERROR / FATAL log lines of a captured stderr."""
+    return [line for line in stderr.splitlines() if re.match(r"\[(WARN|ERROR|FATAL)\]", line)]
+
+
+def record_publishes(publisher: Any) -> list[Any]:
+    """Every message `publisher` publishes from now on, recorded as the node publishes it (so a
+    test reads a node's answer as soon as its callback returns, with no wait on delivery)."""
+    published: list[Any] = []
+    publish = publisher.publish
+
+    def recording(msg: Any) -> None:
+        published.append(msg)
+        publish(msg)
+
+    publisher.publish = recording
+    return published
