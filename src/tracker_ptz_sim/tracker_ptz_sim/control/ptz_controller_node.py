@@ -190,9 +190,9 @@ class PtzControllerNode(SuiteNode):
 
     def _on_state(self, state: PtzState) -> None:
         stamp = stamp_to_ns(state.header.stamp)
-        pose, problem = pose_of(state)
-        if problem is not None:  # refused before its stamp counts
-            self.problems.report(problem, f"unusable PtzState stamped {stamp} ns: {problem}")
+        pose = pose_of(state)
+        if isinstance(pose, str):  # refused before its stamp counts
+            self.problems.report(pose, f"unusable PtzState stamped {stamp} ns: {pose}")
             if stamp not in self.unusable_states:
                 self.unusable_states.append(stamp)
             if stamp in self.waiting:  # its target need not wait: it is answered with HOLD
@@ -385,12 +385,12 @@ def _usable_value(value: float) -> bool:
     return math.isfinite(value) and abs(value) <= MAX_VALUE
 
 
-def pose_of(state: PtzState) -> tuple[CameraPose | None, str | None]:
-    """The camera pose a PtzState describes, or None and the reason it cannot be used."""
+def pose_of(state: PtzState) -> CameraPose | str:
+    """The camera pose a PtzState describes, or the reason it cannot be used."""
     if not (_usable_value(state.focal_length) and state.focal_length > 0.0):
-        return None, "focal_length is not a positive number (unset by the driver?)"
+        return "focal_length is not a positive number (unset by the driver?)"
     if not all(_usable_value(v) for v in (state.pan, state.tilt)):
-        return None, f"pan or tilt not finite or beyond +-{MAX_VALUE:g}"
+        return f"pan or tilt not finite or beyond +-{MAX_VALUE:g}"
     try:
         window = msg_to_window(state.window)
     except ValueError:
@@ -398,13 +398,13 @@ def pose_of(state: PtzState) -> tuple[CameraPose | None, str | None]:
     if window is None or not all(
         map(_usable_value, (window.x, window.y, window.width, window.height))
     ):
-        return None, f"window is not a finite rectangle of positive size within +-{MAX_VALUE:g}"
+        return f"window is not a finite rectangle of positive size within +-{MAX_VALUE:g}"
     center_x, center_y = window.center
     zoom = state.zoom if math.isfinite(state.zoom) and state.zoom > 0.0 else 1.0
     pose = CameraPose(
         state.pan, state.tilt, center_x, center_y, state.focal_length, zoom, window.height
     )
-    return pose, None
+    return pose
 
 
 def _target_values(target: Target) -> dict[str, float]:
