@@ -10,6 +10,14 @@ import pytest
 
 rclpy = pytest.importorskip("rclpy")
 
+from hostile_messages import (  # noqa: E402
+    Field,
+    all_finite,
+    hostile_stamp,
+    record_publishes,
+    spoil,
+    warning_lines,
+)
 from node_harness import NodeHarness  # noqa: E402
 from sensor_msgs.msg import Image  # noqa: E402
 
@@ -110,12 +118,12 @@ def test_different_bad_commands_each_get_their_own_warning(harness, capfd):
         harness.publish("ptz/command", replace_zoom(command(NS, pan_rate=0.3), zoom))
     harness.spin_until(lambda: harness.node.problems.total == 7)
     err = capfd.readouterr().err
-    assert err.count("non-finite values") == 1
+    assert err.count("command with values (0.0, 0.0, inf, 0.0)") == 1
     assert err.count("unknown mode 7") == 1
     assert err.count("after the latest scene image") == 1
     assert err.count("command stamped -3.000 s") == 1 and err.count("with zoom inf") == 1
     assert harness.node.problems.counts == {
-        "non-finite command": 2,
+        "unusable command values": 2,
         "unknown command mode": 1,
         "command from the future": 1,
         "negative stamp": 1,
@@ -203,3 +211,98 @@ def test_pipelined_lockstep_waits_only_for_the_command_its_delay_needs():
         assert [s.pan > 0 for s in states] == [False, False, True, True]
     finally:
         h.close()
+
+
+COMMAND_FIELDS = [
+    Field("pan"),
+    Field("tilt"),
+    Field("pan_rate"),
+    Field("tilt_rate"),
+    Field("zoom", positive=True),
+]
+
+
+def good_command(stamp_ns, k=0):
+    """Frame k's command: a slow pan with a zoom step now and then, a position move at times."""
+    if k % 7 == 6:
+        msg = command(stamp_ns, mode=PtzCommand.MODE_POSITION)
+        msg.pan, msg.tilt = 0.05 * (k % 3), -0.02
+        return msg
+    msg = command(stamp_ns, pan_rate=0.2 * math.sin(0.4 * k))
+    msg.tilt_rate, msg.zoom = 0.05, (1.0 + 0.1 * (k % 4)) if k % 5 == 0 else 0.0
+    return msg
+
+
+def broken_scene(rng, stamp_ns):
+    """A scene image that cannot be read: an unknown encoding, too few bytes or a short step."""
+    msg = scene(0)
+    kind = int(rng.integers(3))
+    if kind == 0:
+        msg.encoding = "32FC1"
+    elif kind == 1:
+        msg.data = bytes(msg.data[: int(rng.integers(len(msg.data)))])
+    else:
+        msg.step = int(rng.integers(msg.width * 3))
+    if stamp_ns is None:
+        msg.header.stamp.sec = -5
+    else:
+        msg.header.stamp = ns_to_stamp(stamp_ns)
+    return msg
+
+
+def state_values(state):
+    window = state.window
+    motion = (state.pan, state.tilt, state.pan_rate, state.tilt_rate, state.zoom)
+    return (*motion, window.x, window.y, window.width, window.height, state.focal_length)
+
+
+def test_hundreds_of_hostile_messages_change_no_good_answer_and_nothing_non_finite_leaves(capfd):
+    """Seeded: 20 good scene images, each answered with a command; after each, 15 hostile
+    commands (a field non-finite, huge or a negative zoom) or unreadable scene images, stamped
+    between frames, far ahead, back in time, on the last frame, the next frame's or before zero.
+    The camera's states, joint states and views for the good images are the clean run's, every
+    state and joint state it publishes is finite, and each cause is logged once."""
+    rng = np.random.default_rng(67)
+
+    def run(hostile: bool):
+        h = NodeHarness(
+            PtzCameraNode,
+            inputs={"scene/image_raw": (Image, image_qos(True)), "ptz/command": (PtzCommand, 50)},
+            outputs={"ptz/state": (PtzState, 50)},
+            reliable_images=True,
+        )
+        states = record_publishes(h.node.state_pub)
+        joints = record_publishes(h.node.joint_pub)
+        views = record_publishes(h.node.view_pub)
+        try:
+            answers = []
+            for k in range(20):
+                stamp = k * NS
+                h.feed("scene/image_raw", scene(stamp))
+                answers.append(
+                    (
+                        state_values(states[-1]),
+                        tuple(joints[-1].position),
+                        tuple(joints[-1].velocity),
+                        bytes(views[-1].data),
+                    )
+                )
+                h.feed("ptz/command", good_command(stamp, k))
+                for _ in range(15 if hostile else 0):
+                    if rng.integers(4):
+                        msg, _ = spoil(rng, good_command(stamp, k), COMMAND_FIELDS, stamp, NS)
+                        h.feed("ptz/command", msg)
+                    else:
+                        h.feed("scene/image_raw", broken_scene(rng, hostile_stamp(rng, stamp, NS)))
+            assert all(all_finite(state_values(s)) for s in states)
+            assert all(all_finite([*j.position, *j.velocity]) for j in joints)
+            return answers, dict(h.node.problems.counts)
+        finally:
+            h.close()
+
+    clean, _ = run(False)
+    capfd.readouterr()
+    hostile, causes = run(True)
+    assert hostile == clean
+    warnings = warning_lines(capfd.readouterr().err)
+    assert sum(causes.values()) >= 250 and len(warnings) <= len(causes), "\n".join(warnings)

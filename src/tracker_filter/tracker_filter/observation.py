@@ -16,11 +16,11 @@ from typing import Protocol
 
 import numpy as np
 
+from tracker_msgs_py.codec import MAX_MESSAGE_VALUE
 from tracker_msgs_py.geometry import Rect
 from tracker_msgs_py.labels import label_array
 
 AXES = 2  # the scene is a plane: x and y
-MAX_COORDINATE_PX = 1e6  # farther from the scene origin is a corrupt message, not a detection
 
 
 class Need(Enum):
@@ -133,17 +133,17 @@ class Detections:
     def invalid_by_cause(self) -> dict[str, np.ndarray]:
         """Masks (M,) of the detections that cannot be measurements, by cause, in the order they
         are checked: a centroid, box, area or score that is not a finite number, a centroid or
-        box beyond MAX_COORDINATE_PX, a box of negative size. `_all_valid` is the same rule
+        box beyond MAX_MESSAGE_VALUE, a box of negative size. `_all_valid` is the same rule
         over the whole frame at once: a new cause goes into both."""
         positions, boxes = self.positions, self.bboxes
         with np.errstate(invalid="ignore"):
             return {
                 "non-finite centroid": ~np.isfinite(positions).all(axis=1),
-                f"centroid beyond {MAX_COORDINATE_PX:g} px": (
-                    np.abs(positions) > MAX_COORDINATE_PX
+                f"centroid beyond {MAX_MESSAGE_VALUE:g} px": (
+                    np.abs(positions) > MAX_MESSAGE_VALUE
                 ).any(axis=1),
                 "non-finite box": ~np.isfinite(boxes).all(axis=1),
-                f"box beyond {MAX_COORDINATE_PX:g} px": (np.abs(boxes) > MAX_COORDINATE_PX).any(
+                f"box beyond {MAX_MESSAGE_VALUE:g} px": (np.abs(boxes) > MAX_MESSAGE_VALUE).any(
                     axis=1
                 ),
                 "negative box size": (boxes[:, 2:] < 0).any(axis=1),
@@ -156,8 +156,8 @@ class Detections:
         of the per-row masks of seven causes, for the usual frame. NaN fails every comparison."""
         positions, boxes, areas = self.positions, self.bboxes, self.areas
         return bool(
-            (np.abs(positions) <= MAX_COORDINATE_PX).all()
-            and (np.abs(boxes) <= MAX_COORDINATE_PX).all()
+            (np.abs(positions) <= MAX_MESSAGE_VALUE).all()
+            and (np.abs(boxes) <= MAX_MESSAGE_VALUE).all()
             and (boxes[:, 2:] >= 0).all()
             and ((areas >= 0) & (areas < np.inf)).all()
             and np.isfinite(self.scores).all()

@@ -7,6 +7,8 @@
   alike; `array_to_image` writes;
 - stamps: `stamp_to_ns`, `ns_to_stamp`, `stamp_to_sec`, `frame_stamp_ns` (frame index at a rate);
 - rectangles: `rect_to_msg`, `msg_to_rect`, `msg_to_window` (a camera window of positive size);
+- values: `usable_value` -- finite and within `MAX_MESSAGE_VALUE`, the one rule every node applies
+  to the numbers a message brings before they reach its state;
 - `camera_info` for a pinhole camera, `image_qos` for image streams, `typestore` for rosbags.
 
 Message classes and rclpy are imported where a function builds them, so the functional core
@@ -99,6 +101,14 @@ def _keep_last(depth: int, reliable: bool, durable: bool = False) -> QoSProfile:
         reliability=ReliabilityPolicy.RELIABLE if reliable else ReliabilityPolicy.BEST_EFFORT,
         durability=DurabilityPolicy.TRANSIENT_LOCAL if durable else DurabilityPolicy.VOLATILE,
     )
+
+
+MAX_MESSAGE_VALUE = 1e6  # px, px/s, rad, rad/s: beyond any scene or motion, a corrupt message
+
+
+def usable_value(value: float) -> bool:
+    """Whether a number a message brings is finite and within +-MAX_MESSAGE_VALUE."""
+    return math.isfinite(value) and abs(value) <= MAX_MESSAGE_VALUE
 
 
 def stamp_to_ns(stamp: Time) -> int:

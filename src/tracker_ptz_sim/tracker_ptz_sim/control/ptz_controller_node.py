@@ -17,7 +17,15 @@ from typing import Any
 from sensor_msgs.msg import JointState
 
 from tracker_msgs.msg import PtzCommand, PtzState, Target
-from tracker_msgs_py.codec import NS_PER_S, msg_to_window, ns_to_stamp, result_qos, stamp_to_ns
+from tracker_msgs_py.codec import (
+    MAX_MESSAGE_VALUE,
+    NS_PER_S,
+    msg_to_window,
+    ns_to_stamp,
+    result_qos,
+    stamp_to_ns,
+    usable_value,
+)
 from tracker_msgs_py.node_main import SuiteNode, run_node
 from tracker_msgs_py.params import ParamSpec, declare_parameters
 from tracker_msgs_py.stamps import Order, StampOrder
@@ -378,27 +386,20 @@ class PtzControllerNode(SuiteNode):
             )
 
 
-MAX_VALUE = 1e7  # scene px (px/s, rad): beyond any pan range at any focal length
-
-
-def _usable_value(value: float) -> bool:
-    return math.isfinite(value) and abs(value) <= MAX_VALUE
-
-
 def pose_of(state: PtzState) -> CameraPose | str:
     """The camera pose a PtzState describes, or the reason it cannot be used."""
-    if not (_usable_value(state.focal_length) and state.focal_length > 0.0):
+    if not (usable_value(state.focal_length) and state.focal_length > 0.0):
         return "focal_length is not a positive number (unset by the driver?)"
-    if not all(_usable_value(v) for v in (state.pan, state.tilt)):
-        return f"pan or tilt not finite or beyond +-{MAX_VALUE:g}"
+    if not all(usable_value(v) for v in (state.pan, state.tilt)):
+        return f"pan or tilt not finite or beyond +-{MAX_MESSAGE_VALUE:g}"
     try:
         window = msg_to_window(state.window)
     except ValueError:
         window = None
     if window is None or not all(
-        map(_usable_value, (window.x, window.y, window.width, window.height))
+        map(usable_value, (window.x, window.y, window.width, window.height))
     ):
-        return f"window is not a finite rectangle of positive size within +-{MAX_VALUE:g}"
+        return f"window is not a finite rectangle of positive size within +-{MAX_MESSAGE_VALUE:g}"
     center_x, center_y = window.center
     zoom = state.zoom if math.isfinite(state.zoom) and state.zoom > 0.0 else 1.0
     pose = CameraPose(
@@ -422,13 +423,13 @@ def _target_values(target: Target) -> dict[str, float]:
 
 
 def unusable_target(target: Target) -> str | None:
-    """Why a locked target cannot be followed (a value not finite, or beyond MAX_VALUE), or
+    """Why a locked target cannot be followed (a value not finite, or beyond MAX_MESSAGE_VALUE), or
     None; an unlocked target's fields are not read."""
     if not target.locked:
         return None
     for name, value in _target_values(target).items():
-        if not _usable_value(value):
-            return f"{name} is {value} (finite, within +-{MAX_VALUE:g}, expected)"
+        if not usable_value(value):
+            return f"{name} is {value} (finite, within +-{MAX_MESSAGE_VALUE:g}, expected)"
     if target.track.bbox.height < 0.0:
         return f"height is {target.track.bbox.height} (not negative expected)"
     return None

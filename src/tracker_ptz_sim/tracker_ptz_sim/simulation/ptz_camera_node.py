@@ -33,6 +33,7 @@ from sensor_msgs.msg import CameraInfo, Image, JointState
 from tracker_msgs.msg import PtzCommand as PtzCommandMsg
 from tracker_msgs.msg import PtzState
 from tracker_msgs_py.codec import (
+    MAX_MESSAGE_VALUE,
     NS_PER_S,
     UnsupportedEncodingError,
     array_to_image,
@@ -42,6 +43,7 @@ from tracker_msgs_py.codec import (
     rect_to_msg,
     result_qos,
     stamp_to_ns,
+    usable_value,
 )
 from tracker_msgs_py.node_main import SuiteNode, run_node
 from tracker_msgs_py.params import ParamSpec, config_from_params, declare_parameters
@@ -263,9 +265,11 @@ class PtzCameraNode(SuiteNode):
                 f"ignored a pan-tilt command with unknown mode {msg.mode} (known: "
                 f"{', '.join(f'{k} = {v}' for k, v in MODES.items())})",
             )
-        elif not all(math.isfinite(v) for v in values):
+        elif not all(usable_value(v) for v in values):
             self.problems.report(
-                "non-finite command", f"ignored a pan-tilt command with non-finite values {values}"
+                "unusable command values",
+                f"ignored a pan-tilt command with values {values} (finite, within "
+                f"+-{MAX_MESSAGE_VALUE:g}, expected)",
             )
         elif not _usable_zoom(msg.zoom):
             self.problems.report(
@@ -307,6 +311,14 @@ class PtzCameraNode(SuiteNode):
             return pair if all(math.isfinite(v) for v in pair) else None
 
         rates, angles = pick(msg.velocity), pick(msg.position)
+        corrupt = [v for v in (*(rates or ()), *(angles or ())) if not usable_value(v)]
+        if corrupt:  # NaN means "not commanded"; a value beyond any motion is a corrupt message
+            self.problems.report(
+                "joint command beyond range",
+                f"ignored a JointState command with {corrupt[0]} (within +-{MAX_MESSAGE_VALUE:g} "
+                "expected)",
+            )
+            return None
         if rates is not None:
             return PtzCommand(stamp / NS_PER_S, "velocity", 0.0, 0.0, *rates, zoom)
         if angles is not None:
@@ -465,12 +477,12 @@ class PtzCameraNode(SuiteNode):
         self.joint_pub.publish(joints)
 
 
-ZOOM_RULE = "a positive number, or 0 or NaN to keep the zoom"
+ZOOM_RULE = f"a positive number up to {MAX_MESSAGE_VALUE:g}, or 0 or NaN to keep the zoom"
 
 
 def _usable_zoom(zoom: float) -> bool:
     """A commanded zoom the camera can act on (ZOOM_RULE)."""
-    return math.isnan(zoom) or (math.isfinite(zoom) and zoom >= 0)
+    return math.isnan(zoom) or (usable_value(zoom) and zoom >= 0)
 
 
 def main(args: list[str] | None = None) -> int:
