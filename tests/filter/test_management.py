@@ -382,7 +382,7 @@ def test_detections_that_cannot_be_measurements_are_rejected_by_cause():
         "centroid beyond 1e+06 px": 1,
         "negative box size": 1,
         "non-finite or negative area": 1,
-        "non-finite score": 1,
+        "score not finite or beyond 1e+06": 1,
     }
     tracker = multi()
     tracks = tracker.step(Observation(1.0, detections))
@@ -401,7 +401,7 @@ def test_each_fault_alone_is_rejected_under_its_cause():
         "box beyond 1e+06 px": (good[0], [45.0, 55.0, 3e6, 10.0], 100.0, 0.3),
         "negative box size": (good[0], [45.0, 55.0, 10.0, -0.5], 100.0, 0.3),
         "non-finite or negative area": (good[0], good[1], np.inf, 0.3),
-        "non-finite score": (good[0], good[1], 100.0, -np.inf),
+        "score not finite or beyond 1e+06": (good[0], good[1], 100.0, -np.inf),
     }
     for cause, fault in faults.items():
         rows = [good, fault, good]

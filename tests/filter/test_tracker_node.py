@@ -7,10 +7,19 @@ import subprocess
 import time
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 rclpy = pytest.importorskip("rclpy")
 
+from hostile_messages import (  # noqa: E402
+    Field,
+    HostileSource,
+    record_publishes,
+    spoil,
+    warning_lines,
+)
+from node_harness import NodeHarness  # noqa: E402
 from rcl_interfaces.srv import SetParameters, SetParametersAtomically  # noqa: E402
 from rclpy.executors import SingleThreadedExecutor  # noqa: E402
 from rclpy.parameter import Parameter  # noqa: E402
@@ -18,6 +27,7 @@ from rclpy.parameter import Parameter  # noqa: E402
 from tracker_filter.tracker_node import TrackerNode  # noqa: E402
 from tracker_msgs.msg import Blob, BlobArray, PtzState, Target, TrackArray  # noqa: E402
 from tracker_msgs.srv import ResetTracker, SelectTarget  # noqa: E402
+from tracker_msgs_py.codec import ns_to_stamp  # noqa: E402
 
 pytestmark = pytest.mark.ros
 ROOT = Path(__file__).resolve().parents[2]
@@ -211,12 +221,12 @@ def test_hostile_blobs_never_become_tracks(harness, capfd):
         harness.wait(lambda n=k + 1: harness.tracker.problems.count("no usable detection") == n)
     assert harness.tracks == [] and harness.targets == []
     assert harness.tracker.problems.counts == {
-        "non-finite oriented box": 8,
+        "unusable oriented box": 8,
         "no usable detection": 4,
     }
     err = capfd.readouterr().err
-    assert err.count("angle or oriented size is not finite") == 1
-    assert err.count("none of their 3 blobs can be a measurement") == 1
+    assert err.count("angle or oriented size is not finite, beyond 1e+06 or negative") == 1
+    assert err.count("none of their 5 blobs can be a measurement") == 1
     for k in range(4):  # good detections afterwards are tracked as on a fresh tracker
         tracks, target = harness.send(2.0 + 0.1 * k, [(100 + 5 * k, 50)])
     assert [t.id for t in tracks.tracks] == [1] and target.locked
@@ -361,7 +371,7 @@ def test_track_messages_carry_every_field_of_the_track_set():
     from tracker_filter.tracker_node import track_to_msg, tracks_to_msg
     from tracker_filter.tracking import TrackSet
 
-    rng = np.random.default_rng(4)
+    rng = np.random.default_rng(67)
     count, layout = 3, ("x", "y", "w", "h")  # a layout without velocity
     covariances = rng.normal(size=(count, 4, 4))
     tracks = TrackSet(
@@ -398,3 +408,103 @@ def test_track_messages_carry_every_field_of_the_track_set():
     shapes = ((), (), (4,), (4, 4), (4,), (), (), (), (), (), ())
     empty = TrackSet(0.0, layout, *(np.zeros((0,) + shape) for shape in shapes))
     assert tracks_to_msg(empty, Header()).tracks == []
+
+
+BLOB_FIELDS = [
+    Field("blobs[*].centroid_x"),
+    Field("blobs[*].centroid_y"),
+    Field("blobs[*].bbox.x"),
+    Field("blobs[*].bbox.y"),
+    Field("blobs[*].bbox.width", positive=True),
+    Field("blobs[*].bbox.height", positive=True),
+    Field("blobs[*].score"),
+    Field("blobs[*].angle"),
+    Field("blobs[*].oriented_width", positive=True),
+    Field("blobs[*].oriented_height", positive=True),
+]
+WINDOW_FIELDS = [
+    Field("window.x"),
+    Field("window.y"),
+    Field("window.width", positive=True),
+    Field("window.height", positive=True),
+]
+NS = 100_000_000
+
+
+def people_at(stamp_ns, k):
+    """Frame k: two people walking towards each other (they cross at frame 10)."""
+    msg = BlobArray(target_present=True)
+    msg.header.stamp = ns_to_stamp(stamp_ns)
+    msg.header.frame_id = "scene"
+    for x in (100.0 + 8.0 * k, 260.0 - 8.0 * k):
+        y = 150.0 + (x - 100.0) * 0.1
+        blob = Blob(centroid_x=x, centroid_y=y, area=1200, label="person", score=0.8)
+        blob.bbox.x, blob.bbox.y, blob.bbox.width, blob.bbox.height = x - 10, y - 30, 20.0, 60.0
+        msg.blobs.append(blob)
+    return msg
+
+
+def view_at(stamp_ns, k=0):
+    state = PtzState(zoom=1.0, focal_length=440.0)
+    state.header.stamp = ns_to_stamp(stamp_ns)
+    state.window.x, state.window.y, state.window.width, state.window.height = (
+        40.0 + 2 * k,
+        60.0,
+        264.0,
+        198.0,
+    )
+    return state
+
+
+def test_hundreds_of_hostile_messages_change_no_good_answer(capfd):
+    """Seeded: 20 frames of two people crossing, and after each 15 hostile detections (one field
+    of every blob non-finite, huge or a negative size) or pan-tilt states (a window field), stamped
+    between frames, far ahead, back in time, on the last frame, the next frame's or before zero.
+    The tracks and targets of the good frames are the clean run's, the node lives, and each cause
+    is logged once."""
+    rng = np.random.default_rng(67)
+    sources = [
+        HostileSource("detections", lambda ns: people_at(ns, 3), BLOB_FIELDS),
+        HostileSource("ptz/state", view_at, WINDOW_FIELDS),
+    ]
+
+    def run(hostile: bool):
+        h = NodeHarness(
+            TrackerNode,
+            inputs={"detections": (BlobArray, 50), "ptz/state": (PtzState, 50)},
+            outputs={"target": (Target, 50)},
+        )
+        tracks = record_publishes(h.node._tracks_pub)
+        targets = record_publishes(h.node._target_pub)
+        try:
+            answers = []
+            for k in range(20):
+                stamp = k * NS
+                h.feed("ptz/state", view_at(stamp, k))
+                h.feed("detections", people_at(stamp, k))
+                assert tracks[-1].header.stamp == targets[-1].header.stamp == ns_to_stamp(stamp)
+                answers.append((track_values(tracks[-1]), target_values(targets[-1])))
+                for _ in range(15 if hostile else 0):
+                    source = sources[int(rng.integers(len(sources)))]
+                    msg, _ = spoil(rng, source.make_good(stamp), source.fields, stamp, NS)
+                    h.feed(source.topic, msg)
+            return answers, dict(h.node.problems.counts)
+        finally:
+            h.close()
+
+    clean, _ = run(False)
+    capfd.readouterr()
+    hostile, causes = run(True)
+    assert any(target[0] for _, target in clean)
+    assert hostile == clean
+    warnings = warning_lines(capfd.readouterr().err)
+    assert sum(causes.values()) >= 250 and len(warnings) <= len(causes), "\n".join(warnings)
+
+
+def track_values(msg):
+    return [(t.id, t.x, t.y, t.vx, t.vy, t.bbox.width, t.bbox.height) for t in msg.tracks]
+
+
+def target_values(msg):
+    track = msg.track
+    return (msg.locked, track.id, track.x, track.y, msg.predicted_x, msg.predicted_y)

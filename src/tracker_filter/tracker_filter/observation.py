@@ -148,7 +148,9 @@ class Detections:
                 ),
                 "negative box size": (boxes[:, 2:] < 0).any(axis=1),
                 "non-finite or negative area": ~(np.isfinite(self.areas) & (self.areas >= 0)),
-                "non-finite score": ~np.isfinite(self.scores),
+                f"score not finite or beyond {MAX_MESSAGE_VALUE:g}": ~(
+                    np.abs(self.scores) <= MAX_MESSAGE_VALUE
+                ),
             }
 
     def _all_valid(self) -> bool:
@@ -160,7 +162,7 @@ class Detections:
             and (np.abs(boxes) <= MAX_MESSAGE_VALUE).all()
             and (boxes[:, 2:] >= 0).all()
             and ((areas >= 0) & (areas < np.inf)).all()
-            and np.isfinite(self.scores).all()
+            and (np.abs(self.scores) <= MAX_MESSAGE_VALUE).all()
         )
 
     def validated(self) -> tuple[Detections, dict[str, int]]:

@@ -12,7 +12,6 @@ declares parameters, converts messages and wires topics.
 
 from __future__ import annotations
 
-import math
 from dataclasses import replace
 from functools import partial
 from typing import Any
@@ -31,6 +30,7 @@ from tracker_msgs.msg import Blob as BlobMsg
 from tracker_msgs.msg import BlobArray, PtzState, Rect, Target, Track, TrackArray
 from tracker_msgs.srv import ResetTracker, SelectTarget
 from tracker_msgs_py.codec import (
+    MAX_MESSAGE_VALUE,
     NS_PER_S,
     UnsupportedEncodingError,
     float64_sequence,
@@ -41,6 +41,7 @@ from tracker_msgs_py.codec import (
     msg_to_window,
     result_qos,
     stamp_to_ns,
+    usable_value,
 )
 from tracker_msgs_py.node_main import SuiteNode, run_node
 from tracker_msgs_py.pairing import Frame, FrameAssembler
@@ -57,10 +58,12 @@ def detections_from_msg(msg: BlobArray) -> Detections:
     return Detections.from_blobs(msg.blobs, msg.target_present)
 
 
-def has_finite_orientation(blob: BlobMsg) -> bool:
-    """Whether a Blob's oriented box is finite: the trackers do not read it, but a blob with a
-    NaN anywhere is not a measurement (`Detections.invalid_by_cause` checks the rest)."""
-    return all(math.isfinite(v) for v in (blob.angle, blob.oriented_width, blob.oriented_height))
+def has_usable_orientation(blob: BlobMsg) -> bool:
+    """Whether a Blob's oriented box is usable (`usable_value`, sides not negative): the trackers
+    do not read it, but a blob with a corrupt value anywhere is not a measurement
+    (`Detections.invalid_by_cause` checks the rest)."""
+    sides = (blob.oriented_width, blob.oriented_height)
+    return all(map(usable_value, (blob.angle, *sides))) and min(sides) >= 0.0
 
 
 def track_to_msg(tracks: TrackSet, i: int) -> Track:
@@ -308,20 +311,25 @@ class TrackerNode(SuiteNode):
                 f"'{self._params['scene_frame_id']}'; tracking them as scene pixels",
             )
         stamp_ns = stamp_to_ns(msg.header.stamp)
-        oriented = [blob for blob in msg.blobs if has_finite_orientation(blob)]
-        if len(oriented) < len(msg.blobs):
+        received = len(msg.blobs)
+        oriented = [blob for blob in msg.blobs if has_usable_orientation(blob)]
+        if len(oriented) < received:
             self.problems.report(
-                "non-finite oriented box",
-                "dropped a detection: its angle or oriented size is not finite",
+                "unusable oriented box",
+                "dropped a detection: its angle or oriented size is not finite, beyond "
+                f"{MAX_MESSAGE_VALUE:g} or negative",
                 len(msg.blobs) - len(oriented),
             )
             msg.blobs = oriented
         detections = detections_from_msg(msg)
-        if len(detections) and not len(detections.validated()[0]):
+        all_corrupt = (received and not oriented) or (
+            len(detections) and not len(detections.validated()[0])
+        )
+        if all_corrupt:
             # refused before its stamp counts (and not answered): it moves no clock
             self.problems.report(
                 "no usable detection",
-                f"dropped the detections stamped {stamp_ns} ns: none of their {len(msg.blobs)} "
+                f"dropped the detections stamped {stamp_ns} ns: none of their {received} "
                 "blobs can be a measurement (values not finite or out of range)",
             )
             return

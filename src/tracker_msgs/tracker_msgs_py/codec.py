@@ -311,10 +311,14 @@ def msg_to_rect(msg: RectMsg) -> Rect:
 
 
 def msg_to_window(msg: RectMsg) -> Rect:
-    """A camera window (PtzState.window): a finite rectangle of positive size, else ValueError."""
+    """A camera window (PtzState.window): a rectangle of positive size whose values are usable
+    (`usable_value`), else ValueError."""
     window = msg_to_rect(msg)
+    values = (window.x, window.y, window.width, window.height)
+    if not all(map(usable_value, values)):
+        raise ValueError(f"window {values} is beyond +-{MAX_MESSAGE_VALUE:g}")
     if window.width <= 0 or window.height <= 0:
-        raise ValueError(f"empty rectangle {(window.x, window.y, window.width, window.height)}")
+        raise ValueError(f"empty rectangle {values}")
     return window
 
 

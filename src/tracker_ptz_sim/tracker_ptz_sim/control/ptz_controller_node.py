@@ -395,10 +395,6 @@ def pose_of(state: PtzState) -> CameraPose | str:
     try:
         window = msg_to_window(state.window)
     except ValueError:
-        window = None
-    if window is None or not all(
-        map(usable_value, (window.x, window.y, window.width, window.height))
-    ):
         return f"window is not a finite rectangle of positive size within +-{MAX_MESSAGE_VALUE:g}"
     center_x, center_y = window.center
     zoom = state.zoom if math.isfinite(state.zoom) and state.zoom > 0.0 else 1.0
