@@ -26,10 +26,12 @@ FAR_AHEAD_NS = 10_000 * 10**9
 @dataclass(frozen=True)
 class Field:
     """A numeric field of a message by its path ('track.x', 'window.width', 'position[1]', or
-    'blobs[*].area' for every element); `positive` when a negative value is invalid too."""
+    'blobs[*].area' for every element); `positive` when a negative value is invalid too,
+    `nan_means_unset` when NaN is a valid value."""
 
     path: str
     positive: bool = False
+    nan_means_unset: bool = False  # NaN is a valid value (JointState: not given)
 
 
 def set_field(msg: Any, path: str, value: float) -> None:
@@ -91,6 +93,8 @@ def spoil(
     msg = copy.deepcopy(good)
     field = fields[int(rng.integers(len(fields)))]
     choices = NON_FINITE_OR_HUGE + (NEGATIVE if field.positive else ())
+    if field.nan_means_unset:
+        choices = tuple(v for v in choices if not math.isnan(v))
     value = float(choices[int(rng.integers(len(choices)))])
     set_field(msg, field.path, value)
     stamp = hostile_stamp(rng, last_good_ns, frame_ns)

@@ -3,10 +3,19 @@ the image; bad input is reported and changes nothing."""
 
 from __future__ import annotations
 
+import numpy as np
 import pytest
 
 rclpy = pytest.importorskip("rclpy")
 
+from hostile_messages import (  # noqa: E402
+    Field,
+    HostileSource,
+    all_finite,
+    record_publishes,
+    spoil,
+    warning_lines,
+)
 from node_harness import NodeHarness  # noqa: E402
 from sensor_msgs.msg import CameraInfo, JointState  # noqa: E402
 
@@ -79,3 +88,81 @@ def test_an_image_without_a_newer_joint_state_gets_the_latest_one_after_pose_wai
     harness.publish("camera/camera_info", info(100 * MS))  # the unit publishes nothing newer
     harness.spin_until(lambda: len(states(harness)) == 1, timeout=2.0)
     assert states(harness)[0].pan == -0.1
+
+
+JOINT_FIELDS = [
+    Field("position[0]"),
+    Field("position[1]"),
+    Field("velocity[0]", nan_means_unset=True),
+    Field("velocity[1]", nan_means_unset=True),
+]
+INFO_FIELDS = [
+    Field("k[0]", positive=True),
+    Field("k[4]", positive=True),
+    Field("k[2]"),
+    Field("k[5]"),
+]
+
+
+def moving_joints(stamp_ns: int, k: int = 0) -> JointState:
+    msg = joints(stamp_ns, 0.02 * k)
+    msg.velocity = [0.2, 0.0]
+    return msg
+
+
+def test_hundreds_of_hostile_messages_change_no_good_answer_and_nothing_non_finite_leaves(capfd):
+    """Seeded: 20 images (a CameraInfo half a frame after a joint state, released by the next),
+    and after each 15 hostile joint states (a position or velocity non-finite or huge) or
+    CameraInfos (fx, fy, cx or cy non-finite, huge or negative), stamped between frames, far
+    ahead, back in time, on the last frame, the next frame's or before zero. The poses of the
+    good images are the clean run's, every PtzState published is finite, and each cause is
+    logged once."""
+    rng = np.random.default_rng(67)
+    frame = 100 * MS
+    sources = [
+        HostileSource("ptz/joint_states", moving_joints, JOINT_FIELDS),
+        HostileSource("camera/camera_info", info, INFO_FIELDS),
+    ]
+
+    def run(hostile: bool):
+        h = NodeHarness(
+            PtzStateBridgeNode,
+            inputs={"ptz/joint_states": (JointState, 10), "camera/camera_info": (CameraInfo, 10)},
+            outputs={"ptz/state": (PtzState, result_qos())},
+            scene_width=2000,
+            scene_height=1000,
+        )
+        published = record_publishes(h.node.state_pub)
+        try:
+            answers = []
+            h.feed("ptz/joint_states", moving_joints(0))
+            for k in range(1, 21):
+                image_ns = k * frame - frame // 2
+                h.feed("camera/camera_info", info(image_ns))
+                h.feed("ptz/joint_states", moving_joints(k * frame, k))
+                good = [s for s in published if stamp_to_ns(s.header.stamp) == image_ns]
+                assert good, f"image {k} not answered"
+                answers.append(state_values(good[-1]))
+                for _ in range(15 if hostile else 0):
+                    source = sources[int(rng.integers(len(sources)))]
+                    msg, _ = spoil(
+                        rng, source.make_good(k * frame), source.fields, k * frame, frame
+                    )
+                    h.feed(source.topic, msg)
+            assert all(all_finite(state_values(s)) for s in published)
+            return answers, dict(h.node.problems.counts)
+        finally:
+            h.close()
+
+    clean, _ = run(False)
+    capfd.readouterr()
+    hostile, causes = run(True)
+    assert hostile == clean
+    warnings = warning_lines(capfd.readouterr().err)
+    assert sum(causes.values()) >= 250 and len(warnings) <= len(causes), "\n".join(warnings)
+
+
+def state_values(state):
+    window = state.window
+    motion = (state.pan, state.tilt, state.pan_rate, state.tilt_rate, state.zoom)
+    return (*motion, window.x, window.y, window.width, window.height, state.focal_length)

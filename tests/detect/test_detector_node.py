@@ -3,6 +3,7 @@ pairing by stamp, one BlobArray per frame, bad input."""
 
 from __future__ import annotations
 
+import copy
 import itertools
 import time
 
@@ -12,6 +13,13 @@ import pytest
 
 rclpy = pytest.importorskip("rclpy")
 
+from hostile_messages import (  # noqa: E402
+    Field,
+    hostile_stamp,
+    record_publishes,
+    spoil,
+    warning_lines,
+)
 from rclpy.executors import SingleThreadedExecutor  # noqa: E402
 from rclpy.parameter import Parameter  # noqa: E402
 from sensor_msgs.msg import CameraInfo, Image, JointState  # noqa: E402
@@ -379,3 +387,84 @@ def test_the_seed_method_answers_far_off_and_huge_views_and_keeps_detecting(harn
 
 def _stamp(msg: BlobArray) -> int:
     return msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec
+
+
+WINDOW_STATE_FIELDS = [
+    Field("window.x"),
+    Field("window.y"),
+    Field("window.width", positive=True),
+    Field("window.height", positive=True),
+    Field("focal_length", positive=True),
+]
+
+
+def unreadable_image(rng, like, stamp_ns):
+    """An image that cannot be read: an unknown encoding, too few bytes or a short step."""
+    msg = copy.deepcopy(like)
+    kind = int(rng.integers(3))
+    if kind == 0:
+        msg.encoding = "32FC1"
+    elif kind == 1:
+        msg.data = bytes(msg.data[: int(rng.integers(len(msg.data)))])
+    else:
+        msg.step = int(rng.integers(msg.width))
+    if stamp_ns is None:
+        msg.header.stamp.sec = -5
+    else:
+        msg.header.stamp = ns_to_stamp(stamp_ns)
+    return msg
+
+
+def feed(h, topic, publisher, msg):
+    handled = h.node.messages_handled(topic)
+    publisher.publish(msg)
+    assert h.spin_until(lambda: h.node.messages_handled(topic) > handled)
+
+
+@pytest.mark.parametrize("method", ["ssim_background", "person_motion"])
+def test_hundreds_of_hostile_messages_change_no_good_answer(harness_factory, capfd, method):
+    """Seeded: 20 frames of a panning camera (the background detector, and the person model fed
+    by it), and after each 15 hostile
+    pan-tilt states (a window field or the focal length non-finite, huge or negative) or
+    unreadable images, stamped between frames, far ahead, back in time, on the last frame, the
+    next frame's or before zero. The good frames' detections are the clean run's, the node lives,
+    and each cause is logged once."""
+    rng = np.random.default_rng(67)
+    frames, windows = scene_and_windows(n=20)
+
+    def run(hostile: bool):
+        h = harness_factory(pose_source="ptz_state", method=method)
+        published = record_publishes(h.node.detections_pub)
+        answers = []
+        for k, (frame, (x, y, w, hh)) in enumerate(zip(frames, windows, strict=True)):
+            stamp = k * NS
+            image = image_msg(frame[y : y + hh, x : x + w], stamp)
+            feed(h, "ptz/state", h.states, state_msg(windows[k], stamp))
+            before = len(published)  # an unreadable image may have been answered at this stamp
+            feed(h, "camera/image_raw", h.images, image)
+            assert h.spin_until(
+                lambda s=stamp, b=before: any(_stamp(d) == s for d in published[b:])
+            )
+            good = next(d for d in published[before:] if _stamp(d) == stamp)
+            answers.append((blob_values(good), good.compared_area, good.ego_shift_x))
+            for _ in range(15 if hostile else 0):
+                if rng.integers(2):
+                    good_state = state_msg(windows[k], stamp)
+                    msg, _ = spoil(rng, good_state, WINDOW_STATE_FIELDS, stamp, NS)
+                    feed(h, "ptz/state", h.states, msg)
+                else:
+                    bad = unreadable_image(rng, image, hostile_stamp(rng, stamp, NS))
+                    feed(h, "camera/image_raw", h.images, bad)
+        return answers, dict(h.node.problems.counts)
+
+    clean, _ = run(False)
+    capfd.readouterr()
+    hostile, causes = run(True)
+    assert any(blobs for blobs, _, _ in clean)
+    assert hostile == clean
+    warnings = warning_lines(capfd.readouterr().err)
+    assert sum(causes.values()) >= 250 and len(warnings) <= len(causes), "\n".join(warnings)
+
+
+def blob_values(msg):
+    return [(b.centroid_x, b.centroid_y, b.bbox.width, b.bbox.height, b.area) for b in msg.blobs]

@@ -14,7 +14,6 @@ for detectors started from a rectangle.
 
 from __future__ import annotations
 
-import math
 import time
 from dataclasses import dataclass
 from typing import Any
@@ -57,6 +56,7 @@ from tracker_msgs.msg import Blob as BlobMsg
 from tracker_msgs.msg import BlobArray, PtzState, Target, Track
 from tracker_msgs.srv import SelectRegion
 from tracker_msgs_py.codec import (
+    MAX_MESSAGE_VALUE,
     NS_PER_S,
     UnsupportedEncodingError,
     array_to_image,
@@ -69,6 +69,7 @@ from tracker_msgs_py.codec import (
     rect_to_msg,
     result_qos,
     stamp_to_ns,
+    usable_value,
 )
 from tracker_msgs_py.geometry import Rect
 from tracker_msgs_py.node_main import StartupError, SuiteNode, run_node
@@ -342,10 +343,11 @@ class DetectorNode(SuiteNode):
         except ValueError as error:
             self.problems.report("invalid PtzState window", f"ignored a PtzState window: {error}")
             return
-        if not math.isfinite(msg.focal_length):
+        if not (usable_value(msg.focal_length) and msg.focal_length >= 0.0):
             self.problems.report(
-                "non-finite focal length",
-                f"ignored a PtzState with focal_length {msg.focal_length}",
+                "unusable focal length",
+                f"ignored a PtzState with focal_length {msg.focal_length} (0 or positive, up to "
+                f"{MAX_MESSAGE_VALUE:g}, expected)",
             )
             return
         pose = (window.x, window.y, window.width, window.height, msg.focal_length)
@@ -362,10 +364,11 @@ class DetectorNode(SuiteNode):
             )
             return
         pan, tilt = positions
-        if not (math.isfinite(pan) and math.isfinite(tilt)):
+        if not (usable_value(pan) and usable_value(tilt)):
             self.problems.report(
-                "non-finite joint position",
-                f"ignored a JointState with non-finite pan/tilt {pan, tilt}",
+                "unusable joint position",
+                f"ignored a JointState with pan/tilt {pan, tilt} (finite, within "
+                f"+-{MAX_MESSAGE_VALUE:g}, expected)",
             )
             return
         self._handle(self.pairing.add_pose(stamp_to_ns(msg.header.stamp), (pan, tilt)))

@@ -26,6 +26,7 @@ import numpy as np
 import scipy.fft
 
 from tracker_detect.ssim import BoxStatistics, SsimParams, box_statistics
+from tracker_msgs_py.codec import MAX_MESSAGE_VALUE, usable_value
 from tracker_msgs_py.geometry import Rect, SceneGeometry, camera_pixel_to_angles
 
 #: Fractional shifts closer than this to an integer are aligned by cropping, without resampling.
@@ -141,8 +142,11 @@ class CameraIntrinsics:
 
     def __post_init__(self) -> None:
         values = (self.fx, self.fy, self.cx, self.cy)
-        if not all(math.isfinite(v) for v in values) or self.fx <= 0 or self.fy <= 0:
-            raise ValueError(f"camera intrinsics must be finite with fx, fy > 0, got {values}")
+        if not all(map(usable_value, values)) or self.fx <= 0 or self.fy <= 0:
+            raise ValueError(
+                f"camera intrinsics must be finite, within +-{MAX_MESSAGE_VALUE:g}, with fx, fy > 0,"
+                f" got {values}"
+            )
         if self.width <= 0 or self.height <= 0:
             raise ValueError(f"camera image size must be positive, got {self.width}x{self.height}")
 

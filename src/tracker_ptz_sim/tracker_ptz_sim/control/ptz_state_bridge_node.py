@@ -20,6 +20,7 @@ from tracker_detect.image_pose_pairing import SceneSettings
 from tracker_detect.registration import CameraIntrinsics
 from tracker_msgs.msg import PtzState
 from tracker_msgs_py.codec import (
+    MAX_MESSAGE_VALUE,
     NS_PER_S,
     image_qos,
     joint_values,
@@ -27,6 +28,7 @@ from tracker_msgs_py.codec import (
     rect_to_msg,
     result_qos,
     stamp_to_ns,
+    usable_value,
 )
 from tracker_msgs_py.node_main import SuiteNode, run_node
 from tracker_msgs_py.params import ParamSpec, declare_parameters
@@ -131,15 +133,24 @@ class PtzStateBridgeNode(SuiteNode):
             return None
         pan, tilt = positions[:2]
         zoom = positions[2] if zoom_joint else math.nan
-        if not all(math.isfinite(v) for v in (pan, tilt)) or (zoom_joint and not zoom > 0.0):
+        usable_zoom = not zoom_joint or (usable_value(zoom) and zoom > 0.0)
+        if not (usable_value(pan) and usable_value(tilt) and usable_zoom):
             self.problems.report(
-                "non-finite joint position",
-                f"ignored a JointState with pan/tilt/zoom {pan, tilt, zoom}",
+                "unusable joint position",
+                f"ignored a JointState with pan/tilt/zoom {pan, tilt, zoom} (finite, within "
+                f"+-{MAX_MESSAGE_VALUE:g}, zoom positive, expected)",
             )
             return None
         pan_rate = tilt_rate = math.nan  # the bridge differentiates positions instead
         if len(msg.velocity) == len(names):
             pan_rate, tilt_rate = joint_values(names, msg.velocity, wanted) or (math.nan, math.nan)
+        if not all(math.isnan(v) or usable_value(v) for v in (pan_rate, tilt_rate)):
+            self.problems.report(
+                "unusable joint velocity",
+                f"ignored a JointState with pan/tilt rates {pan_rate, tilt_rate} (NaN for unknown, "
+                f"or within +-{MAX_MESSAGE_VALUE:g}, expected)",
+            )
+            return None
         return JointSample(stamp_to_ns(msg.header.stamp), pan, tilt, zoom, pan_rate, tilt_rate)
 
     def _on_camera_info(self, msg: CameraInfo) -> None:
