@@ -421,25 +421,83 @@ def feed(h, topic, publisher, msg):
     assert h.spin_until(lambda: h.node.messages_handled(topic) > handled)
 
 
-@pytest.mark.parametrize("method", ["ssim_background", "person_motion"])
-def test_hundreds_of_hostile_messages_change_no_good_answer(harness_factory, capfd, method):
+JOINT_FIELDS = [Field("position[0]"), Field("position[1]")]
+INFO_FIELDS = [
+    Field("k[0]", positive=True),
+    Field("k[4]", positive=True),
+    Field("k[2]"),
+    Field("k[5]"),
+]
+FX = 200.0  # px/rad of the joint-state camera: its pan moves the window 5 px a frame
+
+
+def pan_tilt_joints(stamp_ns, k):
+    joints = JointState(name=["tilt_joint", "pan_joint"], position=[0.0, -0.025 * k])
+    joints.header.stamp = ns_to_stamp(stamp_ns)
+    return joints
+
+
+def intrinsics(stamp_ns, _k=0):
+    return camera_info(120, 90, FX, FX, 60.0, 45.0, ns_to_stamp(stamp_ns), "ptz_camera_optical")
+
+
+class PoseFeed:
+    """The good pose messages of frame k for one pose source, and hostile ones."""
+
+    def __init__(self, h, pose_source, windows):
+        self.h, self.windows = h, windows
+        self.joint_states = pose_source == "joint_states"
+        if self.joint_states:
+            feed(h, "camera/camera_info", h.infos, intrinsics(0))
+
+    def good(self, k, stamp):
+        if self.joint_states:
+            feed(self.h, "ptz/joint_states", self.h.joints, pan_tilt_joints(stamp, k))
+        else:
+            feed(self.h, "ptz/state", self.h.states, state_msg(self.windows[k], stamp))
+
+    def hostile(self, rng, k, stamp):
+        if not self.joint_states:
+            msg, _ = spoil(rng, state_msg(self.windows[k], stamp), WINDOW_STATE_FIELDS, stamp, NS)
+            feed(self.h, "ptz/state", self.h.states, msg)
+        elif rng.integers(2):
+            msg, _ = spoil(rng, pan_tilt_joints(stamp, k), JOINT_FIELDS, stamp, NS)
+            feed(self.h, "ptz/joint_states", self.h.joints, msg)
+        else:
+            msg, _ = spoil(rng, intrinsics(stamp), INFO_FIELDS, stamp, NS)
+            feed(self.h, "camera/camera_info", self.h.infos, msg)
+
+
+@pytest.mark.parametrize(
+    ("method", "pose_source"),
+    [
+        ("ssim_background", "ptz_state"),
+        ("person_motion", "ptz_state"),
+        ("ssim_background", "joint_states"),
+    ],
+)
+def test_hundreds_of_hostile_messages_change_no_good_answer(
+    harness_factory, capfd, method, pose_source
+):
     """Seeded: 20 frames of a panning camera (the background detector, and the person model fed
-    by it), and after each 15 hostile
-    pan-tilt states (a window field or the focal length non-finite, huge or negative) or
-    unreadable images, stamped between frames, far ahead, back in time, on the last frame, the
-    next frame's or before zero. The good frames' detections are the clean run's, the node lives,
-    and each cause is logged once."""
+    by it), and after each 15 hostile poses (a PtzState's window field or focal length; a joint
+    position; a CameraInfo's fx, fy, cx or cy: non-finite, huge or negative) or unreadable images,
+    stamped between frames, far ahead, back in time, on the last frame, the next frame's or before
+    zero. The good frames' detections are the clean run's, the node lives, and each cause is
+    logged once."""
     rng = np.random.default_rng(67)
     frames, windows = scene_and_windows(n=20)
+    extra = {"scene_focal_length": FX} if pose_source == "joint_states" else {}
 
     def run(hostile: bool):
-        h = harness_factory(pose_source="ptz_state", method=method)
+        h = harness_factory(pose_source=pose_source, method=method, **extra)
+        poses = PoseFeed(h, pose_source, windows)
         published = record_publishes(h.node.detections_pub)
         answers = []
         for k, (frame, (x, y, w, hh)) in enumerate(zip(frames, windows, strict=True)):
             stamp = k * NS
             image = image_msg(frame[y : y + hh, x : x + w], stamp)
-            feed(h, "ptz/state", h.states, state_msg(windows[k], stamp))
+            poses.good(k, stamp)
             before = len(published)  # an unreadable image may have been answered at this stamp
             feed(h, "camera/image_raw", h.images, image)
             assert h.spin_until(
@@ -449,9 +507,7 @@ def test_hundreds_of_hostile_messages_change_no_good_answer(harness_factory, cap
             answers.append((blob_values(good), good.compared_area, good.ego_shift_x))
             for _ in range(15 if hostile else 0):
                 if rng.integers(2):
-                    good_state = state_msg(windows[k], stamp)
-                    msg, _ = spoil(rng, good_state, WINDOW_STATE_FIELDS, stamp, NS)
-                    feed(h, "ptz/state", h.states, msg)
+                    poses.hostile(rng, k, stamp)
                 else:
                     bad = unreadable_image(rng, image, hostile_stamp(rng, stamp, NS))
                     feed(h, "camera/image_raw", h.images, bad)

@@ -19,10 +19,10 @@ from hostile_messages import (  # noqa: E402
     warning_lines,
 )
 from node_harness import NodeHarness  # noqa: E402
-from sensor_msgs.msg import Image  # noqa: E402
+from sensor_msgs.msg import Image, JointState  # noqa: E402
 
 from tracker_msgs.msg import PtzCommand, PtzState  # noqa: E402
-from tracker_msgs_py.codec import array_to_image, image_qos, ns_to_stamp  # noqa: E402
+from tracker_msgs_py.codec import array_to_image, image_qos, ns_to_stamp, result_qos  # noqa: E402
 from tracker_ptz_sim.simulation.ptz_camera_node import PtzCameraNode  # noqa: E402
 
 pytestmark = pytest.mark.ros
@@ -256,22 +256,61 @@ def state_values(state):
     return (*motion, window.x, window.y, window.width, window.height, state.focal_length)
 
 
-def test_hundreds_of_hostile_messages_change_no_good_answer_and_nothing_non_finite_leaves(capfd):
-    """Seeded: 20 good scene images, each answered with a command; after each, 15 hostile
-    commands (a field non-finite, huge or a negative zoom) or unreadable scene images, stamped
-    between frames, far ahead, back in time, on the last frame, the next frame's or before zero.
-    The camera's states, joint states and views for the good images are the clean run's, every
-    state and joint state it publishes is finite, and each cause is logged once."""
+JOINT_COMMAND_FIELDS = [
+    Field("position[0]", nan_means_unset=True),
+    Field("position[1]", nan_means_unset=True),
+    Field("velocity[0]", nan_means_unset=True),
+    Field("velocity[1]", nan_means_unset=True),
+    Field("position[2]", positive=True, nan_means_unset=True),
+]
+
+
+def good_joint_command(stamp_ns, k=0):
+    """`good_command` as a real unit's driver takes it: a JointState of pan, tilt and zoom."""
+    suite = good_command(stamp_ns, k)
+    msg = JointState(name=["pan_joint", "tilt_joint", "zoom"])
+    msg.header.stamp = suite.header.stamp
+    zoom = suite.zoom if suite.zoom > 0 else math.nan
+    if suite.mode == PtzCommand.MODE_POSITION:
+        msg.position = [suite.pan, suite.tilt, zoom]
+        msg.velocity = [math.nan] * 3  # not commanded
+    else:
+        msg.position = [math.nan, math.nan, zoom]
+        msg.velocity = [suite.pan_rate, suite.tilt_rate, math.nan]
+    return msg
+
+
+@pytest.mark.parametrize("interface", ["suite", "standard"])
+def test_hundreds_of_hostile_messages_change_no_good_answer_and_nothing_non_finite_leaves(
+    capfd, interface
+):
+    """Seeded: 20 good scene images, each answered with a command (a PtzCommand, or for a real
+    unit's interface a JointState); after each, 15 hostile commands (a field non-finite, huge or
+    a negative zoom) or unreadable scene images, stamped between frames, far ahead, back in time,
+    on the last frame, the next frame's or before zero. The camera's states, joint states and
+    views for the good images are the clean run's, every state and joint state it publishes is
+    finite, and each cause is logged once."""
     rng = np.random.default_rng(67)
+    standard = interface == "standard"
+    topic, make, fields = (
+        ("ptz/joint_command", good_joint_command, JOINT_COMMAND_FIELDS)
+        if standard
+        else ("ptz/command", good_command, COMMAND_FIELDS)
+    )
 
     def run(hostile: bool):
         h = NodeHarness(
             PtzCameraNode,
-            inputs={"scene/image_raw": (Image, image_qos(True)), "ptz/command": (PtzCommand, 50)},
-            outputs={"ptz/state": (PtzState, 50)},
+            inputs={
+                "scene/image_raw": (Image, image_qos(True)),
+                topic: (JointState if standard else PtzCommand, result_qos(late_joiners=False)),
+            },
+            outputs={"ptz/joint_states": (JointState, 50)},
             reliable_images=True,
+            interface=interface,
+            zoom_joint="zoom" if standard else "",
         )
-        states = record_publishes(h.node.state_pub)
+        states = [] if standard else record_publishes(h.node.state_pub)
         joints = record_publishes(h.node.joint_pub)
         views = record_publishes(h.node.view_pub)
         try:
@@ -281,17 +320,17 @@ def test_hundreds_of_hostile_messages_change_no_good_answer_and_nothing_non_fini
                 h.feed("scene/image_raw", scene(stamp))
                 answers.append(
                     (
-                        state_values(states[-1]),
+                        state_values(states[-1]) if states else (),
                         tuple(joints[-1].position),
                         tuple(joints[-1].velocity),
                         bytes(views[-1].data),
                     )
                 )
-                h.feed("ptz/command", good_command(stamp, k))
+                h.feed(topic, make(stamp, k))
                 for _ in range(15 if hostile else 0):
                     if rng.integers(4):
-                        msg, _ = spoil(rng, good_command(stamp, k), COMMAND_FIELDS, stamp, NS)
-                        h.feed("ptz/command", msg)
+                        msg, _ = spoil(rng, make(stamp, k), fields, stamp, NS)
+                        h.feed(topic, msg)
                     else:
                         h.feed("scene/image_raw", broken_scene(rng, hostile_stamp(rng, stamp, NS)))
             assert all(all_finite(state_values(s)) for s in states)

@@ -304,14 +304,17 @@ class PtzCameraNode(SuiteNode):
             )
             return None
 
-        def pick(values: Any) -> tuple[float, float] | None:
+        def pan_tilt(values: Any) -> tuple[float, ...]:
             if len(values) != len(names):
-                return None
-            pair = (float(values[names.index(pan_name)]), float(values[names.index(tilt_name)]))
-            return pair if all(math.isfinite(v) for v in pair) else None
+                return ()
+            return (float(values[names.index(pan_name)]), float(values[names.index(tilt_name)]))
 
-        rates, angles = pick(msg.velocity), pick(msg.position)
-        corrupt = [v for v in (*(rates or ()), *(angles or ())) if not usable_value(v)]
+        def pick(pair: tuple[float, ...]) -> tuple[float, float] | None:
+            return (pair[0], pair[1]) if pair and all(map(math.isfinite, pair)) else None
+
+        given = (pan_tilt(msg.velocity), pan_tilt(msg.position))
+        rates, angles = pick(given[0]), pick(given[1])
+        corrupt = [v for pair in given for v in pair if not (math.isnan(v) or usable_value(v))]
         if corrupt:  # NaN means "not commanded"; a value beyond any motion is a corrupt message
             self.problems.report(
                 "joint command beyond range",
