@@ -11,6 +11,7 @@ handed to the node's `on_change` callback.
 from __future__ import annotations
 
 import math
+import weakref
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, fields
 from typing import TYPE_CHECKING, Any, Protocol, TypeVar
@@ -153,7 +154,7 @@ def declare_parameters(
 
     by_name = {spec.name: spec for spec in specs}
     _widen_overrides(node, by_name)
-    node.add_pre_set_parameters_callback(lambda params: [_widened(p, by_name) for p in params])
+    _widen_at_run_time(node, by_name)
     values: dict[str, Any] = {}
     for spec in specs:
         try:
@@ -214,6 +215,22 @@ def _widened(param: Parameter, by_name: Mapping[str, ParamSpec]) -> Parameter:
     if decimals and param.type_ == Parameter.Type.INTEGER_ARRAY:
         return Parameter(param.name, Parameter.Type.DOUBLE_ARRAY, [float(v) for v in param.value])
     return param
+
+
+_RUN_TIME_SPECS: weakref.WeakKeyDictionary[Node, dict[str, ParamSpec]] = (
+    weakref.WeakKeyDictionary()
+)
+
+
+def _widen_at_run_time(node: Node, by_name: Mapping[str, ParamSpec]) -> None:
+    """`_widened` for values set at run time, by one pre-set callback per node over every spec
+    declared on it: rclpy concatenates what each pre-set callback returns, so a second callback
+    would hand the original integer on as well."""
+    known = _RUN_TIME_SPECS.get(node)
+    if known is None:
+        known = _RUN_TIME_SPECS[node] = {}
+        node.add_pre_set_parameters_callback(lambda params: [_widened(p, known) for p in params])
+    known.update(by_name)
 
 
 def _widen_overrides(node: Node, by_name: Mapping[str, ParamSpec]) -> None:
