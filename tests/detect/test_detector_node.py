@@ -178,6 +178,11 @@ def test_bad_encodings_repeated_stamps_and_a_new_epoch(harness_factory):
     h.images.publish(image_msg(frames[1][:90, :120], NS))  # the next frame, not a jump back
     h.settle(3)
     assert h.detections[2].compared_area > 0 and h.node.image_order.epochs == 0
+    for stamp in (NS, 0):  # unreadable and not newer: not answered (it would move clocks back)
+        old = Image(height=2, width=2, encoding="16UC1", step=4, data=bytes(8))
+        old.header.stamp = ns_to_stamp(stamp)
+        h.images.publish(old)
+    h.spin_until(lambda: h.node.counters.unsupported_encoding == 3)
     h.images.publish(image_msg(frames[1][:90, :120], NS))  # repeated stamp: dropped
     h.spin_until(lambda: h.node.counters.stale_stamp >= 1)
     assert len(h.detections) == 3 and h.node.problems.count("repeat image stamp") == 1

@@ -304,9 +304,14 @@ class DetectorNode(SuiteNode):
         except UnsupportedEncodingError as error:
             self.counters.unsupported_encoding += 1
             self.problems.report(
-                error.cause, f"{error}; such images are answered with an empty BlobArray"
+                error.cause,
+                f"{error}; such images are answered with an empty BlobArray (when newer than "
+                "the last image)",
             )
-            self._publish_empty(msg.header)
+            if self.image_order.classify(stamp) is Order.NEXT:
+                # lockstep: its camera waits for an answer; an older or repeated stamp is not
+                # answered, which would move the tracker's clock back or answer an image twice
+                self._publish_empty(msg.header)
             return
         order = self.image_order.check(stamp)
         if order in (Order.REPEAT, Order.INVALID):

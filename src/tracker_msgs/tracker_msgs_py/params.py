@@ -217,9 +217,7 @@ def _widened(param: Parameter, by_name: Mapping[str, ParamSpec]) -> Parameter:
     return param
 
 
-_RUN_TIME_SPECS: weakref.WeakKeyDictionary[Node, dict[str, ParamSpec]] = (
-    weakref.WeakKeyDictionary()
-)
+_RUN_TIME_SPECS: weakref.WeakKeyDictionary[Node, dict[str, ParamSpec]] = weakref.WeakKeyDictionary()
 
 
 def _widen_at_run_time(node: Node, by_name: Mapping[str, ParamSpec]) -> None:
