@@ -19,7 +19,12 @@ from rclpy.qos import DurabilityPolicy, ReliabilityPolicy  # noqa: E402
 
 from tracker_detect.detector_node import DetectorNode  # noqa: E402
 from tracker_filter.tracker_node import TrackerNode  # noqa: E402
-from tracker_msgs_py.codec import RESULT_DEPTH, result_qos  # noqa: E402
+from tracker_msgs_py.codec import (  # noqa: E402
+    COMMAND_DEPTH,
+    RESULT_DEPTH,
+    is_command_topic,
+    result_qos,
+)
 from tracker_ptz_sim.bringup.graph import GRAPHS, load_graph  # noqa: E402
 from tracker_ptz_sim.control.ptz_controller_node import PtzControllerNode  # noqa: E402
 from tracker_ptz_sim.control.ptz_state_bridge_node import PtzStateBridgeNode  # noqa: E402
@@ -68,7 +73,7 @@ def test_every_recorded_result_is_published_reliably_with_a_deep_history(running
         for node in running_nodes
         for publisher in node.publishers
     }
-    topics = {t.removeprefix("/motion") for t in result_topics()}
+    topics = {t.removeprefix("/motion") for t in result_topics() if not is_command_topic(t)}
     assert topics <= offered.keys(), f"no node publishes {topics - offered.keys()}"
     shallow = {
         topic: (offered[topic].reliability.name, offered[topic].depth)
@@ -78,6 +83,52 @@ def test_every_recorded_result_is_published_reliably_with_a_deep_history(running
         or offered[topic].durability != DurabilityPolicy.TRANSIENT_LOCAL
     }
     assert not shallow, f"published with a shallow, best-effort or volatile history: {shallow}"
+
+
+def test_commands_are_volatile_with_a_small_history(running_nodes):
+    offered = {
+        publisher.topic_name: publisher.qos_profile
+        for node in running_nodes
+        for publisher in node.publishers
+    }
+    commands = {t for t in result_topics() if is_command_topic(t)}
+    assert commands == {"/ptz/command", "/ptz/joint_command"}
+    for topic in commands:
+        qos = offered[topic]
+        assert qos.durability == DurabilityPolicy.VOLATILE, topic
+        assert qos.reliability == ReliabilityPolicy.RELIABLE and qos.depth == COMMAND_DEPTH, topic
+
+
+def test_a_command_subscriber_created_after_100_commands_receives_none_of_them():
+    """A late driver (or a relay asking for transient local) must not act on old commands: a
+    transient-local reader does not match at all, a volatile one gets only what comes after it."""
+    from node_harness import NodeHarness
+    from ptz_messages import state_msg, target_msg
+
+    from tracker_msgs.msg import PtzCommand, PtzState, Target
+
+    h = NodeHarness(
+        PtzControllerNode,
+        inputs={"ptz/state": (PtzState, 50), "target": (Target, 50)},
+        outputs={},
+        mode="servo",
+    )
+    try:
+        for k in range(100):
+            h.feed("ptz/state", state_msg(k * 100_000_000))
+            h.feed("target", target_msg(k * 100_000_000))
+        late, volatile = [], []
+        h.peer.create_subscription(PtzCommand, "ptz/command", late.append, result_qos())
+        h.peer.create_subscription(PtzCommand, "ptz/command", volatile.append, 10)
+        h.spin_until(lambda: h.node.command_pub.get_subscription_count() == 1)
+        h.spin_for(0.5)
+        assert late == [] and volatile == []
+        h.feed("ptz/state", state_msg(100 * 100_000_000))
+        h.feed("target", target_msg(100 * 100_000_000))
+        h.spin_until(lambda: len(volatile) == 1)
+        assert late == [] and volatile[0].header.stamp.sec == 10
+    finally:
+        h.close()
 
 
 class _Bag:

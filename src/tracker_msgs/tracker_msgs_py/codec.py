@@ -79,8 +79,8 @@ RESULT_DEPTH = 200  # per-frame results: a recorder stalled ~20 s at 10 fps stil
 
 
 def result_qos(late_joiners: bool = True) -> QoSProfile:
-    """Reliable QoS for small per-frame results (detections, tracks, target, pan-tilt state and
-    commands). Keep-last history still drops a sample a slow reader has not yet acknowledged
+    """Reliable QoS for small per-frame results (detections, tracks, target, pan-tilt state).
+    Keep-last history still drops a sample a slow reader has not yet acknowledged
     once `depth` newer ones are queued, so the depth covers a recorder that stalls on disk while
     the graph keeps running; the messages are small, so the memory is a few hundred kB.
 
@@ -90,6 +90,23 @@ def result_qos(late_joiners: bool = True) -> QoSProfile:
     (`late_joiners`). A node that acts on what it receives asks for `late_joiners=False`
     (volatile): restarted, it must not act on old messages."""
     return _keep_last(RESULT_DEPTH, reliable=True, durable=late_joiners)
+
+
+COMMAND_DEPTH = 10  # commands kept for a reader that has not acknowledged them yet
+
+
+def command_qos() -> QoSProfile:
+    """QoS for motion commands (ptz/command, JointState commands): reliable, volatile, keep last
+    COMMAND_DEPTH. A driver, bridge or recorder that starts late or restarts never receives
+    commands published before it: acting on a stale command moves a camera nobody asked to move.
+    A reader asking for transient local does not match (rclpy reports the incompatible QoS)."""
+    return _keep_last(COMMAND_DEPTH, reliable=True)
+
+
+def is_command_topic(name: str) -> bool:
+    """Whether a topic carries motion commands (its last name ends in 'command': ptz/command,
+    ptz/joint_command), which are published with `command_qos`."""
+    return name.rstrip("/").rsplit("/", 1)[-1].endswith("command")
 
 
 def _keep_last(depth: int, reliable: bool, durable: bool = False) -> QoSProfile:

@@ -56,7 +56,14 @@ from std_msgs.msg import Header
 
 from tracker_msgs.msg import ReplayStatus
 from tracker_msgs_py import stop_signals
-from tracker_msgs_py.codec import header_stamp_ns, ns_to_stamp, result_qos, stamp_to_ns
+from tracker_msgs_py.codec import (
+    command_qos,
+    header_stamp_ns,
+    is_command_topic,
+    ns_to_stamp,
+    result_qos,
+    stamp_to_ns,
+)
 from tracker_msgs_py.node_main import (
     DEFAULT_EXECUTOR,
     EXECUTORS,
@@ -70,6 +77,7 @@ from tracker_ptz_sim.bringup.graph import (
     GRAPHS,
     LIVE_VIEW,
     Graph,
+    TopicSpec,
     load_graph,
     missing_topics,
     node_parameters,
@@ -112,13 +120,13 @@ RESPAWN_LIMIT = 5  # --respawn: restarts per node before the run gives up on it
 
 #: What the suite's nodes publish with `codec.result_qos` (transient local): the recorder asks for
 #: their history, so a result published before its writer had discovered the recorder (the first
-#: frames, on a loaded machine) still reaches the bag. Images and clock come without history.
+#: frames, on a loaded machine) still reaches the bag. Images and clock come without history, and
+#: commands (`codec.is_command_topic`, e.g. JointState on ptz/joint_command) volatile.
 RESULT_TYPES = frozenset(
     {
         "tracker_msgs/msg/BlobArray",
         "tracker_msgs/msg/TrackArray",
         "tracker_msgs/msg/Target",
-        "tracker_msgs/msg/PtzCommand",
         "tracker_msgs/msg/PtzState",
         "sensor_msgs/msg/JointState",
     }
@@ -192,8 +200,7 @@ class Recorder(Node):
         self._keep: dict[str, Subscription] = {}  # per graph topic, the recorder's subscription
         for topic in graph.topics:
             msg_type = import_message_type(topic.type)
-            durable = topic.type in RESULT_TYPES
-            qos = CLOCK_QOS if topic.name == "/clock" else result_qos(late_joiners=durable)
+            qos = CLOCK_QOS if topic.name == "/clock" else self._qos_for(topic)
             self._keep[topic.name] = self.create_subscription(
                 msg_type,
                 topic.name,
@@ -217,10 +224,19 @@ class Recorder(Node):
         self.callback_load: dict[str, CallbackLoad] = {}  # by node, from its latest diagnostics
         self.create_subscription(DiagnosticArray, "/diagnostics", self._on_diagnostics, 50)
 
+    @staticmethod
+    def _qos_for(topic: TopicSpec) -> QoSProfile:
+        """The QoS the topic's publishers offer: commands volatile, results with their history,
+        images without."""
+        if is_command_topic(topic.name):
+            return command_qos()
+        return result_qos(late_joiners=topic.type in RESULT_TYPES)
+
     def _incompatible(self, topic: str, _event: object) -> None:
         self.get_logger().error(
             f"{topic} is not recorded: its publisher's QoS cannot match the recorder's (a result "
-            "must be published with tracker_msgs_py.codec.result_qos, which keeps a history)",
+            "must be published with tracker_msgs_py.codec.result_qos, which keeps a history, a "
+            "command with codec.command_qos)",
             once=True,
         )
 

@@ -20,9 +20,9 @@ from tracker_msgs.msg import PtzCommand, PtzState, Target
 from tracker_msgs_py.codec import (
     MAX_MESSAGE_VALUE,
     NS_PER_S,
+    command_qos,
     msg_to_window,
     ns_to_stamp,
-    result_qos,
     stamp_to_ns,
     usable_value,
 )
@@ -165,7 +165,7 @@ class PtzControllerNode(SuiteNode):
         self.targets_stopped = False
         self.last_target_ns: int | None = None
         self.last_mode = CommandMode.HOLD
-        self.command_pub = self.create_publisher(PtzCommand, "ptz/command", result_qos())
+        self.command_pub = self.create_publisher(PtzCommand, "ptz/command", command_qos())
         self.joint_pub = self._joint_publisher()
         self.create_subscription(Target, "target", self._on_target, 10)
         self.create_subscription(PtzState, "ptz/state", self._on_state, 10)
@@ -185,7 +185,7 @@ class PtzControllerNode(SuiteNode):
 
     def _joint_publisher(self):  # noqa: ANN202 - Publisher | None
         topic = self.params["joint_command_topic"]
-        return self.create_publisher(JointState, topic, result_qos()) if topic else None
+        return self.create_publisher(JointState, topic, command_qos()) if topic else None
 
     def _on_change(self, changed: dict[str, Any]) -> None:
         self.controller.config = controller_config(self.params)

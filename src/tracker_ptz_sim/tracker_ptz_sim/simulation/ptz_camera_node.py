@@ -38,6 +38,7 @@ from tracker_msgs_py.codec import (
     UnsupportedEncodingError,
     array_to_image,
     camera_info,
+    command_qos,
     image_qos,
     image_to_array,
     rect_to_msg,
@@ -188,10 +189,10 @@ class PtzCameraNode(SuiteNode):
                 JointState,
                 "ptz/joint_command",
                 self._on_joint_command,
-                result_qos(late_joiners=False),
+                command_qos(),
             )
         else:
-            self.create_subscription(PtzCommandMsg, "ptz/command", self._on_command, 10)
+            self.create_subscription(PtzCommandMsg, "ptz/command", self._on_command, command_qos())
         if self.params["lockstep"]:
             self.create_steady_timer(0.05, self._on_lockstep_timer)
 

@@ -31,6 +31,7 @@ from tracker_msgs_py.codec import (
     NS_PER_S,
     array_to_image,
     camera_info,
+    command_qos,
     image_qos,
     ns_to_stamp,
     stamp_to_ns,
@@ -168,7 +169,9 @@ class VideoSourceNode(SuiteNode):
         self.pace_event = threading.Event()
         self.pacer = Pacer(self.params["rate"])
         self.ack_sub = (
-            self.create_subscription(PtzCommand, self.params["ack_topic"], self._on_ack, 10)
+            self.create_subscription(
+                PtzCommand, self.params["ack_topic"], self._on_ack, command_qos()
+            )
             if self.params["lockstep"]
             else None
         )
