@@ -44,7 +44,7 @@ def send_image(h: NodeHarness, k: int) -> BlobArray:
 
 
 def select_region(h: NodeHarness, rect: Rect) -> SelectRegion.Response:
-    client = h.peer.create_client(SelectRegion, "select_region")
+    client = h.peer.create_client(SelectRegion, "detector/select_region")
     h.spin_until(lambda: client.service_is_ready())
     future = client.call_async(SelectRegion.Request(region=rect_to_msg(rect)))
     h.spin_until(future.done)

@@ -239,7 +239,7 @@ def test_services_select_and_reset(harness):
     assert target.locked and target.track.id == 1
     response = harness.call(
         SelectTarget,
-        "select_target",
+        "tracker/select_target",
         SelectTarget.Request(mode=SelectTarget.Request.MODE_TRACK_ID, track_id=2),
     )
     assert response.success and response.selected_track_id == 2
@@ -247,7 +247,7 @@ def test_services_select_and_reset(harness):
     assert target.track.id == 2 and target.selection == Target.SELECT_MANUAL_ID
     bad = harness.call(
         SelectTarget,
-        "select_target",
+        "tracker/select_target",
         SelectTarget.Request(mode=SelectTarget.Request.MODE_TRACK_ID, track_id=77),
     )
     assert not bad.success and "77" in bad.message
@@ -258,11 +258,13 @@ def test_services_select_and_reset(harness):
         rect_request.rectangle.width,
         rect_request.rectangle.height,
     ) = 110.0, 40.0, 30.0, 20.0
-    response = harness.call(SelectTarget, "select_target", rect_request)
+    response = harness.call(SelectTarget, "tracker/select_target", rect_request)
     assert response.success and response.selected_track_id == 1
     rect_request.rectangle.width = float("nan")
-    assert not harness.call(SelectTarget, "select_target", rect_request).success
-    reset = harness.call(ResetTracker, "reset_tracker", ResetTracker.Request(reset_ids=True))
+    assert not harness.call(SelectTarget, "tracker/select_target", rect_request).success
+    reset = harness.call(
+        ResetTracker, "tracker/reset_tracker", ResetTracker.Request(reset_ids=True)
+    )
     assert reset.success and reset.tracks_cleared == 2
     tracks, target = harness.send(0.5, [(10, 10)])  # an earlier stamp is fine after a reset
     assert [t.id for t in tracks.tracks] == [1] and not target.locked

@@ -7,9 +7,10 @@ Subscribes `camera/image_raw` (sensor_msgs/Image: mono8, bgr8, rgb8, bgra8, rgba
 image is paired with the pose of its stamp (`pose_buffer`), handed to the detector as a
 `detector.CameraFrame`, and answered by exactly one `detections` (tracker_msgs/BlobArray, scene
 frame) with the image's stamp -- empty when nothing can be compared, so a lockstep replay always
-gets its acknowledgement. `detector/motion_mask` and `detector/ssim_map` (mono8 Images in camera
-pixels) are published only while subscribed. Serves `select_region` (tracker_msgs/SelectRegion)
-for detectors started from a rectangle.
+gets its acknowledgement. `~/motion_mask` and `~/ssim_map` (mono8 Images in camera pixels,
+under the node's own name: /detector/motion_mask by default) are published only while
+subscribed. Serves `~/select_region` (tracker_msgs/SelectRegion) for detectors started from a
+rectangle.
 """
 
 from __future__ import annotations
@@ -188,8 +189,9 @@ class DetectorNode(SuiteNode):
         self.last_frame: CameraFrame | None = None
         reliable = self.params["reliable_images"]
         self.detections_pub = self.create_publisher(BlobArray, "detections", result_qos())
-        self.mask_pub = self.create_publisher(Image, "detector/motion_mask", image_qos(reliable))
-        self.ssim_pub = self.create_publisher(Image, "detector/ssim_map", image_qos(reliable))
+        # private (~/: /detector/motion_mask for a node of the default name), one per detector
+        self.mask_pub = self.create_publisher(Image, "~/motion_mask", image_qos(reliable))
+        self.ssim_pub = self.create_publisher(Image, "~/ssim_map", image_qos(reliable))
         self.create_subscription(Image, "camera/image_raw", self._on_image, image_qos(reliable))
         pose_qos = image_qos(reliable, depth=self.params["pose_buffer_size"])
         source = self.params["pose_source"]
@@ -200,7 +202,7 @@ class DetectorNode(SuiteNode):
             self.create_subscription(
                 CameraInfo, "camera/camera_info", self._on_camera_info, image_qos(reliable)
             )
-        self.create_service(SelectRegion, "select_region", self._on_select_region)
+        self.create_service(SelectRegion, "~/select_region", self._on_select_region)
         self.recent_frames: dict[int, CameraFrame] = {}
         self.guide: Guidance | None = None
         self.latest_offer: Offer | None = None

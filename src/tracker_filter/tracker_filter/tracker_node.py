@@ -6,7 +6,8 @@ ptz/state (tracker_msgs/PtzState, for the view centre), plus what the tracker `n
 camera/image_raw (sensor_msgs/Image), detector/motion_mask (mono8 Image), the ptz/state window,
 paired with the detections by stamp (`tracker_msgs_py.pairing`). Publishes tracks
 (tracker_msgs/TrackArray) and target (tracker_msgs/Target) stamped with the BlobArray's stamp;
-serves select_target and reset_tracker. All the tracking is in the core modules; this file
+serves ~/select_target and ~/reset_tracker (under the node's name: /tracker/select_target by
+default). All the tracking is in the core modules; this file
 declares parameters, converts messages and wires topics.
 """
 
@@ -232,8 +233,9 @@ class TrackerNode(SuiteNode):
                     partial(self._on_image_part, need),
                     image_qos(self._params["reliable_images"]),
                 )
-        self.create_service(SelectTarget, "select_target", self._on_select_target)
-        self.create_service(ResetTracker, "reset_tracker", self._on_reset_tracker)
+        # private (~/): two trackers in one graph (the colour graph) must not serve one name
+        self.create_service(SelectTarget, "~/select_target", self._on_select_target)
+        self.create_service(ResetTracker, "~/reset_tracker", self._on_reset_tracker)
         needed = ", ".join(sorted(n.value for n in needs)) or "detections only"
         self.get_logger().info(
             f"tracker ready: method {self._method.name}"
