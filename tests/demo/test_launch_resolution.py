@@ -184,3 +184,46 @@ def test_bad_arguments_are_named():
         plan(LaunchArguments(camera="usb"))
     with pytest.raises(ValueError, match="needs a clock"):
         plan(LaunchArguments(video="v.avi", clock="off", use_sim_time="true"))
+    with pytest.raises(ValueError, match="params_file: no such file"):
+        plan(LaunchArguments(video="v.avi", params_file="/no/such.yaml"))
+
+
+def test_a_params_file_of_ones_own_wins_over_the_graphs_and_the_arguments_over_it(tmp_path):
+    mine = tmp_path / "mine.yaml"
+    mine.write_text(
+        yaml.dump(
+            {
+                "/**/ptz_controller": {"ros__parameters": {"kp": 2.5, "mode": "hold"}},
+                "/**": {"ros__parameters": {"reliable_images": False}},
+            }
+        )
+    )
+    planned = plan(LaunchArguments(video="v.avi", params_file=str(mine)))
+    with Resolved(launch_ros_command(node(planned, "ptz_controller"), tmp_path)) as controller:
+        assert controller.value("kp") == 2.5 and controller.value("mode") == "hold"
+    argued = plan(LaunchArguments(video="v.avi", params_file=str(mine), controller_mode="direct"))
+    with Resolved(launch_ros_command(node(argued, "ptz_controller"), tmp_path)) as controller:
+        assert controller.value("mode") == "direct" and controller.value("kp") == 2.5
+    with Resolved(launch_ros_command(node(planned, "ssim_detector"), tmp_path)) as detector:
+        assert detector.value("reliable_images") is False  # the graph's files say true
+
+
+def test_topic_arguments_remap_the_camera_joint_and_command_topics_in_every_node(tmp_path):
+    arguments = LaunchArguments(
+        camera="live",
+        namespace="cam1",
+        image_topic="/axis/image_raw",
+        camera_info_topic="/axis/camera_info",
+        joint_states_topic="/axis/joint_states",
+        joint_command_topic="ptu/cmd",
+    )
+    planned = plan(arguments)
+    with Resolved(launch_ros_command(node(planned, "ssim_detector"), tmp_path)) as detector:
+        assert detector.topic("camera/image_raw") == "/axis/image_raw"
+        assert detector.topic("camera/camera_info") == "/axis/camera_info"
+        assert detector.topic("ptz/state") == "/cam1/ptz/state"  # not remapped
+    with Resolved(launch_ros_command(node(planned, "ptz_state_bridge"), tmp_path)) as bridge:
+        assert bridge.topic("ptz/joint_states") == "/axis/joint_states"
+    with Resolved(launch_ros_command(node(planned, "ptz_controller"), tmp_path)) as controller:
+        assert controller.topic("ptz/joint_command") == "/cam1/ptu/cmd"
+        assert controller.topic("ptz/command") == "/cam1/ptz/command"

@@ -3,7 +3,9 @@
     [namespace:=cam1]
     [use_sim_time:=auto|true|false] [clock:=auto|global|namespaced|off]
     [controller_mode:=graph|servo|direct|hold] [respawn:=true] [live_view:=true]
-    [frames_in_flight:=N]
+    [frames_in_flight:=N] [params_file:=/path/to/my_params.yaml]
+    [image_topic:=...] [camera_info_topic:=...] [joint_states_topic:=...] [command_topic:=...]
+    [joint_command_topic:=...]
 
 The whole graph, built from the same config/*graph.yaml and parameter files the demo runner
 (make demo) uses, so both run exactly the same nodes with the same parameters. The surveillance
@@ -18,7 +20,9 @@ in two namespaces, each on its own clock (`tracker_ptz_sim.bringup.launch_plan` 
 With respawn:=true a processing node that exits is started again (after 1 s, at most 5 times).
 video_source is not respawned: it exits 0 at the end of the stream, which launch cannot tell from
 a crash (`run_demo --respawn` restarts it where it left off; a source restarted from its first
-frame is taken as a new replay epoch by every node).
+frame is taken as a new replay epoch by every node). params_file:= is applied after the graph's
+parameter files (the arguments above still win over it); the *_topic arguments remap the graph's
+camera, joint-state and command topics in every node, for real drivers on their own names.
 """
 
 import os
@@ -34,6 +38,7 @@ from tracker_ptz_sim.bringup.launch_plan import (
     CLOCKS,
     CONTROLLER_MODES,
     SIM_TIMES,
+    TOPIC_ARGUMENTS,
     LaunchArguments,
     plan,
 )
@@ -89,6 +94,16 @@ ARGUMENTS = [
         "sim: frames in the lockstep graph at once; the simulated camera applies each command "
         "as many frames after its image (1: in series)",
     ),
+    (
+        "params_file",
+        "",
+        None,
+        "a parameter file of yours, applied after the graph's (the arguments above still win)",
+    ),
+    *[
+        (name, "", None, f"remap the graph's {topic} to this topic in every node ('': keep)")
+        for name, topic in TOPIC_ARGUMENTS.items()
+    ],
 ]
 
 
@@ -124,6 +139,8 @@ def graph_actions(context):
         outer_namespace=context.launch_configurations.get("ros_namespace") or "",
         live_view=value["live_view"] == "true",
         frames_in_flight=_whole_number("frames_in_flight", value["frames_in_flight"]),
+        params_file=value["params_file"],
+        **{name: value[name] for name in TOPIC_ARGUMENTS},
     )
     respawn = {"respawn": True, "respawn_delay": 1.0, "respawn_max_retries": 5}
     nodes = [

@@ -20,6 +20,12 @@ the launch arguments into nodes, so the launch file stays a thin shell and its r
 - `live_view:=true` adds the Foxglove live view (`live_view` node, ws://127.0.0.1:8765).
 - `frames_in_flight` (sim): a lockstep replay with that many frames in the graph at once, the
   simulated camera applying each command as many frames after its image (`graph.pipelined`).
+- `params_file`: a parameter file of the user's, applied after the graph's files (its sections win
+  over theirs; the arguments above still win over it).
+- `image_topic`, `camera_info_topic`, `joint_states_topic`, `command_topic`,
+  `joint_command_topic`: remap the graph's `camera/image_raw`, `camera/camera_info`,
+  `ptz/joint_states`, `ptz/command` and `ptz/joint_command` in every node, so the graph meets a
+  real unit's drivers on their own topics.
 """
 
 from __future__ import annotations
@@ -52,6 +58,22 @@ class LaunchArguments:
     outer_namespace: str = ""  # pushed by an including launch file (PushRosNamespace)
     live_view: bool = False  # serve the graph to the Foxglove app
     frames_in_flight: int = 1  # lockstep replay: frames in the graph at once
+    params_file: str = ""  # the user's parameter file, after the graph's
+    image_topic: str = ""  # remaps of the graph's topics ("": the graph's own name)
+    camera_info_topic: str = ""
+    joint_states_topic: str = ""
+    command_topic: str = ""
+    joint_command_topic: str = ""
+
+
+#: The LaunchArguments fields that remap a graph topic, and the topic each one renames.
+TOPIC_ARGUMENTS = {
+    "image_topic": "camera/image_raw",
+    "camera_info_topic": "camera/camera_info",
+    "joint_states_topic": "ptz/joint_states",
+    "command_topic": "ptz/command",
+    "joint_command_topic": "ptz/joint_command",
+}
 
 
 @dataclass(frozen=True)
@@ -78,6 +100,8 @@ def plan(arguments: LaunchArguments, graph: Graph | None = None) -> list[Planned
     files: list[Path] = list(graph.params_files)
     if live:
         files.append(graph.config_dir / LIVE_PARAMETERS)
+    if arguments.params_file:
+        files.append(Path(arguments.params_file))
     clock = _clock(arguments)
     sim_time = _sim_time(arguments, clock)
     planned = []
@@ -89,7 +113,7 @@ def plan(arguments: LaunchArguments, graph: Graph | None = None) -> list[Planned
             values["mode"] = arguments.controller_mode
         if arguments.frames_in_flight != 1:
             values |= pipelined(arguments.frames_in_flight).get(node.name, {})
-        remappings = list(node.remappings.items())
+        remappings = list(node.remappings.items()) + _topic_remappings(arguments)
         if clock == "namespaced":
             remappings.append(("/clock", "clock"))  # relative: <namespace>/clock
         planned.append(
@@ -104,6 +128,11 @@ def plan(arguments: LaunchArguments, graph: Graph | None = None) -> list[Planned
             )
         )
     return planned
+
+
+def _topic_remappings(arguments: LaunchArguments) -> list[tuple[str, str]]:
+    given = {name: getattr(arguments, name) for name in TOPIC_ARGUMENTS}
+    return [(TOPIC_ARGUMENTS[name], topic) for name, topic in given.items() if topic]
 
 
 def _check(arguments: LaunchArguments) -> None:
@@ -121,6 +150,8 @@ def _check(arguments: LaunchArguments) -> None:
             f"use_sim_time must be one of {', '.join(SIM_TIMES)}, got '{arguments.use_sim_time}'"
         )
     pipelined(arguments.frames_in_flight)  # raises for a count out of range
+    if arguments.params_file and not Path(arguments.params_file).is_file():
+        raise ValueError(f"params_file: no such file '{arguments.params_file}'")
     if arguments.camera == "sim" and not arguments.video:
         raise ValueError("camera:=sim replays a recording: give video:=/path/to/video")
     if arguments.use_sim_time == "true" and _clock(arguments) == "off":
