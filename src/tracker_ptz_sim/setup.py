@@ -38,6 +38,7 @@ setup(
             "live_view = tracker_ptz_sim.entry_points:live_view",
             "graph_host = tracker_ptz_sim.entry_points:graph_host",
             "run_demo = tracker_ptz_sim.entry_points:run_demo",
+            "run_launch = tracker_ptz_sim.entry_points:run_launch",
             "fetch_sample = tracker_ptz_sim.bringup.sample:main",
             "make_scene = tracker_ptz_sim.simulation.scene_cli:main",
             "annotate = tracker_ptz_sim.entry_points:annotate",

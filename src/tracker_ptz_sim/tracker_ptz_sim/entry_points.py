@@ -36,6 +36,10 @@ def run_demo() -> int:
     return guarded_main("tracker_ptz_sim.bringup.demo")
 
 
+def run_launch() -> int:
+    return guarded_main("tracker_ptz_sim.bringup.launch_runner")
+
+
 def evaluate() -> int:
     return guarded_main("tracker_ptz_sim.bringup.evaluate")
 
