@@ -20,7 +20,7 @@ setup:  ## Create .venv, install ROS 2 Jazzy + libraries (pinned), build the wor
 	@bash scripts/setup.sh
 
 build: setup  ## Rebuild the workspace (colcon build --symlink-install)
-	@$(ENV) colcon build --symlink-install --event-handlers console_cohesion- summary+
+	@$(ENV) colcon build --symlink-install --event-handlers console_cohesion- summary+ $$(bash scripts/installed_interfaces.sh)
 
 lint: setup  ## ruff lint + format check + mypy type check
 	@$(ENV) ruff check src tests bench scripts && ruff format --check src tests bench scripts && mypy

@@ -138,7 +138,9 @@ main() {
   say "colcon build"
   # shellcheck source=scripts/env.sh
   source "$ROOT/scripts/env.sh" --no-workspace
+  # shellcheck disable=SC2046 # word splitting wanted: "--packages-skip a b" or nothing
   (cd "$ROOT" && colcon build --symlink-install --event-handlers console_cohesion- summary+ \
+     $(bash "$ROOT/scripts/installed_interfaces.sh") \
      --cmake-args -DBUILD_TESTING=OFF -DPython3_EXECUTABLE="$VENV/bin/python") \
     || die "colcon build failed (logs in $ROOT/log/latest_build)"
   say "done. Get a shell with everything sourced: make shell (or: source scripts/env.sh)"

@@ -529,3 +529,27 @@ def test_hundreds_of_hostile_messages_change_no_good_answer(
 
 def blob_values(msg):
     return [(b.centroid_x, b.centroid_y, b.bbox.width, b.bbox.height, b.area) for b in msg.blobs]
+
+
+def test_a_vision_msgs_consumer_gets_every_frames_detections(harness_factory):
+    from vision_msgs.msg import Detection2DArray
+
+    from tracker_msgs_py.codec import result_qos
+
+    h = harness_factory(pose_source="ptz_state", method="ssim_background")
+    vision = []
+    h.peer.create_subscription(Detection2DArray, "detections_2d", vision.append, result_qos())
+    assert h.spin_until(lambda: h.node.vision_pub.get_subscription_count() == 1)
+    frames, windows = scene_and_windows()
+    for k, (frame, (x, y, w, hh)) in enumerate(zip(frames, windows, strict=True)):
+        h.states.publish(state_msg(windows[k], k * NS))
+        h.images.publish(image_msg(frame[y : y + hh, x : x + w], k * NS))
+        h.settle(k + 1)
+    assert h.spin_until(lambda: len(vision) == len(h.detections))
+    for suite, converted in zip(h.detections, vision, strict=True):
+        assert converted.header == suite.header
+        assert len(converted.detections) == len(suite.blobs)
+        for blob, detection in zip(suite.blobs, converted.detections, strict=True):
+            assert detection.results[0].hypothesis.class_id == blob.label
+            assert detection.results[0].pose.pose.position.x == blob.centroid_x
+    assert any(converted.detections for converted in vision)

@@ -22,6 +22,7 @@ from typing import Any
 import numpy as np
 from sensor_msgs.msg import CameraInfo, Image, JointState
 from std_msgs.msg import Header
+from vision_msgs.msg import Detection2DArray
 
 from tracker_detect.detector import (
     Blob,
@@ -76,6 +77,7 @@ from tracker_msgs_py.geometry import Rect
 from tracker_msgs_py.node_main import StartupError, SuiteNode, run_node
 from tracker_msgs_py.params import ParamSpec, config_from_params, declare_parameters
 from tracker_msgs_py.stamps import Order, StampOrder
+from tracker_msgs_py.vision import detections_to_vision
 
 NODE_PARAMETERS = [
     ParamSpec(
@@ -189,6 +191,10 @@ class DetectorNode(SuiteNode):
         self.last_frame: CameraFrame | None = None
         reliable = self.params["reliable_images"]
         self.detections_pub = self.create_publisher(BlobArray, "detections", result_qos())
+        # the same detections for consumers of vision_msgs, beside wherever detections is remapped
+        self.vision_pub = self.create_publisher(
+            Detection2DArray, self.detections_pub.topic_name + "_2d", result_qos()
+        )
         # private (~/: /detector/motion_mask for a node of the default name), one per detector
         self.mask_pub = self.create_publisher(Image, "~/motion_mask", image_qos(reliable))
         self.ssim_pub = self.create_publisher(Image, "~/ssim_map", image_qos(reliable))
@@ -465,7 +471,7 @@ class DetectorNode(SuiteNode):
             )
         if detection.registration_fallback:
             self.counters.registration_fallbacks += 1
-        self.detections_pub.publish(self._blob_array(detection, image.token))
+        self._publish_detections(self._blob_array(detection, image.token))
         self._publish_debug(detection, image.token)
         if isinstance(self.detector, DeferredLearning):  # off the image -> detections latency
             self.detector.learn_last_frame()
@@ -577,7 +583,13 @@ class DetectorNode(SuiteNode):
         msg = BlobArray()
         msg.header.stamp = image_header.stamp
         msg.header.frame_id = self.params["scene_frame_id"]
+        self._publish_detections(msg)
+
+    def _publish_detections(self, msg: BlobArray) -> None:
+        """The BlobArray, and as vision_msgs/Detection2DArray on `<detections>_2d` when read."""
         self.detections_pub.publish(msg)
+        if self.vision_pub.get_subscription_count():
+            self.vision_pub.publish(detections_to_vision(msg))
 
     def _publish_debug(self, detection: Detection, image_header: Header) -> None:
         frame_id = image_header.frame_id

@@ -20,6 +20,7 @@ from typing import Any
 import numpy as np
 from sensor_msgs.msg import Image
 from std_msgs.msg import Header
+from vision_msgs.msg import Detection2DArray
 
 from tracker_filter.config import SELECTION_DEFAULTS, SELECTION_PARAMETERS, selector_settings
 from tracker_filter.models import extrapolate_positions
@@ -49,6 +50,7 @@ from tracker_msgs_py.pairing import Frame, FrameAssembler
 from tracker_msgs_py.params import ParameterError, ParamSpec, declare_parameters
 from tracker_msgs_py.registry import Method
 from tracker_msgs_py.stamps import Order, StampOrder
+from tracker_msgs_py.vision import tracks_to_vision
 
 #: Parameters that take effect without rebuilding the tracker (the others clear its tracks).
 LIVE_PARAMETERS = frozenset(SELECTION_DEFAULTS) | {"scene_frame_id"}
@@ -221,6 +223,10 @@ class TrackerNode(SuiteNode):
         )
 
         self._tracks_pub = self.create_publisher(TrackArray, "tracks", result_qos())
+        # the same tracks for consumers of vision_msgs, beside wherever tracks is remapped
+        self._vision_pub = self.create_publisher(
+            Detection2DArray, self._tracks_pub.topic_name + "_2d", result_qos()
+        )
         self._target_pub = self.create_publisher(Target, "target", result_qos())
         self.create_subscription(BlobArray, "detections", self._on_detections, 10)
         self.create_subscription(PtzState, "ptz/state", self._on_ptz_state, 10)
@@ -393,7 +399,10 @@ class TrackerNode(SuiteNode):
     def _publish(self, header: Header, tracks: TrackSet) -> None:
         """One TrackArray and one Target per input frame (lockstep), even without tracks."""
         selection = self._selector.update(tracks, self._view_centre)  # None: nothing to follow
-        self._tracks_pub.publish(tracks_to_msg(tracks, header))
+        tracks_msg = tracks_to_msg(tracks, header)
+        self._tracks_pub.publish(tracks_msg)
+        if self._vision_pub.get_subscription_count():
+            self._vision_pub.publish(tracks_to_vision(tracks_msg))
         track_id = selection.track_id if selection is not None else None
         self._last_frame = (len(tracks), track_id)
         mode = selection.mode if selection is not None else self._selector.mode
