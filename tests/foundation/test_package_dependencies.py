@@ -55,6 +55,9 @@ ROS_PACKAGES = {
     "std_msgs",
     "sensor_msgs",
     "diagnostic_msgs",
+    "vision_msgs",  # ros-jazzy-vision-msgs (src/interfaces stands in on the wheels)
+    "tf2_msgs",
+    "geometry_msgs",
     "rosidl_default_runtime",
     "rosidl_default_generators",
     "ament_cmake",
