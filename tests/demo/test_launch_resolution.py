@@ -124,6 +124,7 @@ def test_a_live_camera_runs_the_graph_behind_the_bridge_on_wall_time(tmp_path):
         "ssim_detector",
         "tracker",
         "ptz_controller",
+        "ptz_tf",  # the unit's TF tree from its joint states
     ]
     with Resolved(launch_ros_command(node(planned, "ssim_detector"), tmp_path)) as detector:
         assert detector.value("use_sim_time") is False
@@ -184,6 +185,8 @@ def test_bad_arguments_are_named():
         plan(LaunchArguments(camera="usb"))
     with pytest.raises(ValueError, match="needs a clock"):
         plan(LaunchArguments(video="v.avi", clock="off", use_sim_time="true"))
+    with pytest.raises(ValueError, match="tf must be one of"):
+        plan(LaunchArguments(video="v.avi", tf="tf2"))
     with pytest.raises(ValueError, match="params_file: no such file"):
         plan(LaunchArguments(video="v.avi", params_file="/no/such.yaml"))
 
@@ -227,3 +230,27 @@ def test_topic_arguments_remap_the_camera_joint_and_command_topics_in_every_node
     with Resolved(launch_ros_command(node(planned, "ptz_controller"), tmp_path)) as controller:
         assert controller.topic("ptz/joint_command") == "/cam1/ptu/cmd"
         assert controller.topic("ptz/command") == "/cam1/ptz/command"
+
+
+def test_the_tf_publisher_and_the_frame_prefix(tmp_path):
+    """The suite's ptz_tf, or robot_state_publisher on the unit's URDF reading ptz/joint_states;
+    a frame prefix renames the camera's image frame and the commands' frame too."""
+    suite = plan(LaunchArguments(video="v.avi", frame_prefix="cam1/", namespace="cam1"))
+    with Resolved(launch_ros_command(node(suite, "ptz_tf"), tmp_path)) as tf:
+        assert tf.value("frame_prefix") == "cam1/" and tf.topic("ptz/joint_states") == (
+            "/cam1/ptz/joint_states"
+        )
+    with Resolved(launch_ros_command(node(suite, "ptz_camera"), tmp_path)) as camera:
+        assert camera.value("camera_frame_id") == "cam1/ptz_camera_optical"
+    with Resolved(launch_ros_command(node(suite, "ptz_controller"), tmp_path)) as controller:
+        assert controller.value("base_frame_id") == "cam1/ptz_base"
+    standard = plan(LaunchArguments(video="v.avi", tf="robot_state_publisher"))
+    publisher = node(standard, "robot_state_publisher")
+    assert publisher.package == "robot_state_publisher"
+    with Resolved(launch_ros_command(publisher, tmp_path)) as rsp:
+        assert rsp.topic("joint_states") == "/ptz/joint_states"
+        assert '<joint name="pan_joint" type="revolute">' in rsp.value("robot_description")
+    assert all(
+        n.name not in ("ptz_tf", "robot_state_publisher")
+        for n in plan(LaunchArguments(video="v.avi", tf="off"))
+    )

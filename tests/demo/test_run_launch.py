@@ -41,7 +41,13 @@ def test_the_commands_carry_the_params_file_last_and_the_remaps(tmp_path):
     )
     assert printed.returncode == 0, printed.stderr
     commands = commands_by_node(printed.stdout)
-    assert set(commands) == {"ptz_state_bridge", "ssim_detector", "tracker", "ptz_controller"}
+    assert set(commands) == {
+        "ptz_state_bridge",
+        "ssim_detector",
+        "tracker",
+        "ptz_controller",
+        "ptz_tf",
+    }
     for command in commands.values():
         files = [part for part in command.split() if part.endswith(".yaml")]
         assert str(mine) in files and files.index(str(mine)) == len(files) - 2  # then the values

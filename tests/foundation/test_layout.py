@@ -33,6 +33,7 @@ ROS_SHELLS = {
     "ptz_camera_node",
     "ptz_controller_node",
     "ptz_state_bridge_node",
+    "ptz_tf_node",
     "live_view_node",
     "graph_host",
     "demo",

@@ -58,6 +58,7 @@ ROS_PACKAGES = {
     "vision_msgs",  # ros-jazzy-vision-msgs (src/interfaces stands in on the wheels)
     "tf2_msgs",
     "geometry_msgs",
+    "robot_state_publisher",  # the launch file's TF publisher where installed
     "rosidl_default_runtime",
     "rosidl_default_generators",
     "ament_cmake",

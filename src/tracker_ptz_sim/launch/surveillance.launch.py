@@ -5,7 +5,7 @@
     [controller_mode:=graph|servo|direct|hold] [respawn:=true] [live_view:=true]
     [frames_in_flight:=N] [params_file:=/path/to/my_params.yaml]
     [image_topic:=...] [camera_info_topic:=...] [joint_states_topic:=...] [command_topic:=...]
-    [joint_command_topic:=...]
+    [joint_command_topic:=...] [tf:=auto|suite|robot_state_publisher|off] [frame_prefix:=cam1/]
 
 The whole graph, built from the same config/*graph.yaml and parameter files the demo runner
 (make demo) uses, so both run exactly the same nodes with the same parameters. The surveillance
@@ -38,6 +38,7 @@ from tracker_ptz_sim.bringup.launch_plan import (
     CLOCKS,
     CONTROLLER_MODES,
     SIM_TIMES,
+    TF_PUBLISHERS,
     TOPIC_ARGUMENTS,
     LaunchArguments,
     plan,
@@ -104,7 +105,29 @@ ARGUMENTS = [
         (name, "", None, f"remap the graph's {topic} to this topic in every node ('': keep)")
         for name, topic in TOPIC_ARGUMENTS.items()
     ],
+    (
+        "tf",
+        "auto",
+        ["auto", *TF_PUBLISHERS],
+        "who publishes robot_description, /tf and /tf_static from ptz/joint_states: "
+        "robot_state_publisher where installed (auto), else the suite's ptz_tf; or off",
+    ),
+    ("frame_prefix", "", None, "prefix of the unit's frame names (two cameras: cam1/, cam2/)"),
 ]
+
+
+def _tf_publisher(choice):
+    if choice != "auto":
+        return choice
+    try:
+        from ament_index_python.packages import PackageNotFoundError, get_package_prefix
+    except ImportError:
+        return "suite"
+    try:
+        get_package_prefix("robot_state_publisher")
+    except PackageNotFoundError:
+        return "suite"
+    return "robot_state_publisher"
 
 
 def generate_launch_description():
@@ -141,6 +164,8 @@ def graph_actions(context):
         frames_in_flight=_whole_number("frames_in_flight", value["frames_in_flight"]),
         params_file=value["params_file"],
         **{name: value[name] for name in TOPIC_ARGUMENTS},
+        tf=_tf_publisher(value["tf"]),
+        frame_prefix=value["frame_prefix"],
     )
     respawn = {"respawn": True, "respawn_delay": 1.0, "respawn_max_retries": 5}
     nodes = [

@@ -22,6 +22,9 @@ the launch arguments into nodes, so the launch file stays a thin shell and its r
   simulated camera applying each command as many frames after its image (`graph.pipelined`).
 - `params_file`: a parameter file of the user's, applied after the graph's files (its sections win
   over theirs; the arguments above still win over it).
+- `tf` (`suite`: the suite's `ptz_tf`; `robot_state_publisher`: that, on the URDF; `off`) publishes
+  `robot_description`, `/tf_static` and `/tf` from `ptz/joint_states`, every frame under
+  `frame_prefix` (the camera's images and the controller's commands take the prefixed names too).
 - `image_topic`, `camera_info_topic`, `joint_states_topic`, `command_topic`,
   `joint_command_topic`: remap the graph's `camera/image_raw`, `camera/camera_info`,
   `ptz/joint_states`, `ptz/command` and `ptz/joint_command` in every node, so the graph meets a
@@ -35,8 +38,10 @@ from pathlib import Path
 from typing import Any
 
 from tracker_ptz_sim.bringup.graph import Graph, NodeSpec, load_graph, pipelined, with_live_view
+from tracker_ptz_sim.control.pan_tilt_frames import PanTiltFrames
 
 CAMERAS = ("sim", "live")
+TF_PUBLISHERS = ("suite", "robot_state_publisher", "off")
 CLOCKS = ("auto", "global", "namespaced", "off")
 SIM_TIMES = ("auto", "true", "false")
 CONTROLLER_MODES = ("graph", "servo", "direct", "hold")  # graph: the graph's own
@@ -64,6 +69,8 @@ class LaunchArguments:
     joint_states_topic: str = ""
     command_topic: str = ""
     joint_command_topic: str = ""
+    tf: str = "suite"  # who publishes the unit's TF tree: suite, robot_state_publisher or off
+    frame_prefix: str = ""  # of every frame of the unit ("cam1/")
 
 
 #: The LaunchArguments fields that remap a graph topic, and the topic each one renames.
@@ -113,6 +120,7 @@ def plan(arguments: LaunchArguments, graph: Graph | None = None) -> list[Planned
             values["mode"] = arguments.controller_mode
         if arguments.frames_in_flight != 1:
             values |= pipelined(arguments.frames_in_flight).get(node.name, {})
+        values |= _prefixed_frames(arguments.frame_prefix).get(node.name, {})
         remappings = list(node.remappings.items()) + _topic_remappings(arguments)
         if clock == "namespaced":
             remappings.append(("/clock", "clock"))  # relative: <namespace>/clock
@@ -127,7 +135,39 @@ def plan(arguments: LaunchArguments, graph: Graph | None = None) -> list[Planned
                 respawn=arguments.respawn and node.name != "video_source",
             )
         )
-    return planned
+    tf_node = _tf_node(arguments, sim_time, files)
+    return planned + ([tf_node] if tf_node else [])
+
+
+def _prefixed_frames(prefix: str) -> dict[str, dict[str, str]]:
+    if not prefix:
+        return {}
+    frames = PanTiltFrames(prefix)
+    return {
+        "ptz_camera": {"camera_frame_id": frames.optical},
+        "ptz_controller": {"base_frame_id": frames.base},
+    }
+
+
+def _tf_node(arguments: LaunchArguments, sim_time: bool, files: list[Path]) -> PlannedNode | None:
+    """The unit's TF publisher: the suite's ptz_tf, or robot_state_publisher on its URDF; with
+    the graph's files (and yours) like every node."""
+    if arguments.tf == "off":
+        return None
+    values: dict[str, Any] = {"use_sim_time": sim_time}
+    if arguments.tf == "robot_state_publisher":
+        values["robot_description"] = PanTiltFrames(arguments.frame_prefix).urdf()
+        package = executable = "robot_state_publisher"
+        remappings = [("joint_states", arguments.joint_states_topic or "ptz/joint_states")]
+    else:
+        values["frame_prefix"] = arguments.frame_prefix
+        package, executable = "tracker_ptz_sim", "ptz_tf"
+        remappings = _topic_remappings(arguments)
+    parameters: list[Path | dict[str, Any]] = [*files, values]
+    return PlannedNode(
+        package, executable, executable, arguments.namespace, parameters, remappings,
+        arguments.respawn,
+    )  # fmt: skip
 
 
 def _topic_remappings(arguments: LaunchArguments) -> list[tuple[str, str]]:
@@ -138,6 +178,8 @@ def _topic_remappings(arguments: LaunchArguments) -> list[tuple[str, str]]:
 def _check(arguments: LaunchArguments) -> None:
     if arguments.camera not in CAMERAS:
         raise ValueError(f"camera must be one of {', '.join(CAMERAS)}, got '{arguments.camera}'")
+    if arguments.tf not in TF_PUBLISHERS:
+        raise ValueError(f"tf must be one of {', '.join(TF_PUBLISHERS)}, got '{arguments.tf}'")
     if arguments.clock not in CLOCKS:
         raise ValueError(f"clock must be one of {', '.join(CLOCKS)}, got '{arguments.clock}'")
     if arguments.controller_mode not in CONTROLLER_MODES:
