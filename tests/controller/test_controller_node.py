@@ -294,3 +294,35 @@ def test_hundreds_of_hostile_messages_change_no_good_answer_and_no_command_is_no
     assert hostile == clean
     warnings = warning_lines(capfd.readouterr().err)
     assert sum(causes.values()) >= 200 and len(warnings) <= len(causes), "\n".join(warnings)
+
+
+def test_the_followed_target_is_also_a_ray_in_the_cameras_optical_frame():
+    """A locked target right of and below the view's centre: a point 1 m along its ray, in the
+    images' frame, stamped like its image (x right, y down, z forward)."""
+    import math
+
+    from geometry_msgs.msg import PointStamped
+
+    from tracker_msgs_py.codec import result_qos
+
+    h = NodeHarness(
+        PtzControllerNode,
+        inputs={"ptz/state": (PtzState, 50), "target": (Target, 50)},
+        outputs={"target_ray": (PointStamped, result_qos())},
+        mode="servo",
+    )
+    try:
+        h.spin_until(lambda: h.node.ray_pub.get_subscription_count() == 1)
+        h.feed("ptz/state", state_msg(3 * NS))  # window centre (384, 288), 440 px/rad
+        h.feed("target", target_msg(3 * NS, x=384.0 + 44.0, y=288.0 + 22.0))
+        h.spin_until(lambda: len(h.received["target_ray"]) == 1)
+        (ray,) = h.received["target_ray"]
+        assert (
+            ray.header.frame_id == "ptz_camera_optical" and stamp_to_ns(ray.header.stamp) == 3 * NS
+        )
+        right, down = 0.1, 0.05  # rad: 44 and 22 scene px at 440 px/rad
+        assert ray.point.x == pytest.approx(math.cos(down) * math.sin(right), abs=1e-9)
+        assert ray.point.y == pytest.approx(math.sin(down), abs=1e-9)
+        assert math.hypot(ray.point.x, ray.point.y, ray.point.z) == pytest.approx(1.0)
+    finally:
+        h.close()

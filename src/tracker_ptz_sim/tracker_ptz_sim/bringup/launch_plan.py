@@ -145,7 +145,7 @@ def _prefixed_frames(prefix: str) -> dict[str, dict[str, str]]:
     frames = PanTiltFrames(prefix)
     return {
         "ptz_camera": {"camera_frame_id": frames.optical},
-        "ptz_controller": {"base_frame_id": frames.base},
+        "ptz_controller": {"base_frame_id": frames.base, "optical_frame_id": frames.optical},
     }
 
 

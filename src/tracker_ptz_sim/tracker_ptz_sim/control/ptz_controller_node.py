@@ -14,6 +14,7 @@ import time
 from collections import deque
 from typing import Any
 
+from geometry_msgs.msg import PointStamped
 from sensor_msgs.msg import JointState
 
 from tracker_msgs.msg import PtzCommand, PtzState, Target
@@ -23,6 +24,7 @@ from tracker_msgs_py.codec import (
     command_qos,
     msg_to_window,
     ns_to_stamp,
+    result_qos,
     stamp_to_ns,
     usable_value,
 )
@@ -38,6 +40,7 @@ from tracker_ptz_sim.control.controller import (
     TargetEstimate,
     controller_config,
 )
+from tracker_ptz_sim.control.pan_tilt_frames import PanTiltFrames
 
 STATE_BUFFER = 16  # pan-tilt states kept to pair with targets by stamp
 
@@ -131,6 +134,11 @@ PARAMS = [
         "joint commands: the zoom joint, commanded by position when the zoom changes ('' = none)",
     ),
     ParamSpec("base_frame_id", "ptz_base", "frame_id of the commands"),
+    ParamSpec(
+        "optical_frame_id",
+        "ptz_camera_optical",
+        "frame of target_ray (the camera images' frame in the unit's TF tree)",
+    ),
 ]
 
 
@@ -150,6 +158,7 @@ class PtzControllerNode(SuiteNode):
         super().__init__("ptz_controller", **node_options)
         self.params = declare_parameters(self, PARAMS, on_change=self._on_change, check_all=_check)
         self.controller = PanTiltController(controller_config(self.params))
+        self.frames = PanTiltFrames()  # the ray's direction depends on the axes, not the names
         # Usable pan-tilt states by stamp, and the stamps of the latest unusable ones (their
         # images' targets are answered with HOLD).
         self.states: dict[int, CameraPose] = {}
@@ -166,6 +175,8 @@ class PtzControllerNode(SuiteNode):
         self.last_target_ns: int | None = None
         self.last_mode = CommandMode.HOLD
         self.command_pub = self.create_publisher(PtzCommand, "ptz/command", command_qos())
+        # where the followed target is, for TF users: a point 1 m along its ray from the camera
+        self.ray_pub = self.create_publisher(PointStamped, "target_ray", result_qos())
         self.joint_pub = self._joint_publisher()
         self.create_subscription(Target, "target", self._on_target, 10)
         self.create_subscription(PtzState, "ptz/state", self._on_state, 10)
@@ -340,8 +351,21 @@ class PtzControllerNode(SuiteNode):
             self._report_missing_pose(stamp)
             self._publish(Command(CommandMode.HOLD), target.header.stamp)
             return
-        command = self.controller.step(stamp / NS_PER_S, pose, estimate_of(target))
+        estimate = estimate_of(target)
+        command = self.controller.step(stamp / NS_PER_S, pose, estimate)
         self._publish(command, target.header.stamp)
+        if estimate is not None and self.ray_pub.get_subscription_count():
+            self.ray_pub.publish(self._ray(estimate, pose, target.header.stamp))
+
+    def _ray(self, estimate: TargetEstimate, pose: CameraPose, stamp: Any) -> PointStamped:
+        """The target 1 m along its ray in the optical frame of its image."""
+        right = (estimate.x - pose.center_x) / pose.focal_length  # scene px per rad
+        down = (estimate.y - pose.center_y) / pose.focal_length
+        point = PointStamped()
+        point.header.stamp, point.header.frame_id = stamp, self.params["optical_frame_id"]
+        ray = self.frames.ray(pose.pan, pose.tilt, right, down)
+        point.point.x, point.point.y, point.point.z = ray
+        return point
 
     def _report_missing_pose(self, stamp_ns: int) -> None:
         if stamp_ns in self.unusable_states:
