@@ -14,7 +14,7 @@ from ptz_messages import state_msg, target_msg  # noqa: E402
 from sensor_msgs.msg import JointState  # noqa: E402
 
 from tracker_msgs.msg import PtzState, Target  # noqa: E402
-from tracker_msgs_py.codec import result_qos  # noqa: E402
+from tracker_msgs_py.codec import command_qos  # noqa: E402
 from tracker_ptz_sim.control.controller import Command, CommandMode  # noqa: E402
 from tracker_ptz_sim.control.ptz_controller_node import (  # noqa: E402
     PtzControllerNode,
@@ -48,7 +48,7 @@ def test_the_controller_stops_the_unit_when_it_shuts_down():
     h = NodeHarness(
         PtzControllerNode,
         inputs={"ptz/state": (PtzState, 50), "target": (Target, 50)},
-        outputs={"ptz/joint_command": (JointState, result_qos())},
+        outputs={"ptz/joint_command": (JointState, command_qos())},
         joint_command_topic="ptz/joint_command",
     )
     try:

@@ -77,3 +77,46 @@ def test_the_controller_reports_its_state_and_its_inputs():
         assert load.per_message("/not/an/input") is None
     finally:
         h.close()
+
+
+def test_levels_say_when_a_node_cannot_work_and_when_an_input_went_silent():
+    """Targets but never a pan-tilt state: the controller's state is ERROR (it cannot steer),
+    named with the unit's hardware_id; once the targets stop, its input status turns WARN."""
+    pytest.importorskip("rclpy")
+    from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
+    from node_harness import NodeHarness
+    from ptz_messages import target_msg
+
+    from tracker_msgs.msg import PtzState, Target
+    from tracker_msgs_py.node_main import INPUT_SILENCE_S
+    from tracker_ptz_sim.control.ptz_controller_node import PtzControllerNode
+
+    h = NodeHarness(
+        PtzControllerNode,
+        inputs={"ptz/state": (PtzState, 50), "target": (Target, 50)},
+        outputs={"/diagnostics": (DiagnosticArray, 50)},
+    )
+    try:
+        for frame in range(3):
+            h.feed("target", target_msg(frame * 100_000_000))
+
+        def latest(suffix):
+            for array in reversed(h.received["/diagnostics"]):
+                found = {s.name: s for s in array.status}.get(f"/ptz_controller{suffix}")
+                if found is not None:
+                    return found
+            return None
+
+        h.spin_until(lambda: latest(": state") is not None, timeout=5.0)
+        state = latest(": state")
+        assert state.level == DiagnosticStatus.ERROR and "no usable ptz/state" in state.message
+        assert state.hardware_id == "ptz"
+        h.spin_until(
+            lambda: (
+                "no message on /target" in (latest(": input").message if latest(": input") else "")
+            ),
+            timeout=INPUT_SILENCE_S + 3.0,
+        )
+        assert latest(": input").level == DiagnosticStatus.WARN
+    finally:
+        h.close()

@@ -74,7 +74,7 @@ from tracker_msgs_py.codec import (
     usable_value,
 )
 from tracker_msgs_py.geometry import Rect
-from tracker_msgs_py.node_main import StartupError, SuiteNode, run_node
+from tracker_msgs_py.node_main import Health, StartupError, SuiteNode, run_node
 from tracker_msgs_py.params import ParamSpec, config_from_params, declare_parameters
 from tracker_msgs_py.stamps import Order, StampOrder
 from tracker_msgs_py.vision import detections_to_vision
@@ -302,6 +302,11 @@ class DetectorNode(SuiteNode):
         else:
             state = "detecting"
         return state, {"method": self.method.name, "pose source": self.params["pose_source"]}
+
+    def diagnostic_health(self) -> tuple[Health, str]:
+        if self.pairing.waiting_for_camera_info:
+            return Health.WARN, "no camera_info yet: images are answered empty"
+        return Health.OK, ""
 
     # --- inputs -------------------------------------------------------------------------------
 

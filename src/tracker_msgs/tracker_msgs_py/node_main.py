@@ -34,6 +34,7 @@ import time
 import traceback
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from enum import Enum
 from typing import Any
 
 import rclpy
@@ -66,6 +67,17 @@ WORKER_JOIN_S = 1.5  # workers get this long to leave (the node must exit within
 TEARDOWN_S = 1.8  # the whole teardown, workers included, before the process exits regardless
 LAST_REPORT_ACK_S = 0.5  # of it, the longest the nodes' last reports wait to be acknowledged
 DIAGNOSTICS_PERIOD_S = 1.0
+INPUT_SILENCE_S = 3.0  # an input that came and has been silent this long: WARN
+
+
+class Health(Enum):
+    """A diagnostic status level (diagnostic_msgs/DiagnosticStatus), as its byte."""
+
+    OK = DiagnosticStatus.OK
+    WARN = DiagnosticStatus.WARN
+    ERROR = DiagnosticStatus.ERROR
+
+
 QOS_OVERRIDES_PREFIX = "qos_overrides."  # rclpy declares these only for the topics that use them
 
 
@@ -279,6 +291,18 @@ class SuiteNode(Node):
         """What the node is doing (e.g. "tracking track 3", "search"), and figures about it."""
         return "running", {}
 
+    def diagnostic_health(self) -> tuple[Health, str]:
+        """How well the node can do its work: OK, WARN (degraded: waiting for an input, holding
+        the camera) or ERROR (it cannot work: a required input never came), and why."""
+        return Health.OK, ""
+
+    @property
+    def hardware_id(self) -> str:
+        """The unit the node serves, as diagnostic_updater names it: `ptz`, or `ptz` + the
+        namespace of a unit among several (`ptz/cam1`)."""
+        namespace = self.get_namespace().strip("/")
+        return f"ptz/{namespace}" if namespace else "ptz"
+
     def publish_last_report(self) -> None:
         """The node's diagnostics once more as its process ends (what it did up to its end: a
         graph in one process ends with its replay, before the next report was due)."""
@@ -307,23 +331,33 @@ class SuiteNode(Node):
         ]
         name = self.get_fully_qualified_name()
         state, details = self.diagnostic_state()
+        health, why = self.diagnostic_health()
+        silent = [
+            f"no message on {self.resolve_topic_name(topic)} for {now - stats.last_at:.0f} s"
+            for topic, stats in sorted(self._inputs.items())
+            if stats.last_at is not None and now - stats.last_at > INPUT_SILENCE_S
+        ]
+        input_message = "; ".join([self.problems.summary(), *silent]).strip("; ")
         array = DiagnosticArray(
             status=[
                 DiagnosticStatus(
-                    level=DiagnosticStatus.OK,
+                    level=health.value,
                     name=f"{name}: state",
-                    message=state,
+                    message=f"{state}: {why}" if why else state,
+                    hardware_id=self.hardware_id,
                     values=[KeyValue(key=k, value=v) for k, v in details.items()],
                 ),
                 DiagnosticStatus(
-                    level=DiagnosticStatus.WARN if recent else DiagnosticStatus.OK,
+                    level=(Health.WARN if recent or silent else Health.OK).value,
                     name=f"{name}{INPUT_SUFFIX}",
-                    message=self.problems.summary() or "no input dropped",
+                    message=input_message or "no input dropped",
+                    hardware_id=self.hardware_id,
                     values=[KeyValue(key=k, value=v) for k, v in figures],
                 ),
                 DiagnosticStatus(
                     level=DiagnosticStatus.OK,
                     name=f"{name}{OUTPUT_SUFFIX}",
+                    hardware_id=self.hardware_id,
                     message=f"{len(self._outputs)} published topics",
                     values=[
                         KeyValue(

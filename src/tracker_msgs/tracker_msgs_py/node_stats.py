@@ -10,6 +10,7 @@ in its callbacks, beside the CPU time its threads use).
 from __future__ import annotations
 
 import math
+import time
 from dataclasses import dataclass
 
 RECEIVED_SUFFIX = " received"  # "<topic> received": the messages since the node started
@@ -26,8 +27,10 @@ class InputStats:
     age_sum_s: float = 0.0
     aged: int = 0  # messages with a stamp (ages summed)
     busy_s: float = 0.0  # handling time since the node started
+    last_at: float | None = None  # time.monotonic() of the latest message
 
     def record(self, processing_s: float, age_s: float | None = None) -> None:
+        self.last_at = time.monotonic()
         self.messages += 1
         self.total += 1
         self.busy_s += processing_s

@@ -28,7 +28,7 @@ from tracker_msgs_py.codec import (
     stamp_to_ns,
     usable_value,
 )
-from tracker_msgs_py.node_main import SuiteNode, run_node
+from tracker_msgs_py.node_main import Health, SuiteNode, run_node
 from tracker_msgs_py.params import ParamSpec, declare_parameters
 from tracker_msgs_py.stamps import Order, StampOrder
 from tracker_ptz_sim.control.controller import (
@@ -387,6 +387,13 @@ class PtzControllerNode(SuiteNode):
         """The control state (track / scan / home / search), or holding the camera still."""
         state = "holding" if self.last_mode is CommandMode.HOLD else self.controller.state.value
         return state, {"mode": self.params["mode"], "last command": self.last_mode.value}
+
+    def diagnostic_health(self) -> tuple[Health, str]:
+        if self.last_target_ns is not None and not self.states:
+            return Health.ERROR, "targets arrive but no usable ptz/state has: the camera holds"
+        if self.targets_stopped:
+            return Health.WARN, f"no target for over {self.params['target_timeout']} s: holding"
+        return Health.OK, ""
 
     def _publish(self, command: Command, stamp: Any) -> None:
         self.last_mode = command.mode

@@ -46,7 +46,7 @@ from tracker_msgs_py.codec import (
     stamp_to_ns,
     usable_value,
 )
-from tracker_msgs_py.node_main import SuiteNode, run_node
+from tracker_msgs_py.node_main import Health, SuiteNode, run_node
 from tracker_msgs_py.params import ParamSpec, config_from_params, declare_parameters
 from tracker_msgs_py.stamps import Order, StampOrder
 from tracker_ptz_sim.simulation.camera_model import (
@@ -139,6 +139,7 @@ PARAMS = [
     ),
 ]
 MODEL_FIELDS = {f.name for f in fields(PtzConfig)}  # the parameters the camera model reads
+LOCKSTEP_WARN_S = 5.0  # diagnostics say WARN this long after a lockstep wait timed out
 
 
 def _check(values: dict[str, Any], scene_size: tuple[int, int] | None = None) -> str | None:
@@ -171,6 +172,7 @@ class PtzCameraNode(SuiteNode):
         # oldest waits; the stamps of the images processed last (the gate reads the oldest).
         self.pending: deque[tuple[Image, np.ndarray]] = deque()  # with its decoded pixels
         self.pending_since = 0.0
+        self.lockstep_timed_out_at: float | None = None  # time.monotonic() of the latest
         self.processed_ns: deque[int] = deque(maxlen=self.params["command_delay_frames"])
         self.early_commands: list[PtzCommand] = []
         self.last_snapshot: PtzSnapshot | None = None
@@ -205,6 +207,15 @@ class PtzCameraNode(SuiteNode):
             self.model.reconfigure(config_from_params(PtzConfig, self.params))
 
     # --- commands -------------------------------------------------------------------------------
+
+    def diagnostic_health(self) -> tuple[Health, str]:
+        timed_out = self.lockstep_timed_out_at
+        if timed_out is not None and time.monotonic() - timed_out < LOCKSTEP_WARN_S:
+            return (
+                Health.WARN,
+                "a lockstep wait for a command timed out: is the controller running?",
+            )
+        return Health.OK, ""
 
     def diagnostic_state(self) -> tuple[str, dict[str, str]]:
         if self.model is None:
@@ -401,6 +412,7 @@ class PtzCameraNode(SuiteNode):
                 f"{self.params['lockstep_timeout']} s; going on without it",
                 throttle_duration_sec=5.0,
             )
+            self.lockstep_timed_out_at = time.monotonic()
             self._process(*self.pending.popleft())
             self.pending_since = time.monotonic()
             self._process_pending()
