@@ -315,6 +315,7 @@ def test_launch_file_builds_the_same_graph(monkeypatch):
         "ssim_detector",
         "tracker",
         "ptz_controller",
+        "ptz_tf",  # the unit's TF tree (tf:=auto: robot_state_publisher where installed)
     ]
     source = created[0]
     assert source["parameters"][0].endswith("surveillance.yaml")
@@ -339,7 +340,8 @@ def test_launch_file_runs_the_colour_graph_on_request(monkeypatch):
 
 def test_launch_file_adds_the_live_view_on_request(monkeypatch):
     _, created = _launch_actions(monkeypatch, video="v.avi", live_view="true")
-    assert created[-1]["name"] == "live_view" and created[-1]["executable"] == "live_view"
+    (live,) = [n for n in created if n["name"] == "live_view"]
+    assert live["executable"] == "live_view"
 
 
 def test_launch_file_pipelines_the_replay_on_request(monkeypatch):

@@ -22,6 +22,7 @@ TOOLS = {
     "fetch_sample",
     "evaluate",
     "run_demo",
+    "run_launch",  # a process runner (tests/demo/test_run_launch.py stops one with Ctrl-C)
     "benchmark",
     "predictor_study",
     "single_target_benchmark",
