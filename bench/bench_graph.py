@@ -15,8 +15,8 @@ SingleThreadedExecutor in every process follows, checked for the same tracks. Th
 replay pipelined (`run_demo --frames-in-flight N`, N = 2 and 3: the nodes work on
 N frames at once and the camera applies each command N frames later), each checked for the same
 windows, targets and tracks as the in-process pipeline with the same delay; and with every node
-in one process (`run_demo --single-process`) under each of rclpy's executors (single-threaded,
-multi-threaded, the experimental events one), each checked for the same tracks as the separate
+in one process (`run_demo --single-process`) under each executor the suite offers (rclpy's
+single-threaded and the experimental events one), each checked for the same tracks as the separate
 processes. Writes
 out/bench/graph.json. Targets (issue 16): >= 0.6 x the ceiling and >= 130 frames/s,
 camera-to-command p95 <= 10 ms. That latency is timed by ptz_camera itself, from a camera image
@@ -35,6 +35,7 @@ from dataclasses import asdict
 from pathlib import Path
 from typing import Any
 
+from tracker_msgs_py.node_main import EXECUTORS
 from tracker_ptz_sim.bringup import demo, pipeline
 from tracker_ptz_sim.bringup.graph import Graph, load_graph, pipelined
 from tracker_ptz_sim.bringup.sample import sample_or_synthetic
@@ -63,7 +64,7 @@ def main() -> int:
     processes_single = executor_run(graph, video, "single", reference, single_process=False)
     one_process = {
         executor: executor_run(graph, video, executor, reference, single_process=True)
-        for executor in ("single", "multi", "events")
+        for executor in EXECUTORS
     }
     ceiling_fps = in_process_frames_per_second(graph, video)
     motion = motion_only_run(video)
@@ -146,6 +147,14 @@ def main() -> int:
     }
     OUT.mkdir(parents=True, exist_ok=True)
     (OUT / "graph.json").write_text(json.dumps(result, indent=2) + "\n")
+    differing = [
+        f"one process, {name}" for name, row in one_process.items() if not row["same_tracks"]
+    ]
+    differing += [] if processes_single["same_tracks"] else ["separate processes, single"]
+    differing += [f"{n} in flight" for n, row in in_flight.items() if not row["same_as_in_process"]]
+    if differing:  # a mode that gives other tracks is a bug, whatever its speed
+        print(f"\nFAILED: other tracks in {', '.join(differing)}", file=sys.stderr)
+        return 1
     return 0
 
 

@@ -19,7 +19,7 @@ from tracker_msgs_py.node_main import DEFAULT_EXECUTOR, executor_argument  # noq
         (["video_source"], DEFAULT_EXECUTOR),
         (["video_source", "--ros-args", "-p", "rate:=2.0"], DEFAULT_EXECUTOR),
         (["video_source", "--executor", "single", "--ros-args", "-r", "__node:=x"], "single"),
-        (["graph_host", "--graph", "colour", "--executor", "multi"], "multi"),
+        (["graph_host", "--graph", "colour", "--executor", "single"], "single"),
     ],
 )
 def test_the_executor_comes_from_the_non_ros_arguments(argv, expected):
