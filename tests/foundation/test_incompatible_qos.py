@@ -53,3 +53,35 @@ def test_a_best_effort_camera_and_a_reliable_subscription_are_reported_with_the_
         node.destroy_node()
         peer.destroy_node()
         rclpy.shutdown(context=context)
+
+
+def test_an_image_streams_qos_is_overridable_by_parameter():
+    """`qos_overrides./camera/image_raw.subscription.reliability:=reliable` (and depth) on a
+    detector with best-effort images, as QoSOverridingOptions reads them; results keep theirs."""
+    rclpy = pytest.importorskip("rclpy")
+    from rclpy.parameter import Parameter
+    from rclpy.qos import ReliabilityPolicy
+
+    from tracker_detect.detector_node import DetectorNode
+
+    context = rclpy.Context()
+    rclpy.init(context=context)
+    prefix = "qos_overrides./camera/image_raw.subscription"
+    node = DetectorNode(
+        context=context,
+        parameter_overrides=[
+            Parameter("reliable_images", value=False),
+            Parameter("method", value="ssim_background"),
+            Parameter(f"{prefix}.reliability", value="reliable"),
+            Parameter(f"{prefix}.depth", value=3),
+        ],
+    )
+    try:
+        (images,) = [s for s in node.subscriptions if s.topic_name == "/camera/image_raw"]
+        assert images.qos_profile.reliability == ReliabilityPolicy.RELIABLE
+        assert images.qos_profile.depth == 3
+        assert node.get_parameter(f"{prefix}.reliability").value == "reliable"
+        assert not node.has_parameter("qos_overrides./detections.publisher.reliability")
+    finally:
+        node.destroy_node()
+        rclpy.shutdown(context=context)

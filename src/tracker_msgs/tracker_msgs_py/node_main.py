@@ -220,7 +220,9 @@ class SuiteNode(Node):
         qos_profile: QoSProfile | int,
         **kwargs: Any,
     ) -> Subscription:
-        """rclpy's, plus a warning naming the cause when a publisher's QoS cannot match."""
+        """rclpy's, plus a warning naming the cause when a publisher's QoS cannot match, and for
+        images the QoS overridable by parameter (`_overridable`)."""
+        _overridable(msg_type, kwargs)
         if kwargs.get("event_callbacks") is None:
             kwargs["event_callbacks"] = SubscriptionEventCallbacks(
                 incompatible_qos=lambda event: self._incompatible_qos(topic, qos_profile, event)
@@ -258,7 +260,9 @@ class SuiteNode(Node):
     def create_publisher(
         self, msg_type: Any, topic: str, qos_profile: QoSProfile | int, **kwargs: Any
     ) -> Publisher:
-        """rclpy's, plus a warning naming the cause when a subscriber's QoS cannot match."""
+        """rclpy's, plus a warning naming the cause when a subscriber's QoS cannot match, and for
+        images the QoS overridable by parameter (`_overridable`)."""
+        _overridable(msg_type, kwargs)
         if kwargs.get("event_callbacks") is None:
             kwargs["event_callbacks"] = PublisherEventCallbacks(
                 incompatible_qos=lambda event: self._incompatible_qos(topic, qos_profile, event)
@@ -375,6 +379,24 @@ class SuiteNode(Node):
         )
         array.header.stamp = self.get_clock().now().to_msg()
         self._diagnostics_pub.publish(array)
+
+
+#: Streams whose QoS a user may need to fit to a camera driver or a recorder: images and their
+#: camera infos (the other topics' QoS is fixed by meaning: results, commands).
+OVERRIDABLE_TYPES = ("sensor_msgs/msg/Image", "sensor_msgs/msg/CompressedImage",
+                     "sensor_msgs/msg/CameraInfo")  # fmt: skip
+
+
+def _overridable(msg_type: Any, kwargs: dict[str, Any]) -> None:
+    """Image streams' QoS from `qos_overrides.<topic>.<publisher|subscription>.<policy>`
+    parameters (reliability, history, depth, durability), as rclcpp's and rclpy's
+    QoSOverridingOptions declare them: e.g. `-p qos_overrides./camera/image_raw.subscription.
+    reliability:=best_effort`. The node's own choice (reliable_images) is the default."""
+    from rclpy.qos_overriding_options import QoSOverridingOptions
+
+    name = f"{msg_type.__module__.split('.')[0]}/msg/{msg_type.__name__}"
+    if name in OVERRIDABLE_TYPES and kwargs.get("qos_overriding_options") is None:
+        kwargs["qos_overriding_options"] = QoSOverridingOptions.with_default_policies()
 
 
 def _events_executor() -> Executor:
