@@ -256,51 +256,25 @@ def test_colour_graph_hands_motion_over_to_camshift_on_its_own_topics():
 
 
 def _launch_actions(monkeypatch, **arguments) -> tuple[list, list]:
-    """The launch file's entities and the Node actions it creates for `arguments`, with `launch`
-    and `launch_ros` (not on PyPI) replaced by recorders of what they are given."""
-    import importlib.util
-    import sys
-    import types
+    """The launch file's entities (("arg", name, default), ("env", name, value)) and the nodes it
+    creates for `arguments` (each a dict of launch_ros.actions.Node's arguments), read with
+    run_launch's implementation of the launch API (`launch` / `launch_ros` are not on PyPI)."""
+    from dataclasses import asdict
     from pathlib import Path
 
-    created = []
-    launch = types.ModuleType("launch")
-    launch.LaunchDescription = lambda entities: entities
-    actions = types.ModuleType("launch.actions")
-    actions.DeclareLaunchArgument = lambda name, **kw: ("arg", name, kw.get("default_value"))
-    actions.SetEnvironmentVariable = lambda name, value: ("env", name, value)
-    actions.OpaqueFunction = lambda function: ("opaque", function)
+    from tracker_ptz_sim.bringup.launch_runner import (
+        DeclareLaunchArgument,
+        load_description,
+        resolve,
+    )
 
-    class LaunchConfiguration(str):
-        def __new__(cls, name):
-            configuration = super().__new__(cls, f"$({name})")
-            configuration.name = name
-            return configuration
-
-        def perform(self, context):
-            return context.launch_configurations[self.name]
-
-    substitutions = types.ModuleType("launch.substitutions")
-    substitutions.LaunchConfiguration = LaunchConfiguration
-    launch_ros_actions = types.ModuleType("launch_ros.actions")
-    launch_ros_actions.Node = lambda **kw: created.append(kw) or kw
-    for name, module in {
-        "launch": launch,
-        "launch.actions": actions,
-        "launch.substitutions": substitutions,
-        "launch_ros": types.ModuleType("launch_ros"),
-        "launch_ros.actions": launch_ros_actions,
-    }.items():
-        monkeypatch.setitem(sys.modules, name, module)
     path = Path(__file__).resolve().parents[2] / "src/tracker_ptz_sim/launch/surveillance.launch.py"
-    spec = importlib.util.spec_from_file_location("surveillance_launch", path)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    entities = module.generate_launch_description()
-    defaults = {e[1]: e[2] for e in entities if e[0] == "arg"}
-    [(_, function)] = [e for e in entities if e[0] == "opaque"]
-    context = types.SimpleNamespace(launch_configurations={**defaults, **arguments})
-    return entities + function(context), created
+    description = load_description(path)
+    plan = resolve(description, arguments)
+    declared = [e for e in description.entities if isinstance(e, DeclareLaunchArgument)]
+    entities = [("arg", e.name, e.default_value) for e in declared]
+    entities += [("env", name, value) for name, value in plan.environment.items()]
+    return entities, [asdict(node) for node in plan.nodes]
 
 
 def test_launch_file_builds_the_same_graph(monkeypatch):
@@ -321,7 +295,7 @@ def test_launch_file_builds_the_same_graph(monkeypatch):
     assert source["parameters"][0].endswith("surveillance.yaml")
     assert source["parameters"][-1]["path"] == "/data/v.avi"
     assert all(n["namespace"] == "" for n in created)
-    assert ("arg", "respawn", "false") in entities and "respawn" not in source
+    assert ("arg", "respawn", "false") in entities and source["respawn"] is False
     assert all(n["respawn"] is True and n["respawn_max_retries"] == 5 for n in created[1:])
 
 
