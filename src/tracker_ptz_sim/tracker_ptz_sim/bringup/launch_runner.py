@@ -10,8 +10,9 @@ defaults and choices, `LaunchConfiguration`, `OpaqueFunction`, `SetEnvironmentVa
 launch_ros's `Node`: name, namespace, parameter files and dicts, remappings, respawn). Each node
 runs as its own process with the command line launch_ros gives it (`node_command`), its output on
 this terminal. Ctrl-C stops them all (SIGINT, then SIGTERM after 5 s); it exits when every
-process has ended: 0 when each ended 0 or by the stop, else 1. Where ROS comes from apt, use
-`ros2 launch`, which reads the same files.
+process has ended: 0 when each ended 0 or by the stop, else 1. The parameter files it writes for
+the nodes (launch_ros's dicts) go with it; `--print` keeps them, for the commands it prints.
+Where ROS comes from apt, use `ros2 launch`, which reads the same files.
 """
 
 from __future__ import annotations
@@ -19,6 +20,7 @@ from __future__ import annotations
 import argparse
 import importlib.util
 import os
+import shutil
 import signal
 import subprocess
 import sys
@@ -303,7 +305,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         for _, command in commands:
             print(" ".join(command))
         return 0
-    return supervise(commands, plan.environment)  # stop handlers: installed by the entry point
+    try:
+        return supervise(commands, plan.environment)  # stop handlers: by the entry point
+    finally:
+        shutil.rmtree(scratch, ignore_errors=True)  # the nodes have read their parameters
 
 
 def _executable(install_dir: Path, node: Node) -> Path:
