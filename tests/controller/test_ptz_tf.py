@@ -131,7 +131,8 @@ def test_a_tf_listener_follows_the_simulated_camera_as_it_pans():
             assert error < 1e-6, (k, pan, tilt, error)
             looked.append((pan, tilt))
         assert looked[-1][0] > looked[0][0] + 0.1  # it panned left, and the tree followed
-        assert descriptions and '<link name="ptz_camera_optical"/>' in descriptions[0].data
+        spin_until(lambda: descriptions)  # latched: delivered once the reader has matched
+        assert '<link name="ptz_camera_optical"/>' in descriptions[0].data
     finally:
         executor.shutdown()
         for node in (camera, tf_node, peer):
