@@ -57,20 +57,18 @@ class PanTiltFrames:
     def optical(self) -> str:
         return self.name("ptz_camera_optical")
 
-    @property
-    def joints(self) -> tuple[str, str]:
-        return self.name("pan_joint"), self.name("tilt_joint")
-
     def moving(self, pan: float, tilt: float) -> list[Transform]:
         """The joints' transforms at `pan`, `tilt` [rad] (what /tf carries)."""
         g = self.geometry
         return [
-            Transform(self.base, self.name("ptz_pan_link"), (0.0, 0.0, g.pan_height), about_z(pan)),
+            Transform(
+                self.base, self.name("ptz_pan_link"), (0.0, 0.0, g.pan_height), from_rpy(0, 0, pan)
+            ),
             Transform(
                 self.name("ptz_pan_link"),
                 self.name("ptz_tilt_link"),
                 (0.0, 0.0, g.tilt_height),
-                about_y(tilt),
+                from_rpy(0, tilt, 0),
             ),
         ]
 
@@ -153,14 +151,6 @@ class PanTiltFrames:
 
 def _numbers(values: tuple[float, float, float]) -> str:
     return " ".join(f"{v:.9g}" for v in values)
-
-
-def about_z(angle: float) -> Quaternion:
-    return (0.0, 0.0, math.sin(angle / 2), math.cos(angle / 2))
-
-
-def about_y(angle: float) -> Quaternion:
-    return (0.0, math.sin(angle / 2), 0.0, math.cos(angle / 2))
 
 
 def from_rpy(roll: float, pitch: float, yaw: float) -> Quaternion:
