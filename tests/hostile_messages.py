@@ -115,6 +115,59 @@ class HostileSource:
     fields: Sequence[Field]
 
 
+HOSTILE_PER_FRAME = 15  # hostile messages after each good frame: 300 over a 20-frame run
+
+
+def feed_hostile(
+    harness: Any,
+    rng: np.random.Generator,
+    sources: Sequence[HostileSource],
+    last_good_ns: int,
+    frame_ns: int,
+    count: int = HOSTILE_PER_FRAME,
+) -> None:
+    """Feed `harness` (a NodeHarness) `count` hostile messages, each from a random source."""
+    for _ in range(count):
+        source = sources[int(rng.integers(len(sources)))]
+        msg, _ = spoil(rng, source.make_good(last_good_ns), source.fields, last_good_ns, frame_ns)
+        harness.feed(source.topic, msg)
+
+
+def unreadable_image(rng: np.random.Generator, like: Any, stamp_ns: int | None) -> Any:
+    """A copy of the Image `like` that cannot be read (an unknown encoding, too few bytes or a
+    step shorter than a row), stamped `stamp_ns` (None: before zero)."""
+    msg = copy.deepcopy(like)
+    kind = int(rng.integers(3))
+    if kind == 0:
+        msg.encoding = "32FC1"
+    elif kind == 1:
+        msg.data = bytes(msg.data[: int(rng.integers(len(msg.data)))])
+    else:
+        msg.step = int(rng.integers(msg.step))
+    if stamp_ns is None:
+        msg.header.stamp.sec = -5
+    else:
+        msg.header.stamp.sec, msg.header.stamp.nanosec = divmod(stamp_ns, 10**9)
+    return msg
+
+
+def assert_unchanged_by_hostile_messages(
+    run: Callable[[bool], tuple[Any, dict[str, int]]], capfd: Any, counted_at_least: int
+) -> Any:
+    """The property every node's hostile test checks: `run(hostile)` -> (the answers to the good
+    messages, the node's problem counts by cause). The answers with hostile messages mixed in are
+    the clean run's, at least `counted_at_least` were counted, and no cause was logged twice.
+    Returns the clean answers."""
+    clean, _ = run(False)
+    capfd.readouterr()
+    hostile, causes = run(True)
+    assert hostile == clean
+    warnings = warning_lines(capfd.readouterr().err)
+    assert sum(causes.values()) >= counted_at_least, causes
+    assert len(warnings) <= len(causes), "\n".join(warnings)
+    return clean
+
+
 def all_finite(values: Sequence[float]) -> bool:
     return all(math.isfinite(v) for v in values)
 

@@ -1,5 +1,5 @@
 """PtzState and Target messages for the controller's tests: a 264 px window of a 440 px/rad scene,
-and a locked target in it."""
+and a locked target in it; `state_values` to compare PtzStates."""
 
 from __future__ import annotations
 
@@ -22,3 +22,10 @@ def target_msg(stamp_ns, x=430.0, y=300.0, locked=True):
     target.track.x, target.track.y, target.track.vx, target.track.vy = x, y, 20.0, 0.0
     target.header.stamp = ns_to_stamp(stamp_ns)
     return target
+
+
+def state_values(state):
+    """A PtzState's numbers: motion, zoom, window and focal length."""
+    window = state.window
+    motion = (state.pan, state.tilt, state.pan_rate, state.tilt_rate, state.zoom)
+    return (*motion, window.x, window.y, window.width, window.height, state.focal_length)
