@@ -11,7 +11,7 @@ BENCHMARK_ARGS ?=
 SCENE ?=
 GT ?=
 
-.PHONY: help setup build test lint format shell sample demo bench benchmark stress evaluate clean freeze check-apt-pins
+.PHONY: help setup build test lint format shell sample demo rtsp-server bench benchmark stress evaluate clean freeze check-apt-pins
 
 help:  ## List the targets
 	@grep -E '^[a-z]+:.*## ' $(MAKEFILE_LIST) | awk -F':.*## ' '{printf "  make %-10s %s\n", $$1, $$2}'
@@ -39,6 +39,9 @@ sample: setup  ## Fetch and verify the sample clip vtest.avi (cached outside the
 
 demo: setup  ## Run the surveillance demo (VIDEO=path/to/video to use your own; LIVE=1: Foxglove live view)
 	@$(ENV) $(SIM)/run_demo $(if $(VIDEO),--video "$(VIDEO)") $(if $(LIVE),--live) $(DEMO_ARGS)
+
+rtsp-server: setup  ## Serve VIDEO (default vtest.avi) as an RTSP camera on rtsp://127.0.0.1:8554/live (PORT=...)
+	@$(ENV) bash scripts/rtsp_camera.sh "$(VIDEO)" "$(or $(PORT),8554)"
 
 bench: setup  ## Benchmarks: prints tables, writes out/bench/*.json
 	@$(ENV) for b in bench/bench_*.py; do echo "== $$b"; python "$$b" || exit 1; done

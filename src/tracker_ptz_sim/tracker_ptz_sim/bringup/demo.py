@@ -103,10 +103,12 @@ from tracker_ptz_sim.simulation.camera_model import (
     PtzConfig,
 )
 from tracker_ptz_sim.simulation.command_latency import from_diagnostics
-from tracker_ptz_sim.simulation.frame_sources import open_source
+from tracker_ptz_sim.simulation.live_stream import is_live_stream, open_input, redacted
 from tracker_ptz_sim.simulation.video_source_node import STATUS_QOS
 
 SCENE_TOPIC = "/scene/image_raw"
+VideoInput = Path | str  # a recording's path, or a live stream's URL
+
 #: What a lockstep video_source sends once more when a frame's acknowledgement is late (its
 #: `_wait_for_ack`); the recorder keeps the first of each stamp, as every node does.
 REPEATED_TOPICS = frozenset({SCENE_TOPIC, "/scene/camera_info"})
@@ -477,7 +479,7 @@ def resume_frame(status: ReplayStatus, scene_stamps: Iterable[int]) -> int:
 
 
 def stand_in_scene(
-    graph: Graph, video: Path, overrides: dict[str, dict[str, Any]]
+    graph: Graph, video: VideoInput, overrides: dict[str, dict[str, Any]]
 ) -> dict[str, dict[str, Any]]:
     """For a graph whose ptz_state_bridge listens to the simulated camera standing in for a real
     unit's drivers: the bridge's scene settings the simulator uses (the replayed scene's size, the
@@ -495,7 +497,11 @@ def stand_in_scene(
         and bridge.get("scene_focal_length")
     ):
         return {}
-    first = next(open_source(video).frames(0, 1))
+    source = open_input(video)
+    try:
+        first = next(source.frames(0, 1))
+    finally:
+        source.close()
     height, width = first.image.shape[:2]
     camera = {
         **node_parameters(graph.params_files, "ptz_camera"),
@@ -515,9 +521,14 @@ def stand_in_scene(
     }
 
 
+def input_name(video: VideoInput) -> str:
+    """How progress lines name the input: a recording's file name, a stream's URL (redacted)."""
+    return redacted(str(video)) if is_live_stream(video) else Path(video).name
+
+
 def run_graph(
     graph: Graph,
-    video: Path,
+    video: VideoInput,
     out: Path,
     overrides: dict[str, dict[str, Any]],
     install_dir: Path,
@@ -590,7 +601,7 @@ def run_graph(
     try:
         if single_process:
             nodes.start_host({**overrides, "video_source": source_overrides}, live)
-            _supervise(recorder, supervisor, timeout, during, nodes, video.name)
+            _supervise(recorder, supervisor, timeout, during, nodes, input_name(video))
             return result
         for node in graph.nodes:
             if node.name != "video_source":
@@ -690,7 +701,7 @@ def _replay(
 ) -> None:
     """Start video_source and supervise the graph until the stream ends or the run must stop."""
     nodes.start("video_source", source_overrides)
-    _supervise(recorder, supervisor, timeout, during, nodes, Path(source_overrides["path"]).name)
+    _supervise(recorder, supervisor, timeout, during, nodes, input_name(source_overrides["path"]))
 
 
 def _supervise(
@@ -837,7 +848,16 @@ def main(argv: list[str] | None = None) -> int:
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
     )
     parser.add_argument(
-        "--video", type=Path, help="video file, image folder or rosbag2 (default: vtest.avi)"
+        "--video",
+        help="video file, image folder, rosbag2, or a live stream: rtsp://..., http://... "
+        "(MJPEG), /dev/video0 (default: vtest.avi)",
+    )
+    parser.add_argument(
+        "--frames",
+        type=int,
+        default=None,
+        help="publish at most this many frames (a live stream's run ends after them; without "
+        "it, Ctrl-C ends the run and the report is still written)",
     )
     parser.add_argument(
         "--out", type=Path, default=Path("out"), help="output directory (default: out)"
@@ -917,6 +937,10 @@ def main(argv: list[str] | None = None) -> int:
     video, note = resolve_video(args.video)
     print(note, flush=True)
     overrides = parse_overrides(args.set)
+    if args.frames is not None:
+        if args.frames < 1:
+            parser.error("--frames must be at least 1")
+        overrides.setdefault("video_source", {})["end_frame"] = args.frames
     requested = dict.fromkeys(overrides)  # the nodes --set names, before the runner adds its own
     if args.frames_in_flight is not None:
         try:
@@ -960,7 +984,7 @@ def main(argv: list[str] | None = None) -> int:
     except RenderingInterruptedError:
         print(f"\nrendering interrupted; {args.out}/summary.json and tracks.txt are written")
         return 130
-    print(f"\nRun summary ({video}):\n{run_report.format_summary(summary)}")
+    print(f"\nRun summary ({redacted(str(video))}):\n{run_report.format_summary(summary)}")
     if run.replay:
         replay = run.replay
         print(
@@ -986,12 +1010,15 @@ def main(argv: list[str] | None = None) -> int:
     return 0 if summary.frames > 0 else 1
 
 
-def resolve_video(video: Path | None) -> tuple[Path, str]:
-    """The input to replay and a line telling the user what it is."""
+def resolve_video(video: str | None) -> tuple[VideoInput, str]:
+    """The input to replay (a live stream's URL stays a string: a Path would fold its "//")
+    and a line telling the user what it is."""
     if video is not None:
-        if not video.exists():
+        if is_live_stream(video):
+            return video, f"Following the live stream {redacted(video)}"
+        if not Path(video).exists():
             raise SystemExit(f"error: {video} does not exist")
-        return video, f"Replaying {video}"
+        return Path(video), f"Replaying {video}"
     from tracker_ptz_sim.bringup.sample import sample_or_synthetic
 
     return sample_or_synthetic()

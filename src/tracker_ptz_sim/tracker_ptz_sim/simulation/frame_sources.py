@@ -1,4 +1,5 @@
-"""Recorded frames to replay as a camera stream (no rclpy): video files, image folders, rosbag2.
+"""Recorded frames to replay as a camera stream (no rclpy): video files, image folders, rosbag2;
+and live streams (`live_stream`: rtsp://, http(s)://, /dev/videoN).
 
 `open_source(path)` picks the reader from what `path` is:
 - a rosbag2 directory (with metadata.yaml), or its .mcap / .db3 file: the bag's Image or
@@ -72,6 +73,7 @@ class FrameSource(ABC):
     lost: int = 0  # frames of [start, end) announced but not held (the last pass that missed any)
     end_note: str = ""  # why the stream ended before the announced end, if it did
     note: str = ""  # a choice made for the user that they may not want (warned at the start)
+    live: bool = False  # a camera stream: frames come as they arrive, newest first, never ending
 
     @abstractmethod
     def frames(self, start: int = 0, end: int | None = None) -> Iterator[Frame]:
@@ -79,6 +81,14 @@ class FrameSource(ABC):
 
     def describe(self) -> str:
         return f"{self.path} ({self.total or 'unknown number of'} frames at {self.fps:g} fps)"
+
+    @property
+    def label(self) -> str:
+        """The input's name in logs and status (a path, or a stream URL without its password)."""
+        return str(self.path)
+
+    def close(self) -> None:  # noqa: B027 (a recording holds nothing open between passes)
+        """Release what the reader holds open (a live stream's connection); frames() ends."""
 
 
 class VideoFileSource(FrameSource):
@@ -371,11 +381,12 @@ class BagSource(FrameSource):
 
 def open_source(path: str | Path, fps: float = 0.0, bag_topic: str = "") -> FrameSource:
     """The reader for `path` (see the module docstring). `fps` overrides the stamps' frame rate
-    for videos and folders (0 = the video's own, or 10 for folders)."""
+    for videos and folders (0 = the video's own, or 10 for folders). Live streams are
+    `live_stream.open_input`'s."""
     if not str(path).strip():  # Path("") would be the current directory
         raise SourceError(
             "no input given: the 'path' parameter is empty; it must name a video file, an image "
-            "folder or a rosbag2"
+            "folder, a rosbag2 or a stream URL (rtsp://, http://, /dev/video0)"
         )
     path = Path(path).expanduser()
     if not path.exists():

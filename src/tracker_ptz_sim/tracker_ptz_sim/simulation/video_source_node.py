@@ -36,10 +36,11 @@ from tracker_msgs_py.codec import (
     ns_to_stamp,
     stamp_to_ns,
 )
-from tracker_msgs_py.node_main import StartupError, SuiteNode, run_node
+from tracker_msgs_py.node_main import Health, StartupError, SuiteNode, run_node
 from tracker_msgs_py.params import ParamSpec, declare_parameters
 from tracker_ptz_sim.simulation.camera_model import MAX_COMMAND_DELAY_FRAMES
-from tracker_ptz_sim.simulation.frame_sources import Frame, FrameSource, SourceError, open_source
+from tracker_ptz_sim.simulation.frame_sources import Frame, FrameSource, SourceError
+from tracker_ptz_sim.simulation.live_stream import LiveStreamSource, open_input
 from tracker_ptz_sim.simulation.replay import Pacer, Prefetcher
 
 STATUS_QOS = QoSProfile(
@@ -48,7 +49,13 @@ STATUS_QOS = QoSProfile(
 CLOCK_QOS = QoSProfile(depth=10, reliability=ReliabilityPolicy.BEST_EFFORT)
 
 PARAMS = [
-    ParamSpec("path", "", "video file, image folder or rosbag2 to replay", read_only=True),
+    ParamSpec(
+        "path",
+        "",
+        "video file, image folder or rosbag2 to replay, or a live stream: rtsp://, http(s):// "
+        "(MJPEG), /dev/videoN",
+        read_only=True,
+    ),
     ParamSpec(
         "rate", 1.0, "replay speed: 1 = real time, 0 = as fast as the graph allows", 0.0, 100.0
     ),
@@ -141,11 +148,12 @@ class VideoSourceNode(SuiteNode):
         super().__init__("video_source", **node_options)
         self.params = declare_parameters(self, PARAMS, on_change=self._on_change)
         try:
-            self.source = open_source(
-                self.params["path"], self.params["fps"], self.params["bag_topic"]
+            self.source = open_input(
+                self.params["path"], self.params["fps"], self.params["bag_topic"], self._on_stream
             )
         except SourceError as error:
             raise StartupError(str(error)) from error
+        self.add_waker(self.source.close)
         self.start, self.end = frame_range(
             self.params["start_frame"], self.params["end_frame"], self.source
         )
@@ -180,10 +188,23 @@ class VideoSourceNode(SuiteNode):
             self.recorder_sub = self.create_subscription(
                 Header, self.params["recorder_topic"], self._on_recorded, 10
             )
-        self.status = ReplayStatus(source=str(self.source.path), state=ReplayStatus.STATE_PLAYING)
+        self.status = ReplayStatus(source=self.source.label, state=ReplayStatus.STATE_PLAYING)
         self.add_waker(self.ack_event.set)
         self.add_waker(self.pace_event.set)
         self.start_worker(self._replay, "replay")
+
+    def _on_stream(self, level: str, message: str) -> None:
+        """A live stream's outage or return (from its reader thread). Two calls: rclpy refuses
+        one call site logging at two severities."""
+        if level == "warning":
+            self.get_logger().warning(message)
+        else:
+            self.get_logger().info(message)
+
+    def diagnostic_health(self) -> tuple[Health, str]:
+        if isinstance(self.source, LiveStreamSource) and not self.source.connected:
+            return Health.WARN, f"{self.source.name}: stream lost, reconnecting"
+        return Health.OK, ""
 
     def diagnostic_state(self) -> tuple[str, dict[str, str]]:
         names = {
@@ -197,6 +218,9 @@ class VideoSourceNode(SuiteNode):
             "frame index": str(status.frame_index),
             "frames published": str(status.frames_published),
         }
+        if isinstance(self.source, LiveStreamSource):
+            details["frames dropped (newer one came first)"] = str(self.source.dropped)
+            details["reconnects"] = str(self.source.reconnects)
         return names.get(status.state, str(status.state)), details
 
     @property
@@ -245,13 +269,14 @@ class VideoSourceNode(SuiteNode):
                     return
                 if self.status.frames_published == published:
                     raise SourceError(
-                        f"{self.source.path}: no frame could be read in "
+                        f"{self.source.label}: no frame could be read in "
                         f"[{self.start}, {self.end if self.end is not None else 'end'})"
                     )
-                if not self.params["loop"]:
+                if not self.params["loop"] or self.source.live:
                     break
             if not self.stopping.is_set():
-                self._end(ReplayStatus.STATE_ENDED, "end of stream", 0)
+                reason = "end_frame reached" if self.source.live else "end of stream"
+                self._end(ReplayStatus.STATE_ENDED, reason, 0)
         except Exception as error:  # anything reading the input: report it, exit non-zero
             if self.stopping.is_set():
                 return  # a shutdown interrupted the replay: not a failure
@@ -260,7 +285,7 @@ class VideoSourceNode(SuiteNode):
                 self.get_logger().fatal(str(error))
                 self._end(ReplayStatus.STATE_FAILED, str(error), 2)
                 return
-            self.get_logger().error(f"replay of {self.source.path} failed: {error}")
+            self.get_logger().error(f"replay of {self.source.label} failed: {error}")
             self._end(ReplayStatus.STATE_FAILED, str(error), 1)
 
     def _wait_for_subscribers(self) -> None:
@@ -291,20 +316,25 @@ class VideoSourceNode(SuiteNode):
 
     def _play_once(self) -> None:
         """One pass over [start, end). Stamps keep increasing across loops: a pass after the
-        first starts one frame period after the last stamp sent."""
+        first starts one frame period after the last stamp sent. A live stream's stamps are its
+        arrival times."""
+        live = self.source.live
         next_stamp = (
             stamp_to_ns(self.status.header.stamp) + round(NS_PER_S / self.source.fps)
-            if self.status.frames_published
+            if self.status.frames_published and not live
             else None
         )
         offset: int | None = None
-        frames = Prefetcher(self.source.frames(self.start, self.end))
+        # A live stream hands out its newest frame when asked: read ahead, it would be stale.
+        stream = self.source.frames(self.start, self.end)
+        frames = stream if live else Prefetcher(stream)
         try:
             for frame in frames:
                 if offset is None:
-                    offset = 0 if next_stamp is None else next_stamp - frame.stamp_ns
+                    offset = 0 if next_stamp is None or live else next_stamp - frame.stamp_ns
                 stamp = frame.stamp_ns + offset
-                self._pace(stamp)
+                if not live:  # a live stream comes at its own pace
+                    self._pace(stamp)
                 if self.stopping.is_set():
                     return
                 self._publish(frame, stamp)
@@ -314,7 +344,10 @@ class VideoSourceNode(SuiteNode):
             if self.params["lockstep"]:
                 self._wait_for_acks(0)  # a pass ends answered: a loop starts a new epoch
         finally:
-            frames.close()
+            if isinstance(frames, Prefetcher):
+                frames.close()
+            else:
+                self.source.close()  # a live stream's pass ends the stream
 
     def _pace(self, stamp_ns: int) -> None:
         while not self.stopping.is_set():
@@ -362,7 +395,7 @@ class VideoSourceNode(SuiteNode):
             self.problems.report(
                 "undecodable frame",
                 f"skipped {self.source.skipped - self.status.frames_skipped} undecodable "
-                f"frame(s) of {self.source.path} before frame {self.status.frame_index}{cause}",
+                f"frame(s) of {self.source.label} before frame {self.status.frame_index}{cause}",
             )
             self.status.frames_skipped = self.source.skipped
         self.status.frames_lost = self.source.lost
@@ -422,7 +455,8 @@ class VideoSourceNode(SuiteNode):
             f"{self.status.frames_skipped} skipped, {self.status.frames_lost} lost, "
             f"{self.status.lockstep_timeouts} lockstep timeouts)"
         )
-        damaged = self.status.frames_skipped or self.status.frames_lost
+        # a live stream's lost frames are the ones a newer frame replaced: no damage
+        damaged = self.status.frames_skipped or (self.status.frames_lost and not self.source.live)
         (self.get_logger().warning if damaged else self.get_logger().info)(line)
         self.finish(exit_code)
 
