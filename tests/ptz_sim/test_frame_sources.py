@@ -131,7 +131,7 @@ def test_an_empty_path_is_an_error_not_the_current_directory(path, tmp_path, mon
         open_source(path)
     message = str(error.value)
     assert message.startswith("no input given") and "'path' parameter" in message
-    assert "video file, an image folder or a rosbag2" in message
+    assert "video file, an image folder, a rosbag2 or a stream URL" in message
 
 
 # --- damage in the middle -----------------------------------------------------------------------
