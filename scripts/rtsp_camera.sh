@@ -6,12 +6,7 @@ set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 VIDEO="${1:-}"
 PORT="${2:-8554}"
-if ! /usr/bin/python3 -c "import gi; gi.require_version('GstRtspServer', '1.0')" 2>/dev/null; then
-  packages="python3-gi gir1.2-gst-rtsp-server-1.0 gstreamer1.0-plugins-good gstreamer1.0-plugins-base"
-  sudo=""; [ "$(id -u)" -ne 0 ] && sudo="sudo"
-  echo "installing GStreamer's RTSP server: $packages"
-  $sudo apt-get update -qq && DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq $packages >/dev/null
-fi
+bash "$ROOT/scripts/install_rtsp_server.sh"
 FRAMES="$ROOT/out/rtsp_frames"
 rm -rf "$FRAMES" && mkdir -p "$FRAMES"
 FPS="$(python - "$VIDEO" "$FRAMES" <<'PY'

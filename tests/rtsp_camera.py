@@ -13,10 +13,6 @@ import pytest
 
 SERVER = Path(__file__).resolve().parents[1] / "scripts" / "rtsp_server.py"
 SYSTEM_PYTHON = "/usr/bin/python3"
-# Debian's packages the server needs; .ci/run installs them
-PACKAGES = (
-    "python3-gi gir1.2-gst-rtsp-server-1.0 gstreamer1.0-plugins-good gstreamer1.0-plugins-base"
-)
 
 
 def require_gstreamer() -> None:
@@ -27,7 +23,7 @@ def require_gstreamer() -> None:
     except OSError:
         ok = False
     if not ok:
-        message = f"GStreamer's RTSP server is not installed (apt-get install {PACKAGES})"
+        message = "GStreamer's RTSP server is not installed (bash scripts/install_rtsp_server.sh)"
         if os.environ.get("CI"):
             pytest.fail(message)
         pytest.skip(message)

@@ -44,11 +44,14 @@ RTSP_PORT = 554
 EventSink = Callable[[str, str], None]  # (level "info" | "warning", message)
 
 
+def is_device(path: str | Path) -> bool:
+    """Whether `path` names a V4L2 capture device, /dev/videoN."""
+    return re.fullmatch(r"/dev/video\d+", str(path)) is not None
+
+
 def is_live_stream(path: str | Path) -> bool:
     """Whether `path` names a live stream (a URL of a streaming scheme, or /dev/videoN)."""
-    text = str(path)
-    scheme = urlsplit(text).scheme.lower()
-    return scheme in STREAM_SCHEMES or re.fullmatch(r"/dev/video\d+", text) is not None
+    return urlsplit(str(path)).scheme.lower() in STREAM_SCHEMES or is_device(path)
 
 
 def redacted(url: str) -> str:
@@ -109,8 +112,7 @@ class LiveStreamSource(FrameSource):
         clock: Callable[[], int] = time.time_ns,
     ) -> None:
         self.url = url
-        self.name = redacted(url)
-        self.path = Path(self.name)  # a URL as a Path folds its "//": logs use `label`
+        self.path = Path(self.label)  # a URL as a Path folds its "//": logs use `label`
         self.total = 0
         self.skipped = 0
         self.dropped = 0  # frames replaced by a newer one before they were taken
@@ -128,7 +130,7 @@ class LiveStreamSource(FrameSource):
         self.closed = threading.Event()
         capture = self._open()
         if capture is None:
-            raise SourceError(f"{self.name}: {stream_problem(url, open_timeout_s)}")
+            raise SourceError(f"{self.label}: {stream_problem(url, open_timeout_s)}")
         self.fps = capture.get(cv2.CAP_PROP_FPS) or 0.0
         if self.fps > 1000:  # FFmpeg's "unknown" for some streams (90000, the RTP clock)
             self.fps = 0.0
@@ -139,11 +141,11 @@ class LiveStreamSource(FrameSource):
 
     @property
     def label(self) -> str:
-        return self.name
+        return redacted(self.url)
 
     def describe(self) -> str:
         rate = f"{self.fps:g} fps" if self.fps else "unknown frame rate"
-        return f"live stream {self.name} ({rate}; newest frame wins, stamped on arrival)"
+        return f"live stream {self.label} ({rate}; newest frame wins, stamped on arrival)"
 
     def frames(self, start: int = 0, end: int | None = None) -> Iterator[Frame]:
         """The newest frame each time the caller is ready for one, numbered from 0 as taken;
@@ -158,7 +160,7 @@ class LiveStreamSource(FrameSource):
                 yield Frame(index, stamp_ns, image)
             index += 1
         if self.failure is not None:
-            raise SourceError(f"{self.name}: the stream reader failed: {self.failure!r}")
+            raise SourceError(f"{self.label}: the stream reader failed: {self.failure!r}")
 
     def close(self, timeout: float = 2.0) -> None:
         self.closed.set()
@@ -179,7 +181,7 @@ class LiveStreamSource(FrameSource):
             return slot.image, slot.stamp_ns
 
     def _open(self) -> cv2.VideoCapture | None:
-        if self.url.startswith("/dev/video"):
+        if is_device(self.url):
             capture = cv2.VideoCapture(self.url, cv2.CAP_V4L2)
         else:
             timeouts = [
@@ -218,7 +220,9 @@ class LiveStreamSource(FrameSource):
                 self.connected = True
                 self.stamps.reconnected()
                 outage = time.monotonic() - (lost_at or time.monotonic())
-                self.on_event("info", f"{self.name}: stream back after {outage:.1f} s, reconnected")
+                self.on_event(
+                    "info", f"{self.label}: stream back after {outage:.1f} s, reconnected"
+                )
             ok, image = capture.read()
             if ok and image is not None:
                 backoff, lost_at = RECONNECT_FIRST_S, None
@@ -231,7 +235,7 @@ class LiveStreamSource(FrameSource):
                 lost_at = time.monotonic()
                 self.on_event(
                     "warning",
-                    f"{self.name}: stream lost ({stream_problem(self.url, 1.0)}); "
+                    f"{self.label}: stream lost ({stream_problem(self.url, 1.0)}); "
                     f"reconnecting every {RECONNECT_FIRST_S:g} s up to {RECONNECT_MAX_S:g} s",
                 )
         if capture is not None:
@@ -257,7 +261,7 @@ def open_input(
 
 def stream_problem(url: str, timeout_s: float) -> str:
     """Why `url` gives no video, in plain words, as far as asking its server tells."""
-    if url.startswith("/dev/video"):
+    if is_device(url):
         if not os.path.exists(url):
             return "no such video device (is the camera plugged in? ls /dev/video*)"
         if not os.access(url, os.R_OK):

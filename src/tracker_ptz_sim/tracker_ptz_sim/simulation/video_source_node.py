@@ -203,7 +203,7 @@ class VideoSourceNode(SuiteNode):
 
     def diagnostic_health(self) -> tuple[Health, str]:
         if isinstance(self.source, LiveStreamSource) and not self.source.connected:
-            return Health.WARN, f"{self.source.name}: stream lost, reconnecting"
+            return Health.WARN, f"{self.source.label}: stream lost, reconnecting"
         return Health.OK, ""
 
     def diagnostic_state(self) -> tuple[str, dict[str, str]]:
