@@ -35,3 +35,13 @@ def test_stamps_next_repeat_invalid_and_new_epochs():
     assert order.check(6) is Order.NEXT
     order.reset()
     assert order.check(1) is Order.NEXT and order.epochs == 1
+
+
+def test_a_leap_ahead_longer_than_the_stream_allows_is_a_new_epoch():
+    s = 10**9
+    order = StampOrder(max_gap_ns=s)
+    assert [order.check(t) for t in (0, s // 10, s + s // 10)] == [Order.NEXT] * 3
+    assert order.check(6 * s + s // 10) is Order.NEW_EPOCH and order.epochs == 1
+    assert "jumped ahead 5.000 s, to 6.100 s" in order.describe_jump()
+    assert order.check(6 * s + s // 5) is Order.NEXT
+    assert StampOrder().check(10**18) is Order.NEXT  # without a limit, no leap is too long

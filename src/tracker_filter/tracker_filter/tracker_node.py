@@ -53,7 +53,7 @@ from tracker_msgs_py.stamps import Order, StampOrder
 from tracker_msgs_py.vision import tracks_to_vision
 
 #: Parameters that take effect without rebuilding the tracker (the others clear its tracks).
-LIVE_PARAMETERS = frozenset(SELECTION_DEFAULTS) | {"scene_frame_id"}
+LIVE_PARAMETERS = frozenset(SELECTION_DEFAULTS) | {"scene_frame_id", "max_input_gap"}
 
 
 def detections_from_msg(msg: BlobArray) -> Detections:
@@ -176,6 +176,14 @@ def parameter_specs(method: Method[Tracker], preset: str) -> list[ParamSpec]:
         ParamSpec(
             "pairing_capacity", 30, "frames waiting for their needed inputs at most", 1, 1000
         ),
+        ParamSpec(
+            "max_input_gap",
+            2.0,
+            "s between two detection stamps beyond which the input is taken to have stopped (a "
+            "live camera that dropped out): the tracks are cleared, not predicted across the gap",
+            0.01,
+            86400.0,
+        ),
     ]
     return specs
 
@@ -216,7 +224,7 @@ class TrackerNode(SuiteNode):
         self._epoch_ns: int | None = None  # stamp of the first frame: keeps float seconds exact
         self._view_centre: tuple[float, float] | None = None
         self._last_frame: tuple[int, int | None] = (0, None)  # tracks, followed track id
-        self._order = StampOrder()
+        self._order = StampOrder(max_gap_ns=self._max_gap_ns())
         needs = self._tracker.needs
         self._frames = FrameAssembler(
             frozenset(need.value for need in needs), self._params["pairing_capacity"]
@@ -276,8 +284,12 @@ class TrackerNode(SuiteNode):
             )
         return None
 
+    def _max_gap_ns(self) -> int:
+        return round(self._params["max_input_gap"] * NS_PER_S)
+
     def _on_parameters(self, changed: dict[str, Any]) -> None:
         self._selector.configure(*selector_settings(self._params))
+        self._order.max_gap_ns = self._max_gap_ns()
         rebuilt = set(changed) - LIVE_PARAMETERS
         if rebuilt:
             cleared = self._forget_tracks()
@@ -389,10 +401,11 @@ class TrackerNode(SuiteNode):
         return cleared
 
     def _start_epoch(self) -> None:
-        """Time jumped back (a restarted or looping source): the tracks of the old time base go."""
+        """Time jumped back (a restarted or looping source) or leapt past `max_input_gap` (an
+        input that stopped): the tracks of the old time base go."""
         cleared = self._forget_tracks()
         self.get_logger().info(
-            f"detections: {self._order.describe_jump()}; a new replay epoch: {cleared} track(s) "
+            f"detections: {self._order.describe_jump()}; a new epoch: {cleared} track(s) "
             f"cleared, ids continue from {self._tracker.next_id}"
         )
 
