@@ -96,6 +96,48 @@ def test_an_image_without_a_newer_joint_state_gets_the_latest_one_after_pose_wai
     assert states(harness)[0].pan == -0.1
 
 
+def test_an_axis_like_unit_its_signs_and_its_commanded_motion():
+    """Joints that count pan clockwise and tilt up (joint_signs -1), reported once a second with
+    zero velocities (pose_wait 0): images between joint states get the latest one carried forward
+    by the commanded rate, in REP-103 angles."""
+    from tracker_msgs.msg import PtzCommand
+    from tracker_msgs_py.codec import command_qos
+
+    h = NodeHarness(
+        PtzStateBridgeNode,
+        inputs={
+            "ptz/joint_states": (JointState, 10),
+            "camera/camera_info": (CameraInfo, 10),
+            "ptz/command": (PtzCommand, command_qos()),
+        },
+        outputs={"ptz/state": (PtzState, result_qos())},
+        scene_width=2000,
+        scene_height=1000,
+        joint_signs=[-1.0, -1.0],
+        joint_offsets=[0.1, 0.0],
+        pose_wait=0.0,
+        max_pose_age=1.5,
+    )
+    try:
+        axis_state = joints(0, 0.0)
+        axis_state.position = [0.1 - 0.2, -0.05]  # REP-103 pan 0.2, tilt 0.05 (down)
+        axis_state.velocity = [0.0, 0.0]
+        h.publish("ptz/joint_states", axis_state)
+        h.spin_for(0.05)
+        command = PtzCommand(mode=PtzCommand.MODE_VELOCITY, pan_rate=0.5, tilt_rate=0.0)
+        command.header.stamp = ns_to_stamp(0)
+        h.publish("ptz/command", command)
+        h.spin_for(0.05)
+        h.publish("camera/camera_info", info(400 * MS))
+        h.spin_until(lambda: len(states(h)) == 1, timeout=2.0)
+        (state,) = states(h)
+        assert state.pan == pytest.approx(0.2 + 0.5 * 0.4)  # carried 0.4 s at 0.5 rad/s
+        assert state.tilt == pytest.approx(0.05)
+        assert state.pan_rate == pytest.approx(0.5) and state.moving
+    finally:
+        h.close()
+
+
 JOINT_FIELDS = [
     Field("position[0]"),
     Field("position[1]"),

@@ -7,7 +7,9 @@ pixels (tracker_msgs/PtzState). `JointPoseBridge` makes one `PtzPose` per Camera
 
 - pan and tilt (and zoom, rates) interpolated between the joint states around the image's stamp
   (`pose_buffer.PoseBuffer`); an image waits until a joint state at or after its stamp has come,
-  or is released by `give_up` on the joint state before it (at most `max_age_ns` older);
+  or is released by `give_up` on the joint state before it (at most `max_age_ns` older), carried
+  forward to the image's stamp by the commanded rates when `motion` holds them (a unit that
+  reports its joints at 1 Hz, or with zero velocities, while it turns);
 - the scene: pan/tilt angles mapped linearly to scene pixels (`SceneGeometry`: x = cx − f·pan,
   y = cy + f·tilt), f = `scene.focal_length` or, when 0, the first CameraInfo's fx divided by the
   zoom of that moment (so scene pixels are camera pixels at zoom 1);
@@ -26,6 +28,7 @@ from tracker_detect.image_pose_pairing import SceneSettings
 from tracker_detect.pose_buffer import PoseBuffer, PoseLookup, PoseStatus
 from tracker_detect.registration import CameraIntrinsics, view_from_pan_tilt
 from tracker_msgs_py.geometry import Rect, SceneGeometry
+from tracker_ptz_sim.control.unit_joints import CommandedMotion
 
 MOVING_RATE = 1e-3  # rad/s: slower joints count as still
 
@@ -67,8 +70,10 @@ class JointPoseBridge:
         capacity: int = 64,
         max_gap_ns: int = 500_000_000,
         max_age_ns: int = 500_000_000,
+        motion: CommandedMotion | None = None,
     ) -> None:
         self.scene = scene or SceneSettings()
+        self.motion = motion  # the commanded rates, to carry the latest joint state forward
         self.joints = PoseBuffer(capacity, max_gap_ns)
         self.max_age_ns = max_age_ns
         self.focal_length: float | None = None  # fixed by the settings or the first CameraInfo
@@ -138,7 +143,14 @@ class JointPoseBridge:
         newest = self.joints.newest_stamp
         if newest is None or stamp_ns - newest > self.max_age_ns:
             return PoseLookup(PoseStatus.MISSING)
-        return self.joints.lookup(newest)
+        found = self.joints.lookup(newest)
+        motion = self.motion
+        commanded = None if motion is None else motion.rate_at(stamp_ns)
+        if found.values is None or motion is None or commanded is None:
+            return found
+        pan, tilt, zoom = found.values[:3]
+        pan_travel, tilt_travel = motion.travel(newest, stamp_ns)
+        return PoseLookup(found.status, (pan + pan_travel, tilt + tilt_travel, zoom, *commanded))
 
     def _pose(self, stamp_ns: int, camera: CameraIntrinsics, values: tuple[float, ...]) -> PtzPose:
         pan, tilt, joint_zoom, pan_rate, tilt_rate = values

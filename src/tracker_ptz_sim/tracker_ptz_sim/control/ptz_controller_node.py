@@ -3,7 +3,8 @@
 Subscribes `target` (tracker_msgs/Target) and `ptz/state` (tracker_msgs/PtzState); publishes one
 `ptz/command` (tracker_msgs/PtzCommand) per target message, stamped with the image it responds to
 (the lockstep acknowledgement), and optionally the same command as a sensor_msgs/JointState on
-`joint_command_topic` (position or velocity), the form real pan-tilt drivers take. When targets stop
+`joint_command_topic` in the unit's joints and the form its driver takes (`unit_joints.py`:
+velocities or positions, or the FLIR PTU driver's positions with speeds). When targets stop
 arriving (a crashed detector or tracker) it sends HOLD, so the camera never acts on stale commands.
 """
 
@@ -16,6 +17,7 @@ from typing import Any
 
 from geometry_msgs.msg import PointStamped
 from sensor_msgs.msg import JointState
+from std_msgs.msg import Header
 
 from tracker_msgs.msg import PtzCommand, PtzState, Target
 from tracker_msgs_py.codec import (
@@ -41,6 +43,14 @@ from tracker_ptz_sim.control.controller import (
     controller_config,
 )
 from tracker_ptz_sim.control.pan_tilt_frames import PanTiltFrames
+from tracker_ptz_sim.control.unit_joints import (
+    JOINT_MAPPING_PARAMETERS,
+    CommandStyle,
+    JointCommand,
+    UnitSettings,
+    joint_mapping,
+    unit_command,
+)
 
 STATE_BUFFER = 16  # pan-tilt states kept to pair with targets by stamp
 
@@ -133,6 +143,28 @@ PARAMS = [
         "",
         "joint commands: the zoom joint, commanded by position when the zoom changes ('' = none)",
     ),
+    ParamSpec(
+        "joint_command_style",
+        CommandStyle.VELOCITY_OR_POSITION.value,
+        "what a JointState command holds: velocity_or_position (velocities for servo moves, "
+        "positions for direct moves; NaN = not commanded) or positions_with_speeds (the FLIR PTU "
+        "driver's cmd: always two positions and two speeds >= 0)",
+        choices=tuple(style.value for style in CommandStyle),
+    ),
+    ParamSpec(
+        "joint_speed_limits",
+        [0.0, 1.0],
+        "positions_with_speeds: [min, max] speed [rad/s] the unit accepts (its driver logs them)",
+        interval=True,
+    ),
+    ParamSpec(
+        "position_lead",
+        0.5,
+        "positions_with_speeds: a rate becomes a goal this far ahead [s] of the image's pose",
+        0.01,
+        10.0,
+    ),
+    *JOINT_MAPPING_PARAMETERS,
     ParamSpec("base_frame_id", "ptz_base", "frame_id of the commands"),
     ParamSpec(
         "optical_frame_id",
@@ -149,7 +181,26 @@ def _check(values: dict[str, Any]) -> str | None:
         return str(error)
     if len(values["joint_names"]) != 2:
         return "joint_names needs exactly two names (pan, tilt)"
+    try:
+        unit_settings(values)
+    except ValueError as error:
+        return str(error)
     return None
+
+
+def unit_settings(values: dict[str, Any]) -> UnitSettings:
+    """How JointState commands reach the unit, from the node's parameter values."""
+    low, high = values["joint_speed_limits"]
+    return UnitSettings(
+        names=(values["joint_names"][0], values["joint_names"][1]),
+        style=CommandStyle(values["joint_command_style"]),
+        mapping=joint_mapping(values),
+        zoom_joint=values["zoom_joint"],
+        speed_limits=(float(low), float(high)),
+        lead=values["position_lead"],
+        pan_limits=(float(values["pan_limits"][0]), float(values["pan_limits"][1])),
+        tilt_limits=(float(values["tilt_limits"][0]), float(values["tilt_limits"][1])),
+    )
 
 
 class PtzControllerNode(SuiteNode):
@@ -158,6 +209,7 @@ class PtzControllerNode(SuiteNode):
         super().__init__("ptz_controller", **node_options)
         self.params = declare_parameters(self, PARAMS, on_change=self._on_change, check_all=_check)
         self.controller = PanTiltController(controller_config(self.params))
+        self.unit = unit_settings(self.params)
         self.frames = PanTiltFrames()  # the ray's direction depends on the axes, not the names
         # Usable pan-tilt states by stamp, and the stamps of the latest unusable ones (their
         # images' targets are answered with HOLD).
@@ -188,10 +240,13 @@ class PtzControllerNode(SuiteNode):
         first_call = not self.stopping.is_set()
         self.stop_workers()
         if first_call and self.joint_pub is not None and self.last_target_ns is not None:
-            stop = joint_command(Command(CommandMode.HOLD), None, self.params["joint_names"], "")
-            stop.header.frame_id = self.params["base_frame_id"]
-            stop.header.stamp = ns_to_stamp(self.last_target_ns)
-            self.joint_pub.publish(stop)
+            newest_pose = self.states[max(self.states)] if self.states else None
+            stop = unit_command(Command(CommandMode.HOLD), newest_pose, self.unit)
+            if stop.positions or stop.velocities:
+                header = Header(
+                    stamp=ns_to_stamp(self.last_target_ns), frame_id=self.params["base_frame_id"]
+                )
+                self.joint_pub.publish(joint_state(stop, header))
         super().destroy_node()
 
     def _joint_publisher(self):  # noqa: ANN202 - Publisher | None
@@ -200,6 +255,7 @@ class PtzControllerNode(SuiteNode):
 
     def _on_change(self, changed: dict[str, Any]) -> None:
         self.controller.config = controller_config(self.params)
+        self.unit = unit_settings(self.params)
         if "joint_command_topic" in changed:
             if self.joint_pub is not None:
                 self.destroy_publisher(self.joint_pub)
@@ -353,7 +409,7 @@ class PtzControllerNode(SuiteNode):
             return
         estimate = estimate_of(target)
         command = self.controller.step(stamp / NS_PER_S, pose, estimate)
-        self._publish(command, target.header.stamp)
+        self._publish(command, target.header.stamp, pose)
         if estimate is not None and self.ray_pub.get_subscription_count():
             self.ray_pub.publish(self._ray(estimate, pose, target.header.stamp))
 
@@ -395,7 +451,10 @@ class PtzControllerNode(SuiteNode):
             return Health.WARN, f"no target for over {self.params['target_timeout']} s: holding"
         return Health.OK, ""
 
-    def _publish(self, command: Command, stamp: Any) -> None:
+    def _publish(self, command: Command, stamp: Any, pose: CameraPose | None = None) -> None:
+        """The command on ptz/command and, when set, joint_command_topic. `pose`: where the camera
+        looked in the image it answers (a positions_with_speeds hold or rate needs it: without
+        it, no JointState goes out, and the unit keeps its last goal)."""
         self.last_mode = command.mode
         msg = PtzCommand()
         msg.header.stamp = stamp
@@ -410,11 +469,9 @@ class PtzControllerNode(SuiteNode):
         msg.zoom = command.zoom  # 0: keep the current zoom
         self.command_pub.publish(msg)
         if self.joint_pub is not None:
-            self.joint_pub.publish(
-                joint_command(
-                    command, msg.header, self.params["joint_names"], self.params["zoom_joint"]
-                )
-            )
+            joints = unit_command(command, pose, self.unit)
+            if joints.positions or joints.velocities:
+                self.joint_pub.publish(joint_state(joints, msg.header))
 
 
 def pose_of(state: PtzState) -> CameraPose | str:
@@ -471,25 +528,13 @@ def estimate_of(target: Target) -> TargetEstimate | None:
     return TargetEstimate(*values, height=float(track.bbox.height))
 
 
-def joint_command(command: Command, header: Any, names: list[str], zoom_joint: str) -> JointState:
-    """The command as a JointState: positions for POSITION, velocities for VELOCITY and HOLD.
-    A zoom change adds `zoom_joint` with the zoom as its position; NaN marks what is not
-    commanded (the pan and tilt positions of a velocity command, the zoom's velocity)."""
-    joints = JointState(name=list(names))
-    if header is not None:
-        joints.header = header
-    if command.mode is CommandMode.POSITION:
-        joints.position = [command.pan, command.tilt]
-    else:
-        joints.velocity = [command.pan_rate, command.tilt_rate]
-    if zoom_joint and command.zoom > 0.0:
-        joints.name.append(zoom_joint)
-        if command.mode is CommandMode.POSITION:
-            joints.position.append(command.zoom)
-        else:
-            joints.position = [math.nan, math.nan, command.zoom]
-            joints.velocity.append(math.nan)
-    return joints
+def joint_state(command: JointCommand, header: Header) -> JointState:
+    return JointState(
+        header=header,
+        name=command.names,
+        position=command.positions,
+        velocity=command.velocities,
+    )
 
 
 def main(args: list[str] | None = None) -> int:

@@ -4,8 +4,10 @@ over joint_pose.py).
 Subscribes `ptz/joint_states` (sensor_msgs/JointState: pan, tilt [rad, REP-103], optionally a zoom
 joint) and `camera/camera_info` (sensor_msgs/CameraInfo, one per image, the image's stamp);
 publishes one `ptz/state` (tracker_msgs/PtzState) per CameraInfo, stamped like it, with the pose
-interpolated at that stamp. With it the detector, tracker and controller run behind any driver that
-publishes what FLIR PTU or Axis drivers do, unchanged.
+interpolated at that stamp, or the latest joint state carried forward by the rates the controller
+commanded since (`ptz/command`), for units that report their joints seldom. With it the
+detector, tracker and controller run behind any driver that publishes what FLIR PTU or Axis
+drivers do, unchanged.
 """
 
 from __future__ import annotations
@@ -18,10 +20,11 @@ from sensor_msgs.msg import CameraInfo, JointState
 
 from tracker_detect.image_pose_pairing import SceneSettings
 from tracker_detect.registration import CameraIntrinsics
-from tracker_msgs.msg import PtzState
+from tracker_msgs.msg import PtzCommand, PtzState
 from tracker_msgs_py.codec import (
     MAX_MESSAGE_VALUE,
     NS_PER_S,
+    command_qos,
     image_qos,
     joint_values,
     ns_to_stamp,
@@ -33,6 +36,11 @@ from tracker_msgs_py.codec import (
 from tracker_msgs_py.node_main import SuiteNode, run_node
 from tracker_msgs_py.params import ParamSpec, declare_parameters
 from tracker_ptz_sim.control.joint_pose import JointPoseBridge, JointSample, PtzPose
+from tracker_ptz_sim.control.unit_joints import (
+    JOINT_MAPPING_PARAMETERS,
+    CommandedMotion,
+    joint_mapping,
+)
 
 PARAMS = [
     ParamSpec(
@@ -74,6 +82,14 @@ PARAMS = [
     ParamSpec(
         "reliable_images", False, "reliable QoS for camera_info (lockstep replays)", read_only=True
     ),
+    ParamSpec(
+        "command_topic",
+        "ptz/command",
+        "the controller's commands (tracker_msgs/PtzCommand): their rates carry the latest joint "
+        "state forward to an image's stamp ('' = take the latest joint state as it is)",
+        read_only=True,
+    ),
+    *JOINT_MAPPING_PARAMETERS,
 ]
 
 
@@ -87,12 +103,18 @@ class PtzStateBridgeNode(SuiteNode):
             self.params["joint_buffer_size"],
             round(self.params["max_gap"] * NS_PER_S),
             round(self.params["max_pose_age"] * NS_PER_S),
+            CommandedMotion() if self.params["command_topic"] else None,
         )
+        self.mapping = joint_mapping(self.params)
         self.arrivals: dict[int, float] = {}  # waiting image stamps -> wall time they came
         self.state_pub = self.create_publisher(PtzState, "ptz/state", result_qos())
         qos = image_qos(self.params["reliable_images"], depth=self.params["joint_buffer_size"])
         self.create_subscription(JointState, "ptz/joint_states", self._on_joints, qos)
         self.create_subscription(CameraInfo, "camera/camera_info", self._on_camera_info, qos)
+        if self.params["command_topic"]:
+            self.create_subscription(
+                PtzCommand, self.params["command_topic"], self._on_command, command_qos()
+            )
         self.create_steady_timer(0.02, self._release_overdue)
         self.get_logger().info("ptz_state_bridge ready")
 
@@ -131,7 +153,7 @@ class PtzStateBridgeNode(SuiteNode):
                 f"ignored a JointState without positions for {needed} (names {names})",
             )
             return None
-        pan, tilt = positions[:2]
+        pan, tilt = self.mapping.from_joints(*positions[:2])
         zoom = positions[2] if zoom_joint else math.nan
         usable_zoom = not zoom_joint or (usable_value(zoom) and zoom > 0.0)
         if not (usable_value(pan) and usable_value(tilt) and usable_zoom):
@@ -151,7 +173,20 @@ class PtzStateBridgeNode(SuiteNode):
                 f"or within +-{MAX_MESSAGE_VALUE:g}, expected)",
             )
             return None
+        pan_rate, tilt_rate = self.mapping.rates_to_joints(pan_rate, tilt_rate)  # its own inverse
         return JointSample(stamp_to_ns(msg.header.stamp), pan, tilt, zoom, pan_rate, tilt_rate)
+
+    def _on_command(self, msg: PtzCommand) -> None:
+        velocity = msg.mode == PtzCommand.MODE_VELOCITY
+        rates = (msg.pan_rate, msg.tilt_rate) if velocity else (0.0, 0.0)
+        if not all(usable_value(rate) for rate in rates):
+            self.problems.report(
+                "unusable command rate", f"ignored a PtzCommand with rates {rates} (not finite)"
+            )
+            return
+        motion = self.bridge.motion
+        if motion is not None:
+            motion.add(stamp_to_ns(msg.header.stamp), *rates)
 
     def _on_camera_info(self, msg: CameraInfo) -> None:
         try:
