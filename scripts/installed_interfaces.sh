@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Prints colcon's `--packages-skip ...` for this workspace's stand-ins of standard interface
-# packages (src/interfaces: vision_msgs, tf2_msgs) that the sourced ROS already provides, so the
+# packages (src/interfaces: vision_msgs, tf2_msgs, ptz_action_server_msgs) that the sourced ROS already provides, so the
 # installed ones are used (an overlay would hide the messages they have and ours leave out).
 # Needs the ROS environment sourced (AMENT_PREFIX_PATH). Prints nothing when none is installed.
 set -euo pipefail

@@ -81,3 +81,43 @@ def test_a_run_in_the_flir_style_sends_only_what_the_flir_ptu_driver_accepts():
         assert (0.87, 0.87) in speeds  # the search's direct move to a preset goes at top speed
     finally:
         h.close()
+
+
+def test_the_axis_adapter_sends_rates_in_the_cameras_joints_and_a_stop_at_shutdown():
+    from ptz_action_server_msgs.msg import Ptz
+
+    from tracker_msgs.msg import PtzCommand
+    from tracker_ptz_sim.control.axis_ptz_adapter_node import AxisPtzAdapterNode
+
+    h = NodeHarness(
+        AxisPtzAdapterNode,
+        inputs={"ptz/command": (PtzCommand, command_qos()), "ptz/state": (PtzState, 10)},
+        outputs={"cmd/velocity": (Ptz, command_qos())},
+        joint_signs=[-1.0, -1.0],
+    )
+    try:
+        h.publish("ptz/state", state_msg(NS, pan=0.1))
+        h.spin_for(0.05)
+        sent = h.received["cmd/velocity"]
+        commands = [
+            PtzCommand(mode=PtzCommand.MODE_VELOCITY, pan_rate=0.25, tilt_rate=-0.125),
+            PtzCommand(mode=PtzCommand.MODE_POSITION, pan=0.35, tilt=0.0),
+            PtzCommand(mode=PtzCommand.MODE_VELOCITY, pan_rate=float("nan")),
+            PtzCommand(mode=PtzCommand.MODE_HOLD),
+        ]
+        for k, command in enumerate(commands, start=1):
+            h.publish("ptz/command", command)
+            h.spin_until(lambda k=k: len(sent) == k)
+        rates = [(m.pan, m.tilt, m.zoom) for m in sent]
+        assert rates[0] == pytest.approx((-0.25, 0.125, 0.0))  # clockwise pan, tilt + = up
+        assert rates[1] == pytest.approx((-0.5, 0.0, 0.0))  # 2/s x 0.25 rad to go
+        assert rates[2] == (0.0, 0.0, 0.0) and rates[3] == (0.0, 0.0, 0.0)  # NaN: a stop
+        sent.clear()
+        h.publish("ptz/command", commands[0])
+        h.spin_until(lambda: len(sent) == 1)
+        h.executor.remove_node(h.node)
+        h.node.destroy_node()
+        h.spin_until(lambda: len(sent) == 2)
+        assert (sent[1].pan, sent[1].tilt) == (0.0, 0.0)
+    finally:
+        h.close()

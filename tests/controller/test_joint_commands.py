@@ -111,3 +111,17 @@ def test_commanded_motion_integrates_the_rates_between_two_stamps():
     assert motion.rate_at(2 * s + 1) == (0.0, -0.2) and motion.rate_at(s - 1) is None
     motion.add(s // 2, 1.0, 1.0)  # time jumped back: the old epoch's commands go
     assert motion.travel(0, 9 * s) == pytest.approx((8.5, 8.5))
+
+
+def test_velocity_only_turns_a_direct_move_into_a_rate_toward_its_goal():
+    from tracker_ptz_sim.control.unit_joints import velocity_only
+
+    axis = JointMapping(signs=(-1.0, -1.0))
+    direct = Command(CommandMode.POSITION, pan=0.5, tilt=0.1)
+    assert velocity_only(direct, POSE, axis, 2.0, 1.0) == pytest.approx((-0.6, -0.4))
+    assert velocity_only(direct, None, axis, 2.0, 1.0) == (0.0, 0.0)  # pose unknown: stay
+    far = Command(CommandMode.POSITION, pan=3.0, tilt=-0.1)
+    assert velocity_only(far, POSE, axis, 2.0, 1.0)[0] == -1.0  # within max_rate
+    turning = Command(CommandMode.VELOCITY, pan_rate=0.3, tilt_rate=0.1)
+    assert velocity_only(turning, POSE, axis, 2.0, 1.0) == pytest.approx((-0.3, -0.1))
+    assert velocity_only(Command(CommandMode.HOLD), POSE, axis, 2.0, 1.0) == (0.0, 0.0)

@@ -134,6 +134,33 @@ def test_a_live_camera_runs_the_graph_behind_the_bridge_on_wall_time(tmp_path):
         assert controller.value("joint_command_topic") == "ptz/joint_command"
 
 
+def test_unit_adds_the_drivers_parameters_and_adapter(tmp_path):
+    """unit:=flir_ptu commands positions with speeds in the D46's joints; unit:=axis reads 1 Hz
+    joint states at once, counts both axes the other way and speaks through axis_ptz_adapter."""
+    flir = plan(LaunchArguments(camera="live", unit="flir_ptu"))
+    with Resolved(launch_ros_command(node(flir, "ptz_controller"), tmp_path)) as controller:
+        assert controller.value("joint_command_style") == "positions_with_speeds"
+        assert controller.value("joint_names") == ["ptu_pan", "ptu_tilt"]
+        assert controller.value("joint_signs") == [1.0, -1.0]
+        assert controller.value("joint_command_topic") == "ptz/joint_command"  # live.yaml's
+    with Resolved(launch_ros_command(node(flir, "ptz_state_bridge"), tmp_path)) as bridge:
+        assert bridge.value("pose_wait") == 0.15 and bridge.value("joint_signs") == [1.0, -1.0]
+    axis = plan(LaunchArguments(camera="live", unit="axis", image_topic="/axis/image_raw"))
+    assert "axis_ptz_adapter" in [n.name for n in axis]
+    with Resolved(launch_ros_command(node(axis, "ptz_controller"), tmp_path)) as controller:
+        assert controller.value("joint_command_topic") == ""  # the adapter commands the camera
+    with Resolved(launch_ros_command(node(axis, "ptz_state_bridge"), tmp_path)) as bridge:
+        assert bridge.value("pose_wait") == 0.0 and bridge.value("max_pose_age") == 1.5
+    with Resolved(launch_ros_command(node(axis, "axis_ptz_adapter"), tmp_path)) as adapter:
+        assert adapter.value("joint_signs") == [-1.0, -1.0]
+    remaps = dict(node(axis, "ssim_detector").remappings)
+    assert remaps["camera/image_raw/compressed"] == "/axis/image_raw/compressed"
+    with pytest.raises(ValueError, match="camera:=live"):
+        plan(LaunchArguments(video="v.avi", unit="axis"))
+    with pytest.raises(ValueError, match="unit must be one of"):
+        plan(LaunchArguments(camera="live", unit="sony"))
+
+
 def test_the_small_objects_graph_keeps_its_fixed_camera_unless_told_otherwise(tmp_path):
     """controller_mode's default (graph) leaves the mode to the graph's files: hold for the
     small-objects graph's fixed camera, servo for the surveillance graph; a mode given wins."""

@@ -23,7 +23,7 @@ from hostile_messages import (  # noqa: E402
 )
 from rclpy.executors import SingleThreadedExecutor  # noqa: E402
 from rclpy.parameter import Parameter  # noqa: E402
-from sensor_msgs.msg import CameraInfo, Image, JointState  # noqa: E402
+from sensor_msgs.msg import CameraInfo, CompressedImage, Image, JointState  # noqa: E402
 
 from tracker_detect.detector_node import DetectorNode  # noqa: E402
 from tracker_msgs.msg import BlobArray, PtzState  # noqa: E402
@@ -57,6 +57,9 @@ class Harness:
         )
         self.peer = rclpy.create_node("peer", namespace=self.namespace, context=context)
         self.images = self.peer.create_publisher(Image, "camera/image_raw", 50)
+        self.compressed = self.peer.create_publisher(
+            CompressedImage, "camera/image_raw/compressed", 50
+        )
         self.states = self.peer.create_publisher(PtzState, "ptz/state", 50)
         self.joints = self.peer.create_publisher(JointState, "ptz/joint_states", 50)
         self.infos = self.peer.create_publisher(CameraInfo, "camera/camera_info", 50)
@@ -68,7 +71,8 @@ class Harness:
         self.executor.add_node(self.peer)
         source = params.get("pose_source", "ptz_state")
         wanted = {"ptz_state": [self.states], "joint_states": [self.joints, self.infos]}
-        publishers = [self.images, *wanted.get(source, [])]
+        compressed = params.get("image_transport") == "compressed"
+        publishers = [self.compressed if compressed else self.images, *wanted.get(source, [])]
         assert self.spin_until(lambda: all(p.get_subscription_count() for p in publishers))
 
     def subscribe_mask(self):
@@ -163,6 +167,28 @@ def test_one_blob_array_per_frame_with_poses_in_any_order(harness_factory):
         assert target.bbox.y <= 80 and target.bbox.y + target.bbox.height >= 96
         assert -1.0 <= target.score < 0.8  # mean SSIM over the dilated blob
     assert h.node.counters.frames == len(frames)
+
+
+def test_compressed_images_give_the_blobs_the_same_raw_images_give(harness_factory):
+    frames, windows = scene_and_windows()
+    answers = {}
+    for transport in ("raw", "compressed"):
+        h = harness_factory(pose_source="ptz_state", image_transport=transport)
+        for k, (frame, (x, y, w, hh)) in enumerate(zip(frames, windows, strict=True)):
+            h.states.publish(state_msg(windows[k], k * NS))
+            view = frame[y : y + hh, x : x + w]
+            if transport == "raw":
+                h.images.publish(image_msg(view, k * NS))
+            else:  # png: lossless, so the detector sees the very same pixels
+                png = cv2.imencode(".png", cv2.cvtColor(view, cv2.COLOR_GRAY2BGR))[1]
+                msg = CompressedImage(format="png", data=png.tobytes())
+                msg.header.stamp = ns_to_stamp(k * NS)
+                h.compressed.publish(msg)
+            h.settle(k + 1)
+        answers[transport] = [blob_values(d) for d in h.detections]
+    assert any(answers["raw"]) and answers["compressed"] == answers["raw"]
+    h.compressed.publish(CompressedImage(format="jpeg", data=b"not an image"))
+    h.spin_until(lambda: h.node.problems.count("undecodable compressed image") == 1)
 
 
 def test_bad_encodings_repeated_stamps_and_a_new_epoch(harness_factory):

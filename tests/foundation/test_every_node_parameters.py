@@ -19,6 +19,7 @@ from tracker_filter.tracker_node import TrackerNode  # noqa: E402
 from tracker_filter.voxel_tracker_node import VoxelTrackerNode  # noqa: E402
 from tracker_msgs_py.node_main import StartupError  # noqa: E402
 from tracker_msgs_py.params import ParameterError  # noqa: E402
+from tracker_ptz_sim.control.axis_ptz_adapter_node import AxisPtzAdapterNode  # noqa: E402
 from tracker_ptz_sim.control.ptz_controller_node import PtzControllerNode  # noqa: E402
 from tracker_ptz_sim.control.ptz_state_bridge_node import PtzStateBridgeNode  # noqa: E402
 from tracker_ptz_sim.simulation.ptz_camera_node import PtzCameraNode  # noqa: E402
@@ -31,6 +32,7 @@ NODES = [
     VoxelTrackerNode,
     PtzControllerNode,
     PtzStateBridgeNode,
+    AxisPtzAdapterNode,
     PtzCameraNode,
     VideoSourceNode,
     "detector",

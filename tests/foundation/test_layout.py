@@ -34,6 +34,7 @@ ROS_SHELLS = {
     "ptz_controller_node",
     "ptz_state_bridge_node",
     "ptz_tf_node",
+    "axis_ptz_adapter_node",
     "live_view_node",
     "graph_host",
     "demo",

@@ -32,7 +32,11 @@ def node_parameters() -> dict[tuple[str, str], list]:
     from tracker_filter.tracker_node import parameter_specs
     from tracker_filter.trackers import TRACKERS
     from tracker_msgs_py.params import ParamSpec
-    from tracker_ptz_sim.control import ptz_controller_node, ptz_state_bridge_node
+    from tracker_ptz_sim.control import (
+        axis_ptz_adapter_node,
+        ptz_controller_node,
+        ptz_state_bridge_node,
+    )
     from tracker_ptz_sim.simulation import ptz_camera_node, video_source_node
 
     ptz = "tracker_ptz_sim/README.md"
@@ -42,6 +46,7 @@ def node_parameters() -> dict[tuple[str, str], list]:
         (ptz, "#### `ptz_camera` parameters"): ptz_camera_node.PARAMS,
         (ptz, "#### `ptz_controller` parameters"): ptz_controller_node.PARAMS,
         (ptz, "#### `ptz_state_bridge` parameters"): ptz_state_bridge_node.PARAMS,
+        (ptz, "#### `axis_ptz_adapter` parameters"): axis_ptz_adapter_node.PARAMS,
         ("tracker_detect/README.md", "### Parameters"): [
             method,
             *DETECTORS.get("ssim").parameters,

@@ -16,11 +16,12 @@ rectangle.
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from sensor_msgs.msg import CameraInfo, Image, JointState
+from sensor_msgs.msg import CameraInfo, CompressedImage, Image, JointState
 from std_msgs.msg import Header
 from vision_msgs.msg import Detection2DArray
 
@@ -62,6 +63,7 @@ from tracker_msgs_py.codec import (
     NS_PER_S,
     UnsupportedEncodingError,
     array_to_image,
+    compressed_to_bgr,
     image_qos,
     image_to_array,
     image_to_bgr,
@@ -87,6 +89,15 @@ NODE_PARAMETERS = [
         "pan-tilt unit), none (static camera), estimate (unknown: dead reckoning from the "
         "estimated shifts)",
         choices=POSE_SOURCES,
+        read_only=True,
+    ),
+    ParamSpec(
+        "image_transport",
+        "raw",
+        "raw: sensor_msgs/Image on camera/image_raw; compressed: sensor_msgs/CompressedImage "
+        "(jpeg, png) on camera/image_raw/compressed, as image_transport and the Axis driver "
+        "publish it",
+        choices=("raw", "compressed"),
         read_only=True,
     ),
     ParamSpec(
@@ -198,7 +209,15 @@ class DetectorNode(SuiteNode):
         # private (~/: /detector/motion_mask for a node of the default name), one per detector
         self.mask_pub = self.create_publisher(Image, "~/motion_mask", image_qos(reliable))
         self.ssim_pub = self.create_publisher(Image, "~/ssim_map", image_qos(reliable))
-        self.create_subscription(Image, "camera/image_raw", self._on_image, image_qos(reliable))
+        if self.params["image_transport"] == "compressed":  # image_transport's topic name
+            self.create_subscription(
+                CompressedImage,
+                "camera/image_raw/compressed",
+                self._on_compressed_image,
+                image_qos(reliable),
+            )
+        else:
+            self.create_subscription(Image, "camera/image_raw", self._on_image, image_qos(reliable))
         pose_qos = image_qos(reliable, depth=self.params["pose_buffer_size"])
         source = self.params["pose_source"]
         if source == "ptz_state":
@@ -311,9 +330,18 @@ class DetectorNode(SuiteNode):
     # --- inputs -------------------------------------------------------------------------------
 
     def _on_image(self, msg: Image) -> None:
-        stamp = stamp_to_ns(msg.header.stamp)
+        self._take_image(
+            msg.header,
+            lambda: image_to_array(msg) if msg.encoding == "mono8" else image_to_bgr(msg),
+        )
+
+    def _on_compressed_image(self, msg: CompressedImage) -> None:
+        self._take_image(msg.header, lambda: compressed_to_bgr(msg))
+
+    def _take_image(self, header: Header, decode: Callable[[], np.ndarray]) -> None:
+        stamp = stamp_to_ns(header.stamp)
         try:  # before its stamp counts: a dropped image must not move the detector's clock
-            pixels = image_to_array(msg) if msg.encoding == "mono8" else image_to_bgr(msg)
+            pixels = decode()
         except UnsupportedEncodingError as error:
             self.counters.unsupported_encoding += 1
             self.problems.report(
@@ -324,7 +352,7 @@ class DetectorNode(SuiteNode):
             if self.image_order.classify(stamp) is Order.NEXT:
                 # lockstep: its camera waits for an answer; an older or repeated stamp is not
                 # answered, which would move the tracker's clock back or answer an image twice
-                self._publish_empty(msg.header)
+                self._publish_empty(header)
             return
         order = self.image_order.check(stamp)
         if order in (Order.REPEAT, Order.INVALID):
@@ -337,7 +365,7 @@ class DetectorNode(SuiteNode):
             return
         if order is Order.NEW_EPOCH:
             self._start_epoch(stamp)
-        self._handle(self.pairing.add_image(msg.header, stamp, pixels.copy()))
+        self._handle(self.pairing.add_image(header, stamp, pixels.copy()))
 
     def _start_epoch(self, stamp_ns: int) -> None:
         """Time jumped back (a restarted or looping source): forget what the old stamps built."""

@@ -250,6 +250,23 @@ def image_to_bgr(msg: Image) -> np.ndarray:
     return pixels if msg.encoding == "bgr8" else np.ascontiguousarray(pixels[:, :, :3])
 
 
+def compressed_to_bgr(msg: Any) -> np.ndarray:
+    """A sensor_msgs/CompressedImage (jpeg, png: what image_transport's compressed plug-in and
+    camera drivers such as Axis's publish) as BGR (H, W, 3) uint8; raises
+    UnsupportedEncodingError when its data does not decode."""
+    import cv2  # local import, as in image_to_gray
+
+    data = np.frombuffer(bytes(msg.data), np.uint8)
+    pixels = cv2.imdecode(data, cv2.IMREAD_COLOR) if data.size else None
+    if pixels is None:
+        raise UnsupportedEncodingError(
+            f"a CompressedImage (format '{msg.format}', {data.size} bytes) that does not decode "
+            "as an image",
+            "undecodable compressed image",
+        )
+    return pixels
+
+
 def image_to_gray(msg: Image) -> np.ndarray:
     """The image as (H, W) uint8 luma, with the seed's weights 0.2989 R + 0.5870 G + 0.1140 B."""
     if msg.encoding in CAMERA_ENCODINGS:

@@ -1,5 +1,6 @@
 """ros2 launch tracker_ptz_sim surveillance.launch.py video:=/path/to/video.mp4
     [graph:=surveillance|motion|colour|standard|small_objects] [camera:=sim|live]
+    [unit:=generic|flir_ptu|axis]
     [namespace:=cam1]
     [use_sim_time:=auto|true|false] [clock:=auto|global|namespaced|off]
     [controller_mode:=graph|servo|direct|hold] [respawn:=true] [live_view:=true]
@@ -14,7 +15,9 @@ the person model (the motion-only baseline); graph:=colour runs the colour-follo
 (motion hands its target over to CamShift; seed 001); graph:=standard the surveillance graph
 behind a simulated camera that speaks only sensor_msgs, as real drivers do; graph:=small_objects
 a fixed camera tracking many small movers (MOG2 + GM-PHD; seed 004).
-camera:=live runs the graph behind a real unit's drivers instead of the simulator (no video).
+camera:=live runs the graph behind a real unit's drivers instead of the simulator (no video);
+unit:= names the driver (flir_ptu: the FLIR PTU driver's positions with speeds; axis: the Axis
+driver's cmd/velocity, through axis_ptz_adapter) and adds its example parameter file.
 Every argument wins over the parameter files, also under a namespace; two cameras run side by side
 in two namespaces, each on its own clock (`tracker_ptz_sim.bringup.launch_plan` has the rules).
 With respawn:=true a processing node that exits is started again (after 1 s, at most 5 times).
@@ -40,6 +43,7 @@ from tracker_ptz_sim.bringup.launch_plan import (
     SIM_TIMES,
     TF_PUBLISHERS,
     TOPIC_ARGUMENTS,
+    UNITS,
     LaunchArguments,
     plan,
 )
@@ -60,6 +64,13 @@ ARGUMENTS = [
         list(CAMERAS),
         "sim: replay video through the simulated unit; live: a "
         "real unit's drivers publish camera/* and ptz/joint_states",
+    ),
+    (
+        "unit",
+        "generic",
+        list(UNITS),
+        "live: the unit's driver (generic JointState velocities, flir_ptu, axis): its "
+        "config/unit_<name>.yaml and adapter",
     ),
     ("namespace", "", None, "namespace of every node and topic (two cameras: two namespaces)"),
     ("use_sim_time", "auto", list(SIM_TIMES), "auto: the replay's clock for sim, wall time live"),
@@ -154,6 +165,7 @@ def graph_actions(context):
         video=value["video"],
         graph=value["graph"],
         camera=value["camera"],
+        unit=value["unit"],
         namespace=value["namespace"],
         use_sim_time=value["use_sim_time"],
         clock=value["clock"],

@@ -24,6 +24,10 @@ def ptz_state_bridge() -> int:
     return guarded_main("tracker_ptz_sim.control.ptz_state_bridge_node")
 
 
+def axis_ptz_adapter() -> int:
+    return guarded_main("tracker_ptz_sim.control.axis_ptz_adapter_node")
+
+
 def ptz_tf() -> int:
     return guarded_main("tracker_ptz_sim.control.ptz_tf_node")
 

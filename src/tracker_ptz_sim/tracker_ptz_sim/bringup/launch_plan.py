@@ -5,6 +5,10 @@ the launch arguments into nodes, so the launch file stays a thin shell and its r
   simulates the unit); `camera:=live` replaces both by `ptz_state_bridge` in front of a real unit's
   drivers (the README's "On a real pan-tilt unit"), with config/live.yaml (wall time, best-effort
   images, JointState commands on ptz/joint_command).
+- `unit` (live): the driver behind the graph: `generic` (JointState velocities), `flir_ptu` (the
+  FLIR PTU driver: config/unit_flir_ptu.yaml, positions with speeds on its `cmd`) or `axis` (the
+  Axis driver: config/unit_axis.yaml and `axis_ptz_adapter` onto its `cmd/velocity`), applied
+  after live.yaml and before `params_file`.
 - Every node gets `namespace` (default: none), so two cameras run side by side in two namespaces;
   the per-node sections of the parameter files are keyed `/**/<name>` and match under any.
 - The arguments always win: each node gets them last, in a dict `launch_ros` writes under the
@@ -48,6 +52,9 @@ CONTROLLER_MODES = ("graph", "servo", "direct", "hold")  # graph: the graph's ow
 SIMULATOR_NODES = ("video_source", "ptz_camera")
 BRIDGE = NodeSpec("tracker_ptz_sim", "ptz_state_bridge", "ptz_state_bridge")
 LIVE_PARAMETERS = "live.yaml"  # in the graph's config directory
+UNITS = ("generic", "flir_ptu", "axis")  # a unit's parameters: unit_<name>.yaml, beside live.yaml
+#: Nodes a unit's driver needs in front of it.
+UNIT_ADAPTERS = {"axis": NodeSpec("tracker_ptz_sim", "axis_ptz_adapter", "axis_ptz_adapter")}
 
 
 @dataclass(frozen=True)
@@ -55,6 +62,7 @@ class LaunchArguments:
     video: str = ""
     graph: str = "surveillance"
     camera: str = "sim"
+    unit: str = "generic"  # live: the driver behind the graph (UNITS)
     namespace: str = ""
     use_sim_time: str = "auto"
     clock: str = "auto"
@@ -103,10 +111,12 @@ def plan(arguments: LaunchArguments, graph: Graph | None = None) -> list[Planned
     if arguments.live_view:
         graph = with_live_view(graph)
     live = arguments.camera == "live"
-    nodes = _live_nodes(graph) if live else list(graph.nodes)
+    nodes = _live_nodes(graph, arguments.unit) if live else list(graph.nodes)
     files: list[Path] = list(graph.params_files)
     if live:
         files.append(graph.config_dir / LIVE_PARAMETERS)
+        if arguments.unit != "generic":
+            files.append(graph.config_dir / f"unit_{arguments.unit}.yaml")
     if arguments.params_file:
         files.append(Path(arguments.params_file))
     clock = _clock(arguments)
@@ -172,12 +182,19 @@ def _tf_node(arguments: LaunchArguments, sim_time: bool, files: list[Path]) -> P
 
 def _topic_remappings(arguments: LaunchArguments) -> list[tuple[str, str]]:
     given = {name: getattr(arguments, name) for name in TOPIC_ARGUMENTS}
-    return [(TOPIC_ARGUMENTS[name], topic) for name, topic in given.items() if topic]
+    remaps = [(TOPIC_ARGUMENTS[name], topic) for name, topic in given.items() if topic]
+    if arguments.image_topic:  # image_transport's compressed stream rides along (Axis's images)
+        remaps.append(("camera/image_raw/compressed", arguments.image_topic + "/compressed"))
+    return remaps
 
 
 def _check(arguments: LaunchArguments) -> None:
     if arguments.camera not in CAMERAS:
         raise ValueError(f"camera must be one of {', '.join(CAMERAS)}, got '{arguments.camera}'")
+    if arguments.unit not in UNITS:
+        raise ValueError(f"unit must be one of {', '.join(UNITS)}, got '{arguments.unit}'")
+    if arguments.unit != "generic" and arguments.camera != "live":
+        raise ValueError(f"unit:={arguments.unit} drives a real unit: it needs camera:=live")
     if arguments.tf not in TF_PUBLISHERS:
         raise ValueError(f"tf must be one of {', '.join(TF_PUBLISHERS)}, got '{arguments.tf}'")
     if arguments.clock not in CLOCKS:
@@ -215,9 +232,11 @@ def _sim_time(arguments: LaunchArguments, clock: str) -> bool:
     return arguments.use_sim_time == "true"
 
 
-def _live_nodes(graph: Graph) -> list[NodeSpec]:
-    """The graph without the simulator, behind the bridge to a real unit's drivers."""
+def _live_nodes(graph: Graph, unit: str) -> list[NodeSpec]:
+    """The graph without the simulator, behind the bridge to a real unit's drivers (and the
+    adapter its driver needs)."""
     kept = [node for node in graph.nodes if node.name not in SIMULATOR_NODES]
     if all(node.name != BRIDGE.name for node in kept):
         kept.insert(0, BRIDGE)
-    return kept
+    adapter = UNIT_ADAPTERS.get(unit)
+    return kept + ([adapter] if adapter else [])

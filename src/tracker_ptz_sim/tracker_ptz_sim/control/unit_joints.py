@@ -18,6 +18,9 @@ Drivers differ in what a command is (`CommandStyle`):
   stops hearing commands stops within `lead`, as a velocity watchdog would stop it); a hold is a
   goal at that pose; a direct move goes at the highest speed.
 
+Cameras whose driver takes rates alone (the Axis driver's `cmd/velocity`: pan, tilt [rad/s] and
+a zoom speed) get `velocity_only`: a direct move or search becomes a rate toward its goal.
+
 `CommandedMotion` remembers the commanded rates, so a pose between sparse joint states (an Axis
 driver publishes them at 1 Hz, with zero velocities) can be carried forward by what the unit was
 told to do.
@@ -181,6 +184,21 @@ def _positions_with_speeds(
     pan = min(max(goal[0], unit.pan_limits[0]), unit.pan_limits[1])
     tilt = min(max(goal[1], unit.tilt_limits[0]), unit.tilt_limits[1])
     return JointCommand(list(unit.names), list(unit.mapping.to_joints(pan, tilt)), list(speeds))
+
+
+def velocity_only(
+    command: Command, pose: CameraPose | None, mapping: JointMapping, gain: float, max_rate: float
+) -> tuple[float, float]:
+    """The command as joint rates: its rates, 0 for a hold, and for a direct move
+    `gain` × (goal − pose) within ±`max_rate` (0 while the pose is unknown)."""
+    if command.mode is CommandMode.VELOCITY:
+        rates = (command.pan_rate, command.tilt_rate)
+    elif command.mode is CommandMode.POSITION and pose is not None:
+        rates = (gain * (command.pan - pose.pan), gain * (command.tilt - pose.tilt))
+    else:
+        rates = (0.0, 0.0)
+    pan, tilt = (min(max(rate, -max_rate), max_rate) for rate in rates)
+    return mapping.rates_to_joints(pan, tilt)
 
 
 class CommandedMotion:

@@ -86,6 +86,7 @@ class PtzCommand:
     pan_rate: float = 0.0
     tilt_rate: float = 0.0
     zoom: float = 0.0  # 0 or NaN: keep
+    speeds: tuple[float, float] | None = None  # position: [pan, tilt] rad/s to go at (a PTU's)
 
 
 @dataclass(frozen=True)
@@ -206,10 +207,8 @@ class PtzCameraModel:
         if self.config.servo == "instant":
             self._integrate_instant(command, dt)
         else:
-            for axis, target, rate in self._axis_goals(command):
-                _servo_step(
-                    axis, target, rate, self.config.max_speed, self.config.max_acceleration, dt
-                )
+            for axis, target, rate, speed in self._axis_goals(command):
+                _servo_step(axis, target, rate, speed, self.config.max_acceleration, dt)
         self._clamp_axes()
 
     def _velocity_expired(self, command: PtzCommand) -> bool:
@@ -230,13 +229,24 @@ class PtzCameraModel:
             self.pan.position += command.pan_rate * dt
             self.tilt.position += command.tilt_rate * dt
 
-    def _axis_goals(self, command: PtzCommand | None) -> list[tuple[_Axis, float | None, float]]:
-        """Per axis: the position to reach (None in velocity mode) and the rate to hold."""
+    def _axis_goals(
+        self, command: PtzCommand | None
+    ) -> list[tuple[_Axis, float | None, float, float]]:
+        """Per axis: the position to reach (None in velocity mode), the rate to hold and the
+        speed limit (the unit's, or the command's lower one)."""
+        top = self.config.max_speed
         if command is None:
-            return [(self.pan, None, 0.0), (self.tilt, None, 0.0)]
+            return [(self.pan, None, 0.0, top), (self.tilt, None, 0.0, top)]
         if command.mode == "position":
-            return [(self.pan, command.pan, 0.0), (self.tilt, command.tilt, 0.0)]
-        return [(self.pan, None, command.pan_rate), (self.tilt, None, command.tilt_rate)]
+            pan_speed, tilt_speed = command.speeds or (top, top)
+            return [
+                (self.pan, command.pan, 0.0, min(top, pan_speed)),
+                (self.tilt, command.tilt, 0.0, min(top, tilt_speed)),
+            ]
+        return [
+            (self.pan, None, command.pan_rate, top),
+            (self.tilt, None, command.tilt_rate, top),
+        ]
 
     # --- geometry -------------------------------------------------------------------------------
 

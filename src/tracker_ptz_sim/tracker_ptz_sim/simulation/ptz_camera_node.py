@@ -126,6 +126,15 @@ PARAMS = [
     ),
     ParamSpec("zoom_joint", "", "standard interface: the zoom joint's name ('' = no zoom joint)"),
     ParamSpec(
+        "joint_command_style",
+        "velocity_or_position",
+        "standard interface: what its JointState commands hold: velocity_or_position (velocities "
+        "where finite, else positions) or positions_with_speeds (a FLIR PTU's: two positions "
+        "reached at two speeds, by index)",
+        choices=("velocity_or_position", "positions_with_speeds"),
+        read_only=True,
+    ),
+    ParamSpec(
         "lockstep",
         False,
         "process image n+1 only after a command acknowledging image n",
@@ -296,6 +305,8 @@ class PtzCameraNode(SuiteNode):
 
     def _joint_command_from(self, msg: JointState) -> PtzCommand | None:
         """A JointState command: velocities where given (finite), else positions; or None."""
+        if self.params["joint_command_style"] == "positions_with_speeds":
+            return self._position_with_speeds(msg)
         stamp = stamp_to_ns(msg.header.stamp)
         names = list(msg.name)
         pan_name, tilt_name = self.params["joint_names"]
@@ -344,6 +355,22 @@ class PtzCameraNode(SuiteNode):
             "pan and tilt joints",
         )
         return None
+
+    def _position_with_speeds(self, msg: JointState) -> PtzCommand | None:
+        """As the FLIR PTU driver reads its `cmd`: exactly two positions [pan, tilt] by index, and
+        two speeds (else speed 0: the unit stays); None (reported) otherwise."""
+        values = [*msg.position, *msg.velocity]
+        if len(msg.position) != 2 or not all(usable_value(float(v)) for v in values):
+            self.problems.report(
+                "not two positions",
+                f"ignored a JointState command with positions {list(msg.position)}: the "
+                "positions_with_speeds style needs exactly two finite positions (pan, tilt)",
+            )
+            return None
+        speeds = (abs(msg.velocity[0]), abs(msg.velocity[1])) if len(msg.velocity) == 2 else (0, 0)
+        stamp = stamp_to_ns(msg.header.stamp) / NS_PER_S
+        pan, tilt = float(msg.position[0]), float(msg.position[1])
+        return PtzCommand(stamp, "position", pan, tilt, speeds=(float(speeds[0]), float(speeds[1])))
 
     # --- images ---------------------------------------------------------------------------------
 
