@@ -37,6 +37,7 @@ setup(
             "ptz_state_bridge = tracker_ptz_sim.entry_points:ptz_state_bridge",
             "ptz_tf = tracker_ptz_sim.entry_points:ptz_tf",
             "axis_ptz_adapter = tracker_ptz_sim.entry_points:axis_ptz_adapter",
+            "onvif_ptz = tracker_ptz_sim.entry_points:onvif_ptz",
             "live_view = tracker_ptz_sim.entry_points:live_view",
             "graph_host = tracker_ptz_sim.entry_points:graph_host",
             "run_demo = tracker_ptz_sim.entry_points:run_demo",

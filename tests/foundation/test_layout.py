@@ -35,6 +35,7 @@ ROS_SHELLS = {
     "ptz_state_bridge_node",
     "ptz_tf_node",
     "axis_ptz_adapter_node",
+    "onvif_ptz_node",
     "live_view_node",
     "graph_host",
     "demo",

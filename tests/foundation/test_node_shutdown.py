@@ -42,8 +42,20 @@ def _video(tmp_path):
     return path
 
 
-def node_params(name: str, tmp_path) -> dict[str, object]:
+@pytest.fixture(scope="module")
+def onvif_camera():
+    """The camera onvif_ptz drives (the tests' ONVIF double), started once."""
+    from onvif_camera import OnvifCamera
+
+    with OnvifCamera() as camera:
+        yield camera
+
+
+def node_params(name: str, tmp_path, request) -> dict[str, object]:
     """Parameters a node needs to start at all (most need none)."""
+    if name == "onvif_ptz":
+        camera = request.getfixturevalue("onvif_camera")
+        return {"host": "127.0.0.1", "port": camera.port}
     if name == "video_source":
         return {"path": str(_video(tmp_path)), "loop": True}
     if name == "live_view":
@@ -67,8 +79,9 @@ def test_the_suite_installs_node_executables():
 
 @pytest.mark.parametrize("signum", [signal.SIGINT, signal.SIGTERM], ids=["SIGINT", "SIGTERM"])
 @pytest.mark.parametrize(("package", "name"), node_executables())
-def test_node_exits_cleanly_on_a_stop_signal(package, name, signum, tmp_path):
-    node = RosProcess(package, name, log_dir=tmp_path, params=node_params(name, tmp_path))
+def test_node_exits_cleanly_on_a_stop_signal(package, name, signum, tmp_path, request):
+    params = node_params(name, tmp_path, request)
+    node = RosProcess(package, name, log_dir=tmp_path, params=params)
     try:
         time.sleep(STARTUP_S)
         assert node.process.poll() is None, f"{name} died at start-up:\n{node.output()}"

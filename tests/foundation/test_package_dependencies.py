@@ -28,6 +28,7 @@ PYTHON_KEYS = {
     "trackeval": "python3-trackeval-pip",
     "foxglove": "python3-foxglove-sdk-pip",
     "onnxruntime": "python3-onnxruntime-pip",
+    "onvif": "python3-onvif-zeep-async-pip",
 }
 # Keys in rosdistro's rosdep/python.yaml, looked up by hand in ros/rosdistro on 2026-11-25
 # (python3-filterpy and python3-rosbags are not keys there; their -pip forms are).
@@ -57,6 +58,7 @@ ROS_PACKAGES = {
     "diagnostic_msgs",
     "vision_msgs",  # ros-jazzy-vision-msgs (src/interfaces stands in on the wheels)
     "tf2_msgs",
+    "ptz_action_server_msgs",  # Clearpath's, released for Jazzy (its Ptz.msg stands in here)
     "geometry_msgs",
     "robot_state_publisher",  # the launch file's TF publisher where installed
     "rosidl_default_runtime",

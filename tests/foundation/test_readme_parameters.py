@@ -34,6 +34,7 @@ def node_parameters() -> dict[tuple[str, str], list]:
     from tracker_msgs_py.params import ParamSpec
     from tracker_ptz_sim.control import (
         axis_ptz_adapter_node,
+        onvif_ptz_node,
         ptz_controller_node,
         ptz_state_bridge_node,
     )
@@ -47,6 +48,7 @@ def node_parameters() -> dict[tuple[str, str], list]:
         (ptz, "#### `ptz_controller` parameters"): ptz_controller_node.PARAMS,
         (ptz, "#### `ptz_state_bridge` parameters"): ptz_state_bridge_node.PARAMS,
         (ptz, "#### `axis_ptz_adapter` parameters"): axis_ptz_adapter_node.PARAMS,
+        (ptz, "#### `onvif_ptz` parameters"): onvif_ptz_node.PARAMS,
         ("tracker_detect/README.md", "### Parameters"): [
             method,
             *DETECTORS.get("ssim").parameters,

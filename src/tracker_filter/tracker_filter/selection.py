@@ -227,9 +227,13 @@ class TargetSelector:
     # --- per frame ----------------------------------------------------------------------------
 
     def update(
-        self, tracks: TrackSet, view_centre: tuple[float, float] | None = None
+        self,
+        tracks: TrackSet,
+        view_centre: tuple[float, float] | None = None,
+        allowed: np.ndarray | None = None,
     ) -> Selection | None:
-        """The selection after this frame's tracks (None: nothing to follow)."""
+        """The selection after this frame's tracks (None: nothing to follow). `allowed` (a mask
+        over the tracks, None: all) limits the automatic policy (the required zones)."""
         self._last_tracks = tracks
         if self._pending_rect is not None:
             self._take_track_started_in_rect(tracks)
@@ -238,7 +242,7 @@ class TargetSelector:
             if self.selection is not None and self._alive(tracks, self.selection.track_id):
                 return self.selection
             self._unlock()  # the chosen track is gone: back to the automatic policy
-        return self._update_automatic(tracks, view_centre)
+        return self._update_automatic(tracks, view_centre, allowed)
 
     def _take_track_started_in_rect(self, tracks: TrackSet) -> None:
         rect = self._pending_rect
@@ -269,12 +273,17 @@ class TargetSelector:
         return tracks.ages.astype(float)
 
     def _update_automatic(
-        self, tracks: TrackSet, view_centre: tuple[float, float] | None
+        self,
+        tracks: TrackSet,
+        view_centre: tuple[float, float] | None,
+        allowed: np.ndarray | None = None,
     ) -> Selection | None:
         confirmed = (tracks.status == TrackStatus.CONFIRMED) | (
             tracks.status == TrackStatus.COASTING
         )
         followed = wanted(tracks.labels, self.labels)
+        if allowed is not None:
+            followed = followed & allowed
         candidates = np.flatnonzero(confirmed & followed & (tracks.misses <= self.max_misses))
         current = self.selection
         incumbent = tracks.index_of(current.track_id) if current is not None else None

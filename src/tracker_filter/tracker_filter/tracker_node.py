@@ -13,6 +13,7 @@ declares parameters, converts messages and wires topics.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import replace
 from functools import partial
 from typing import Any
@@ -28,6 +29,7 @@ from tracker_filter.observation import Detections, Need, Observation
 from tracker_filter.selection import SelectionPolicy, TargetSelector
 from tracker_filter.trackers import PLUGIN_GROUP, TRACKERS
 from tracker_filter.tracking import Tracker, TrackSet
+from tracker_filter.zones import Zones, parse_polygons
 from tracker_msgs.msg import Blob as BlobMsg
 from tracker_msgs.msg import BlobArray, PtzState, Rect, Target, Track, TrackArray
 from tracker_msgs.srv import ResetTracker, SelectTarget
@@ -53,7 +55,12 @@ from tracker_msgs_py.stamps import Order, StampOrder
 from tracker_msgs_py.vision import tracks_to_vision
 
 #: Parameters that take effect without rebuilding the tracker (the others clear its tracks).
-LIVE_PARAMETERS = frozenset(SELECTION_DEFAULTS) | {"scene_frame_id", "max_input_gap"}
+LIVE_PARAMETERS = frozenset(SELECTION_DEFAULTS) | {
+    "scene_frame_id",
+    "max_input_gap",
+    "ignore_zones",
+    "required_zones",
+}
 
 
 def detections_from_msg(msg: BlobArray) -> Detections:
@@ -162,6 +169,24 @@ def target_to_msg(
     return target
 
 
+def _zones_problem(name: str) -> Callable[[Any], str | None]:
+    def problem(value: Any) -> str | None:
+        try:
+            parse_polygons(value, name)
+        except ValueError as error:
+            return str(error)
+        return None
+
+    return problem
+
+
+def zones_of(params: dict[str, Any]) -> Zones:
+    return Zones(
+        parse_polygons(params["ignore_zones"], "ignore_zones"),
+        parse_polygons(params["required_zones"], "required_zones"),
+    )
+
+
 def parameter_specs(method: Method[Tracker], preset: str) -> list[ParamSpec]:
     """The node's parameters for `method` with `preset`: the method's own, then the target
     selection's and the node's, defaults from the preset."""
@@ -183,6 +208,20 @@ def parameter_specs(method: Method[Tracker], preset: str) -> list[ParamSpec]:
             "live camera that dropped out): the tracks are cleared, not predicted across the gap",
             0.01,
             86400.0,
+        ),
+        ParamSpec(
+            "ignore_zones",
+            "",
+            "scene polygons 'x1,y1,x2,y2,x3,y3; ...' [px] where detections are ignored (their "
+            "box's bottom centre inside): a flag, a tree, a road ('' = none)",
+            validator=_zones_problem("ignore_zones"),
+        ),
+        ParamSpec(
+            "required_zones",
+            "",
+            "scene polygons as ignore_zones: the camera follows a track only once its box's "
+            "bottom centre has been in one (Frigate's required_zones; '' = any track)",
+            validator=_zones_problem("required_zones"),
         ),
     ]
     return specs
@@ -225,6 +264,8 @@ class TrackerNode(SuiteNode):
         self._view_centre: tuple[float, float] | None = None
         self._last_frame: tuple[int, int | None] = (0, None)  # tracks, followed track id
         self._order = StampOrder(max_gap_ns=self._max_gap_ns())
+        self._zones = zones_of(self._params)
+        self.ignored_in_zones = 0  # detections dropped in an ignore zone
         needs = self._tracker.needs
         self._frames = FrameAssembler(
             frozenset(need.value for need in needs), self._params["pairing_capacity"]
@@ -256,6 +297,7 @@ class TrackerNode(SuiteNode):
             + (f", preset {preset}" if preset else "")
             + (f", filter {self._params['filter']}" if "filter" in self._params else "")
             + f", selection {self._params['selection_policy']}; needs {needed}"
+            + self._zones.describe()
         )
 
     # --- parameters ---------------------------------------------------------------------------
@@ -290,6 +332,8 @@ class TrackerNode(SuiteNode):
     def _on_parameters(self, changed: dict[str, Any]) -> None:
         self._selector.configure(*selector_settings(self._params))
         self._order.max_gap_ns = self._max_gap_ns()
+        if {"ignore_zones", "required_zones"} & set(changed):
+            self._zones = zones_of(self._params)
         rebuilt = set(changed) - LIVE_PARAMETERS
         if rebuilt:
             cleared = self._forget_tracks()
@@ -377,6 +421,8 @@ class TrackerNode(SuiteNode):
                 )
             if self._epoch_ns is None:
                 self._epoch_ns = frame.stamp_ns
+            detections, ignored = self._zones.outside_ignored(detections)
+            self.ignored_in_zones += ignored
             tracks = self._tracker.step(
                 Observation(
                     time=(frame.stamp_ns - self._epoch_ns) / NS_PER_S,
@@ -397,6 +443,7 @@ class TrackerNode(SuiteNode):
         self._track(self._frames.clear())  # frames still waiting are answered on the old base
         cleared = self._tracker.reset(reset_ids=reset_ids)
         self._selector.reset()
+        self._zones.reset()
         self._epoch_ns = None
         return cleared
 
@@ -411,7 +458,8 @@ class TrackerNode(SuiteNode):
 
     def _publish(self, header: Header, tracks: TrackSet) -> None:
         """One TrackArray and one Target per input frame (lockstep), even without tracks."""
-        selection = self._selector.update(tracks, self._view_centre)  # None: nothing to follow
+        allowed = self._zones.followable(tracks)
+        selection = self._selector.update(tracks, self._view_centre, allowed)  # None: no target
         tracks_msg = tracks_to_msg(tracks, header)
         self._tracks_pub.publish(tracks_msg)
         if self._vision_pub.get_subscription_count():
@@ -426,7 +474,12 @@ class TrackerNode(SuiteNode):
     def diagnostic_state(self) -> tuple[str, dict[str, str]]:
         tracks, followed = self._last_frame
         state = "searching" if followed is None else f"tracking track {followed}"
-        return state, {"method": self._method.name, "tracks": str(tracks)}
+        details = {"method": self._method.name, "tracks": str(tracks)}
+        if self._zones.ignore:
+            details["detections in ignore zones"] = str(self.ignored_in_zones)
+        if self._zones.required:
+            details["tracks seen in a required zone"] = str(len(self._zones.entered))
+        return state, details
 
     # --- services -----------------------------------------------------------------------------
 

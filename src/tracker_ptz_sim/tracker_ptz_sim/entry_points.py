@@ -28,6 +28,10 @@ def axis_ptz_adapter() -> int:
     return guarded_main("tracker_ptz_sim.control.axis_ptz_adapter_node")
 
 
+def onvif_ptz() -> int:
+    return guarded_main("tracker_ptz_sim.control.onvif_ptz_node")
+
+
 def ptz_tf() -> int:
     return guarded_main("tracker_ptz_sim.control.ptz_tf_node")
 

@@ -1,0 +1,319 @@
+"""onvif_ptz: an ONVIF PTZ camera as the graph's pan-tilt unit (thin shell over onvif_ptz.py).
+
+Subscribes `ptz/command` (tracker_msgs/PtzCommand) and `target` (tracker_msgs/Target: whether a
+target is locked); publishes `ptz/joint_states` (sensor_msgs/JointState: `joint_names` pan and
+tilt [rad, REP-103] from GetStatus at `status_rate`, stamped at each request's midpoint), which
+`ptz_state_bridge` pairs with the camera's images. Rates become ContinuousMove (with
+`move_timeout` as the camera's own watchdog, renewed while a rate holds), holds a Stop, direct
+moves and search presets an AbsoluteMove (a RelativeMove, or a rate toward the goal, on cameras
+without one). With `return_preset`, after `return_after` s without a locked target the camera
+goes to that preset and waits there, deaf to commands, until a target is locked again. It stops
+when the node shuts down. What the camera supports is one line at start; a camera that cannot
+report its position cannot be followed (start-up error).
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import math
+import threading
+import time
+from collections.abc import Coroutine
+from typing import Any, TypeVar
+
+from sensor_msgs.msg import JointState
+
+from tracker_msgs.msg import PtzCommand, Target
+from tracker_msgs_py.codec import command_qos, result_qos, usable_value
+from tracker_msgs_py.node_main import Health, StartupError, SuiteNode, run_node
+from tracker_msgs_py.params import ParamSpec, declare_parameters
+from tracker_ptz_sim.control.controller import CameraPose, Command, CommandMode
+from tracker_ptz_sim.control.onvif_ptz import (
+    GenericRange,
+    OnvifError,
+    OnvifPtz,
+    PtzStatus,
+    StillJudge,
+)
+from tracker_ptz_sim.control.unit_joints import JointMapping, velocity_only
+
+T = TypeVar("T")
+MODES = {
+    PtzCommand.MODE_POSITION: CommandMode.POSITION,
+    PtzCommand.MODE_VELOCITY: CommandMode.VELOCITY,
+    PtzCommand.MODE_HOLD: CommandMode.HOLD,
+}
+
+
+def _two(name: str) -> Any:
+    return lambda v: None if len(v) == 2 else f"{name} needs two values"
+
+
+PARAMS = [
+    ParamSpec("host", "", "the camera's address (name or IP)", read_only=True),
+    ParamSpec("port", 80, "the camera's ONVIF (HTTP) port", 1, 65535, read_only=True),
+    ParamSpec("user", "", "ONVIF user name ('' = none)", read_only=True),
+    ParamSpec("password", "", "ONVIF password (never logged)", read_only=True),
+    ParamSpec("profile", "", "media profile token ('' = the first with PTZ)", read_only=True),
+    ParamSpec(
+        "pan_range",
+        [math.pi, -math.pi],
+        "REP-103 pan [rad] the camera looks at for generic x = -1 and x = +1 (x + = right on "
+        "most cameras: a range from + to -)",
+        validator=_two("pan_range"),
+        read_only=True,
+    ),
+    ParamSpec(
+        "tilt_range",
+        [math.pi / 2, -math.pi / 2],
+        "REP-103 tilt [rad, + = down] at generic y = -1 and y = +1",
+        validator=_two("tilt_range"),
+        read_only=True,
+    ),
+    ParamSpec(
+        "top_rates",
+        [1.0, 1.0],
+        "[pan, tilt] rate [rad/s] of ContinuousMove velocity 1",
+        validator=_two("top_rates"),
+        read_only=True,
+    ),
+    ParamSpec("status_rate", 5.0, "GetStatus polls per second", 0.2, 50.0, read_only=True),
+    ParamSpec(
+        "move_timeout",
+        1.0,
+        "ContinuousMove timeout [s]: the camera stops by itself when commands stop coming",
+        0.1,
+        60.0,
+    ),
+    ParamSpec(
+        "position_gain",
+        2.0,
+        "cameras without position moves: rate per rad to go [1/s]",
+        0.01,
+        100.0,
+    ),  # fmt: skip
+    ParamSpec(
+        "return_preset", "", "preset to go to after return_after s without a target ('' = none)"
+    ),
+    ParamSpec(
+        "return_after", 10.0, "s without a locked target before the return preset", 0.0, 3600.0
+    ),  # fmt: skip
+    ParamSpec(
+        "still_polls",
+        3,
+        "polls over which an unchanged position means still (for cameras whose MoveStatus "
+        "never returns to IDLE)",
+        2,
+        100,
+    ),
+    ParamSpec(
+        "joint_names",
+        ["pan_joint", "tilt_joint"],
+        "pan and tilt joints of joint_states",
+        validator=_two("joint_names"),
+    ),  # fmt: skip
+    ParamSpec(
+        "connect_timeout", 10.0, "s to wait for the camera at start", 0.5, 600.0, read_only=True
+    ),  # fmt: skip
+]
+
+
+class OnvifPtzNode(SuiteNode):
+    def __init__(self, **node_options: Any) -> None:
+        """node_options go to rclpy's Node (parameter_overrides, context...)."""
+        super().__init__("onvif_ptz", **node_options)
+        self.params = declare_parameters(self, PARAMS)
+        p = self.params
+        if not p["host"]:
+            raise StartupError("host is empty: give the camera's address (host:=192.168.1.20)")
+        try:
+            self.range = GenericRange(tuple(p["pan_range"]), tuple(p["tilt_range"]),
+                                      tuple(p["top_rates"]))  # fmt: skip
+        except ValueError as error:
+            raise StartupError(str(error)) from error
+        self.loop = asyncio.new_event_loop()
+        self.loop_thread = threading.Thread(
+            target=self.loop.run_forever, name="onvif_ptz.loop", daemon=True
+        )
+        self.loop_thread.start()
+        self.camera = OnvifPtz(p["host"], p["port"], p["user"], p["password"])
+        try:
+            self.support = self._wait(self.camera.connect(p["profile"]), p["connect_timeout"])
+        except (OnvifError, TimeoutError) as error:
+            self._stop_loop()
+            cause = str(error) or f"no answer within {p['connect_timeout']} s"
+            raise StartupError(f"ONVIF camera {p['host']}:{p['port']}: {cause}") from error
+        self.get_logger().info(f"ONVIF camera {p['host']}:{p['port']}, {self.support.describe()}")
+        if not self.support.position_in_status:
+            self._stop_loop()
+            raise StartupError(
+                "the camera's GetStatus reports no position: the graph needs where the camera "
+                "looked for each image, so this camera cannot be followed with"
+            )
+        self.judge = StillJudge(p["still_polls"])
+        self.pose: tuple[float, float] | None = None  # REP-103 pan, tilt of the newest status
+        self.moving = False
+        self.sent: tuple[str, tuple[float, ...]] | None = (
+            None  # the last move sent, to skip repeats
+        )
+        self.sent_at = 0.0
+        self.last_locked = time.monotonic()
+        self.at_return_preset = False
+        self.errors = 0
+        self.joint_pub = self.create_publisher(JointState, "ptz/joint_states", result_qos())
+        self.create_subscription(PtzCommand, "ptz/command", self._on_command, command_qos())
+        self.create_subscription(Target, "target", self._on_target, 10)
+        self.poller = asyncio.run_coroutine_threadsafe(self._poll(), self.loop)
+        self.create_steady_timer(0.2, self._check_return)
+
+    # --- the event loop -----------------------------------------------------------------------
+
+    def _wait(self, coroutine: Coroutine[Any, Any, T], timeout: float) -> T:
+        return asyncio.run_coroutine_threadsafe(coroutine, self.loop).result(timeout)
+
+    def _send(self, coroutine: Coroutine[Any, Any, None], what: str) -> None:
+        """Send a move without waiting; a failure is reported, never raised."""
+        future = asyncio.run_coroutine_threadsafe(coroutine, self.loop)
+        future.add_done_callback(lambda f: self._report(f, what))
+
+    def _report(self, future: Any, what: str) -> None:
+        error = future.exception()
+        if error is not None and not self.stopping.is_set():
+            self.errors += 1
+            self.problems.report(f"{what} failed", f"the camera refused {what}: {error}")
+
+    def _stop_loop(self) -> None:
+        if self.loop.is_running():
+            with contextlib.suppress(Exception):  # closing a camera that never answered
+                self._wait(self.camera.close(), 2.0)
+            self.loop.call_soon_threadsafe(self.loop.stop)
+        self.loop_thread.join(5.0)
+
+    async def _poll(self) -> None:
+        period = 1.0 / self.params["status_rate"]
+        while not self.stopping.is_set():
+            started = time.monotonic()
+            try:
+                self._publish(await self.camera.status())
+            except Exception as error:  # a camera that stops answering: reported, polled on
+                if not self.stopping.is_set():
+                    self.errors += 1
+                    self.problems.report("GetStatus failed", f"GetStatus failed: {error}")
+            await asyncio.sleep(max(0.0, period - (time.monotonic() - started)))
+
+    def _publish(self, status: PtzStatus) -> None:
+        if status.x is None or status.y is None or self.stopping.is_set():
+            return
+        self.moving = self.judge.moving(status)
+        pan, tilt = self.range.angles(status.x, status.y)
+        self.pose = (pan, tilt)
+        age_ns = round((time.monotonic() - status.taken_at) * 1e9)
+        stamp = self.get_clock().now().nanoseconds - age_ns
+        msg = JointState(name=list(self.params["joint_names"]), position=[pan, tilt])
+        msg.header.stamp.sec, msg.header.stamp.nanosec = divmod(stamp, 1_000_000_000)
+        self.joint_pub.publish(msg)
+
+    # --- commands -----------------------------------------------------------------------------
+
+    def _on_target(self, msg: Target) -> None:
+        if msg.locked:
+            self.last_locked = time.monotonic()
+            self.at_return_preset = False
+
+    def _check_return(self) -> None:
+        preset = self.params["return_preset"]
+        if not preset or self.at_return_preset:
+            return
+        if time.monotonic() - self.last_locked >= self.params["return_after"]:
+            self.at_return_preset = True
+            self.sent = None
+            self.get_logger().info(
+                f"no target for {self.params['return_after']} s: to preset {preset}"
+            )
+            self._send(self.camera.goto_preset(preset), f"GotoPreset {preset}")
+
+    def _on_command(self, msg: PtzCommand) -> None:
+        mode = MODES.get(msg.mode)
+        values = (msg.pan, msg.tilt, msg.pan_rate, msg.tilt_rate)
+        if mode is None or not all(usable_value(v) for v in values):
+            self.problems.report(
+                "unusable command", f"stopped for a PtzCommand with mode {msg.mode}, {values}"
+            )
+            mode, values = CommandMode.HOLD, (0.0, 0.0, 0.0, 0.0)
+        if self.at_return_preset:
+            return  # waiting at the return preset for a target
+        self._act(Command(mode, *values))
+
+    def _act(self, command: Command) -> None:
+        support = self.support
+        if command.mode is CommandMode.POSITION and (support.absolute or support.relative):
+            goal = self.range.generic(command.pan, command.tilt)
+            if support.absolute:
+                self._move("absolute", goal, self.camera.absolute_move(*goal))
+            elif self.pose is not None:
+                here = self.range.generic(*self.pose)
+                step = (goal[0] - here[0], goal[1] - here[1])
+                self._move("absolute", goal, self.camera.relative_move(*step))
+            return
+        if command.mode is CommandMode.POSITION:  # no position moves: a rate toward the goal
+            pose = None if self.pose is None else CameraPose(*self.pose, 0.0, 0.0, 1.0)
+            rates = velocity_only(command, pose, JointMapping(), self.params["position_gain"],
+                                  max(self.range.top_rates))  # fmt: skip
+        elif command.mode is CommandMode.VELOCITY:
+            rates = (command.pan_rate, command.tilt_rate)
+        else:
+            rates = (0.0, 0.0)
+        velocity = self.range.velocity(*rates)
+        if velocity == (0.0, 0.0):
+            self._move("stop", (), self.camera.stop())
+        else:
+            timeout = self.params["move_timeout"]
+            self._move("continuous", velocity, self.camera.continuous_move(*velocity, timeout))
+
+    def _move(self, kind: str, values: tuple[float, ...], coroutine: Any) -> None:
+        """Send the move unless it repeats the last one (a continuous move is renewed after half
+        its timeout, so the camera's watchdog does not stop it while the rate holds)."""
+        now = time.monotonic()
+        renew = kind == "continuous" and now - self.sent_at > self.params["move_timeout"] / 2
+        if (kind, values) == self.sent and not renew:
+            coroutine.close()
+            return
+        self.sent, self.sent_at = (kind, values), now
+        self._send(coroutine, {"stop": "Stop", "continuous": "ContinuousMove"}.get(kind, "a move"))
+
+    # --- diagnostics and shutdown -------------------------------------------------------------
+
+    def diagnostic_state(self) -> tuple[str, dict[str, str]]:
+        state = (
+            "at the return preset"
+            if self.at_return_preset
+            else ("moving" if self.moving else "still")
+        )
+        details = {"camera": f"{self.params['host']}:{self.params['port']}",
+                   "supports": self.support.describe(), "errors": str(self.errors)}  # fmt: skip
+        return state, details
+
+    def diagnostic_health(self) -> tuple[Health, str]:
+        if self.pose is None:
+            return Health.WARN, "no position from the camera yet"
+        return Health.OK, ""
+
+    def destroy_node(self) -> None:
+        if not self.stopping.is_set():
+            self.stopping.set()
+            try:
+                self._wait(self.camera.stop(), 2.0)  # the camera stops now, not at its timeout
+            except Exception as error:
+                self.get_logger().warning(f"could not stop the camera at shutdown: {error}")
+            self.poller.cancel()
+            self._stop_loop()
+        super().destroy_node()
+
+
+def main(args: list[str] | None = None) -> int:
+    return run_node(OnvifPtzNode, args)
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
