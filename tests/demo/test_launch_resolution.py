@@ -155,6 +155,13 @@ def test_unit_adds_the_drivers_parameters_and_adapter(tmp_path):
         assert adapter.value("joint_signs") == [-1.0, -1.0]
     remaps = dict(node(axis, "ssim_detector").remappings)
     assert remaps["camera/image_raw/compressed"] == "/axis/image_raw/compressed"
+    onvif = plan(LaunchArguments(camera="live", unit="onvif", video="rtsp://cam/stream"))
+    assert [n.name for n in onvif][:2] == ["video_source", "ptz_state_bridge"]
+    assert "onvif_ptz" in [n.name for n in onvif]
+    stream = node(onvif, "video_source")
+    assert dict(stream.remappings)["scene/image_raw"] == "camera/image_raw"
+    with Resolved(launch_ros_command(stream, tmp_path)) as source:
+        assert source.value("path") == "rtsp://cam/stream" and source.value("lockstep") is False
     with pytest.raises(ValueError, match="camera:=live"):
         plan(LaunchArguments(video="v.avi", unit="axis"))
     with pytest.raises(ValueError, match="unit must be one of"):

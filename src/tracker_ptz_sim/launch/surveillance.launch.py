@@ -1,6 +1,6 @@
 """ros2 launch tracker_ptz_sim surveillance.launch.py video:=/path/to/video.mp4
     [graph:=surveillance|motion|colour|standard|small_objects] [camera:=sim|live]
-    [unit:=generic|flir_ptu|axis]
+    [unit:=generic|flir_ptu|axis|onvif]
     [namespace:=cam1]
     [use_sim_time:=auto|true|false] [clock:=auto|global|namespaced|off]
     [controller_mode:=graph|servo|direct|hold] [respawn:=true] [live_view:=true]
@@ -17,7 +17,8 @@ behind a simulated camera that speaks only sensor_msgs, as real drivers do; grap
 a fixed camera tracking many small movers (MOG2 + GM-PHD; seed 004).
 camera:=live runs the graph behind a real unit's drivers instead of the simulator (no video);
 unit:= names the driver (flir_ptu: the FLIR PTU driver's positions with speeds; axis: the Axis
-driver's cmd/velocity, through axis_ptz_adapter) and adds its example parameter file.
+driver's cmd/velocity, through axis_ptz_adapter; onvif: an ONVIF camera, through onvif_ptz, its
+stream read from video:=rtsp://...) and adds its example parameter file.
 Every argument wins over the parameter files, also under a namespace; two cameras run side by side
 in two namespaces, each on its own clock (`tracker_ptz_sim.bringup.launch_plan` has the rules).
 With respawn:=true a processing node that exits is started again (after 1 s, at most 5 times).
@@ -49,7 +50,13 @@ from tracker_ptz_sim.bringup.launch_plan import (
 )
 
 ARGUMENTS = [
-    ("video", "", None, "video file, image folder or rosbag2 to replay (camera:=sim)"),
+    (
+        "video",
+        "",
+        None,
+        "camera:=sim: video file, image folder or rosbag2 to replay; camera:=live: the camera's "
+        "stream (rtsp://...), read as its images",
+    ),
     (
         "graph",
         "surveillance",
@@ -69,7 +76,7 @@ ARGUMENTS = [
         "unit",
         "generic",
         list(UNITS),
-        "live: the unit's driver (generic JointState velocities, flir_ptu, axis): its "
+        "live: the unit's driver (generic JointState velocities, flir_ptu, axis, onvif): its "
         "config/unit_<name>.yaml and adapter",
     ),
     ("namespace", "", None, "namespace of every node and topic (two cameras: two namespaces)"),

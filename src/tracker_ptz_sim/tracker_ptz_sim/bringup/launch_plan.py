@@ -6,9 +6,11 @@ the launch arguments into nodes, so the launch file stays a thin shell and its r
   drivers (the README's "On a real pan-tilt unit"), with config/live.yaml (wall time, best-effort
   images, JointState commands on ptz/joint_command).
 - `unit` (live): the driver behind the graph: `generic` (JointState velocities), `flir_ptu` (the
-  FLIR PTU driver: config/unit_flir_ptu.yaml, positions with speeds on its `cmd`) or `axis` (the
-  Axis driver: config/unit_axis.yaml and `axis_ptz_adapter` onto its `cmd/velocity`), applied
-  after live.yaml and before `params_file`.
+  FLIR PTU driver: config/unit_flir_ptu.yaml, positions with speeds on its `cmd`), `axis` (the
+  Axis driver: config/unit_axis.yaml and `axis_ptz_adapter` onto its `cmd/velocity`) or `onvif`
+  (an ONVIF camera: config/unit_onvif.yaml and `onvif_ptz`), applied after live.yaml and before
+  `params_file`. With camera:=live, `video` (an rtsp:// URL) is read by video_source as the
+  camera's images (`camera/image_raw`, `camera/camera_info`).
 - Every node gets `namespace` (default: none), so two cameras run side by side in two namespaces;
   the per-node sections of the parameter files are keyed `/**/<name>` and match under any.
 - The arguments always win: each node gets them last, in a dict `launch_ros` writes under the
@@ -52,9 +54,19 @@ CONTROLLER_MODES = ("graph", "servo", "direct", "hold")  # graph: the graph's ow
 SIMULATOR_NODES = ("video_source", "ptz_camera")
 BRIDGE = NodeSpec("tracker_ptz_sim", "ptz_state_bridge", "ptz_state_bridge")
 LIVE_PARAMETERS = "live.yaml"  # in the graph's config directory
-UNITS = ("generic", "flir_ptu", "axis")  # a unit's parameters: unit_<name>.yaml, beside live.yaml
+UNITS = ("generic", "flir_ptu", "axis", "onvif")  # parameters: unit_<name>.yaml, by live.yaml
 #: Nodes a unit's driver needs in front of it.
-UNIT_ADAPTERS = {"axis": NodeSpec("tracker_ptz_sim", "axis_ptz_adapter", "axis_ptz_adapter")}
+UNIT_ADAPTERS = {
+    "axis": NodeSpec("tracker_ptz_sim", "axis_ptz_adapter", "axis_ptz_adapter"),
+    "onvif": NodeSpec("tracker_ptz_sim", "onvif_ptz", "onvif_ptz"),
+}
+#: A live camera's stream read by video_source (`video:=rtsp://...`) as the camera's images.
+LIVE_STREAM = NodeSpec(
+    "tracker_ptz_sim",
+    "video_source",
+    "video_source",
+    {"scene/image_raw": "camera/image_raw", "scene/camera_info": "camera/camera_info"},
+)
 
 
 @dataclass(frozen=True)
@@ -111,7 +123,7 @@ def plan(arguments: LaunchArguments, graph: Graph | None = None) -> list[Planned
     if arguments.live_view:
         graph = with_live_view(graph)
     live = arguments.camera == "live"
-    nodes = _live_nodes(graph, arguments.unit) if live else list(graph.nodes)
+    nodes = _live_nodes(graph, arguments.unit, arguments.video) if live else list(graph.nodes)
     files: list[Path] = list(graph.params_files)
     if live:
         files.append(graph.config_dir / LIVE_PARAMETERS)
@@ -232,11 +244,13 @@ def _sim_time(arguments: LaunchArguments, clock: str) -> bool:
     return arguments.use_sim_time == "true"
 
 
-def _live_nodes(graph: Graph, unit: str) -> list[NodeSpec]:
+def _live_nodes(graph: Graph, unit: str, video: str) -> list[NodeSpec]:
     """The graph without the simulator, behind the bridge to a real unit's drivers (and the
-    adapter its driver needs)."""
+    adapter its driver needs); with `video`, video_source reads that stream as the camera's
+    images (an IP camera's RTSP)."""
     kept = [node for node in graph.nodes if node.name not in SIMULATOR_NODES]
     if all(node.name != BRIDGE.name for node in kept):
         kept.insert(0, BRIDGE)
     adapter = UNIT_ADAPTERS.get(unit)
-    return kept + ([adapter] if adapter else [])
+    stream = [LIVE_STREAM] if video else []
+    return stream + kept + ([adapter] if adapter else [])
