@@ -6,16 +6,20 @@ gir1.2-gst-rtsp-server-1.0, gstreamer1.0-plugins-good/base), not in the project'
 
     /usr/bin/python3 scripts/rtsp_server.py FRAMES_DIR [--port 8554] [--mount /live] [--fps 10]
         [--user U --password P]
+    /usr/bin/python3 scripts/rtsp_server.py --latest FRAME.jpg [...]
 
 The frames are sent as RTP/JPEG without re-encoding, paced at --fps with presentation times, to
-every client of one shared stream. With --user/--password the server asks for Basic
-authentication. Prints "ready rtsp://127.0.0.1:PORT/MOUNT" once it listens; stops on SIGTERM or
-Ctrl-C. `make rtsp-server VIDEO=...` writes the frames of a video and starts it.
+every client of one shared stream. With --latest, each frame is FRAME.jpg as it is when the frame
+is due (another program rewrites it: a camera whose view follows a simulated head). With
+--user/--password the server asks for Basic authentication. Prints
+"ready rtsp://127.0.0.1:PORT/MOUNT" once it listens; stops on SIGTERM or Ctrl-C.
+`make rtsp-server VIDEO=...` writes the frames of a video and starts it.
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
 import signal
 import sys
 from pathlib import Path
@@ -29,23 +33,30 @@ from gi.repository import GLib, Gst, GstRtspServer  # noqa: E402
 
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("frames", type=Path, help="folder of .jpg frames, sent in name order")
+    parser.add_argument(
+        "frames", type=Path, nargs="?", help="folder of .jpg frames, sent in name order"
+    )
+    parser.add_argument("--latest", type=Path, help="send this .jpg as it is when each is due")
     parser.add_argument("--port", type=int, default=8554)
     parser.add_argument("--mount", default="/live")
     parser.add_argument("--fps", type=int, default=10)
     parser.add_argument("--user", default="")
     parser.add_argument("--password", default="")
     args = parser.parse_args()
-    jpegs = [path.read_bytes() for path in sorted(args.frames.glob("*.jpg"))]
+    if args.latest is not None:
+        jpegs = [args.latest.read_bytes()] if args.latest.exists() else []
+    else:
+        jpegs = [path.read_bytes() for path in sorted(args.frames.glob("*.jpg"))]
     if not jpegs:
-        print(f"error: no .jpg frames in {args.frames}", file=sys.stderr)
+        print(f"error: no .jpg frames in {args.latest or args.frames}", file=sys.stderr)
         return 2
     Gst.init(None)
     server = GstRtspServer.RTSPServer()
     server.set_service(str(args.port))
     factory = GstRtspServer.RTSPMediaFactory()
+    live = "is-live=true do-timestamp=true " if args.latest is not None else ""
     factory.set_launch(
-        f"( appsrc name=frames format=time caps=image/jpeg,framerate={args.fps}/1 "
+        f"( appsrc name=frames {live}format=time caps=image/jpeg,framerate={args.fps}/1 "
         "! jpegparse ! rtpjpegpay name=pay0 pt=26 )"
     )
     factory.set_shared(True)
@@ -60,7 +71,18 @@ def main() -> int:
             sent[0] += 1
             source.emit("push-buffer", buffer)
 
-        media.get_element().get_by_name("frames").connect("need-data", need_data)
+        def push_latest(source: Gst.Element) -> bool:
+            """A live camera: the frame as it is now, stamped now, at --fps (the writer replaces
+            the file whole, by a rename: never half a frame; while it does, the last goes again)."""
+            with contextlib.suppress(OSError):
+                jpegs[0] = args.latest.read_bytes()
+            return source.emit("push-buffer", Gst.Buffer.new_wrapped(jpegs[0])) == Gst.FlowReturn.OK
+
+        source = media.get_element().get_by_name("frames")
+        if args.latest is not None:
+            GLib.timeout_add(1000 // args.fps, push_latest, source)
+        else:
+            source.connect("need-data", need_data)
 
     factory.connect("media-configure", configure)
     if args.user:

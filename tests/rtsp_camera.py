@@ -46,9 +46,13 @@ class RtspCamera:
     """The server on `port`, serving `frames` at `fps` on /live (with `user`/`password`: Basic
     authentication). `url` has the credentials in it."""
 
-    def __init__(self, frames: Path, fps: int = 10, user: str = "", password: str = "") -> None:
+    def __init__(
+        self, frames: Path, fps: int = 10, user: str = "", password: str = "", latest: bool = False
+    ) -> None:
+        """`latest`: `frames` is one .jpg, sent as it is whenever a frame is due."""
         self.port = free_port()
-        self.command = [SYSTEM_PYTHON, str(SERVER), str(frames), "--port", str(self.port)]
+        source = ["--latest", str(frames)] if latest else [str(frames)]
+        self.command = [SYSTEM_PYTHON, str(SERVER), *source, "--port", str(self.port)]
         self.command += ["--fps", str(fps)]
         if user:
             self.command += ["--user", user, "--password", password]

@@ -44,11 +44,14 @@ def test_stamps_follow_the_streams_time_and_only_increase():
     assert clock.stamp(1_000_000_000, 0.0) == 1_000_000_000
     # arrival jitters by 30 ms; the stream says 100 ms later: the stamp is the stream's
     assert clock.stamp(1_130_000_000, 100.0) == 1_100_000_000
+    # a frame that came sooner than the stream's time says is stamped on arrival, and anchors
+    assert clock.stamp(1_180_000_000, 200.0) == 1_180_000_000
+    assert clock.stamp(1_290_000_000, 300.0) == 1_280_000_000
     # the stream time runs away from arrival by more than the drift allowed: arrival again
-    far = 1_200_000_000 + 2 * MAX_STAMP_DRIFT_NS
-    assert clock.stamp(1_200_000_000, far / 1e6) == 1_200_000_000
+    far = 1_300_000_000 - 2 * MAX_STAMP_DRIFT_NS
+    assert clock.stamp(1_300_000_000, 200.0 + (far - 1_180_000_000) / 1e6) == 1_300_000_000
     # without stream time (< 0): arrival, never before the last stamp
-    assert clock.stamp(1_150_000_000, -1.0) == 1_200_000_001
+    assert clock.stamp(1_150_000_000, -1.0) == 1_300_000_001
     clock.reconnected()  # a new connection's stream time starts again at 0
     assert clock.stamp(1_500_000_000, 0.0) == 1_500_000_000
 

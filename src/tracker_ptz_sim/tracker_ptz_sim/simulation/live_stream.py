@@ -77,7 +77,11 @@ class _Slot:
 
 class StreamClock:
     """Stamps of one connection's frames: arrival time, moved onto the stream's own timeline
-    (`stream_ms`, < 0 when the stream has none) from the first frame on; stamps only increase."""
+    (`stream_ms`, < 0 when the stream has none) from the first frame on; stamps only increase.
+    A stamp is never later than the frame's arrival (no frame is taken after it arrived): a frame
+    that would be stamped so — it came sooner after the anchor than the stream's time says, or
+    the server sent a burst ahead of time — becomes the new anchor, so the anchor settles on the
+    frames that came quickest."""
 
     def __init__(self) -> None:
         self.anchor: tuple[int, float] | None = None  # (arrival ns, stream ms) of the anchor frame
@@ -91,7 +95,8 @@ class StreamClock:
         if stream_ms >= 0:
             if self.anchor is not None:
                 stamp = self.anchor[0] + round((stream_ms - self.anchor[1]) * 1e6)
-            if self.anchor is None or abs(stamp - arrival_ns) > MAX_STAMP_DRIFT_NS:
+            late = arrival_ns - stamp > MAX_STAMP_DRIFT_NS
+            if self.anchor is None or stamp > arrival_ns or late:
                 self.anchor, stamp = (arrival_ns, stream_ms), arrival_ns
         stamp = max(stamp, self.last_ns + 1)
         self.last_ns = stamp
