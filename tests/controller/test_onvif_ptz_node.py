@@ -26,17 +26,19 @@ PAN_RANGE = [1.0, -1.0]  # rad at x = -1, +1: generic 0.5 is 0.5 rad to the righ
 
 
 def node_for(camera, **params):
+    defaults = {
+        "host": "127.0.0.1",
+        "port": camera.port,
+        "pan_range": PAN_RANGE,
+        "tilt_range": [1.0, -1.0],
+        "top_rates": [0.5, 0.5],  # the camera's top speed: 0.5 generic units/s = 0.5 rad/s here
+        "status_rate": 20.0,
+    }
     return NodeHarness(
         OnvifPtzNode,
         inputs={"ptz/command": (PtzCommand, command_qos()), "target": (Target, 10)},
         outputs={"ptz/joint_states": (JointState, result_qos())},
-        host="127.0.0.1",
-        port=camera.port,
-        pan_range=PAN_RANGE,
-        tilt_range=[1.0, -1.0],
-        top_rates=[0.5, 0.5],  # the camera's top speed: 0.5 generic units/s = 0.5 rad/s here
-        status_rate=20.0,
-        **params,
+        **{**defaults, **params},
     )
 
 
@@ -138,3 +140,15 @@ def test_a_camera_without_position_moves_gets_rates_toward_the_goal():
 def test_a_camera_it_cannot_use_is_one_clear_start_up_error(camera_options, params, cause):
     with OnvifCamera(**camera_options) as camera, pytest.raises(StartupError, match=cause):
         node_for(camera, user="admin", **params)
+
+
+def test_calibration_measures_the_pan_rate_and_brings_the_head_back():
+    with OnvifCamera(top_speed=(0.5, 0.5)) as camera:
+        h = node_for(camera, calibrate=True, top_rates=[2.0, 0.5])  # a wrong pan rate given
+        try:
+            # 0.5 generic units/s at velocity 1 over a range of 1 rad per unit: 0.5 rad/s
+            assert h.node.range.top_rates[0] == pytest.approx(0.5, rel=0.15)
+            assert h.node.calibration.latency < 0.3
+            h.spin_until(lambda: abs(camera.pose()[0]) < 1e-3, timeout=5.0)  # back at the start
+        finally:
+            h.close()

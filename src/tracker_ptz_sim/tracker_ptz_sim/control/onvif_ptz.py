@@ -161,6 +161,38 @@ def _first(value: Any) -> Any:
     return value
 
 
+@dataclass(frozen=True)
+class Calibration:
+    """A timed pan move's response: `latency` [s] from the command until the head moves, and
+    `rate` [generic units/s] per unit of ContinuousMove velocity."""
+
+    latency: float
+    rate: float
+
+
+async def calibrate(ptz: OnvifPtz, velocity: float = 0.5, seconds: float = 1.0) -> Calibration:
+    """Frigate's movement calibration in short: pan at `velocity` for `seconds`, polling the
+    position as fast as the camera answers, fit its response (`fit_response`), stop and go back
+    to where it started (AbsoluteMove where the camera has it, else the same move reversed)."""
+    start = await ptz.status()
+    commanded_at = time.monotonic()
+    await ptz.continuous_move(velocity, 0.0, timeout=seconds + 1.0)
+    times, positions = [], []
+    while time.monotonic() - commanded_at < seconds:
+        status = await ptz.status()
+        if status.x is not None:
+            times.append(status.taken_at)
+            positions.append(status.x)
+    await ptz.stop()
+    support = ptz.support
+    if support is not None and support.absolute and start.x is not None and start.y is not None:
+        await ptz.absolute_move(start.x, start.y)
+    else:
+        await ptz.continuous_move(-velocity, 0.0, timeout=seconds)
+    latency, rate = fit_response(times, positions, commanded_at)
+    return Calibration(latency, rate / velocity)
+
+
 class OnvifPtz:
     """One camera's PTZ service (async; every method waits for the camera's answer)."""
 

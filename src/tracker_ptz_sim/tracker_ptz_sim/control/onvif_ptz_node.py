@@ -30,11 +30,13 @@ from tracker_msgs_py.node_main import Health, StartupError, SuiteNode, run_node
 from tracker_msgs_py.params import ParamSpec, declare_parameters
 from tracker_ptz_sim.control.controller import CameraPose, Command, CommandMode
 from tracker_ptz_sim.control.onvif_ptz import (
+    Calibration,
     GenericRange,
     OnvifError,
     OnvifPtz,
     PtzStatus,
     StillJudge,
+    calibrate,
 )
 from tracker_ptz_sim.control.unit_joints import JointMapping, velocity_only
 
@@ -92,13 +94,13 @@ PARAMS = [
         "cameras without position moves: rate per rad to go [1/s]",
         0.01,
         100.0,
-    ),  # fmt: skip
+    ),
     ParamSpec(
         "return_preset", "", "preset to go to after return_after s without a target ('' = none)"
     ),
     ParamSpec(
         "return_after", 10.0, "s without a locked target before the return preset", 0.0, 3600.0
-    ),  # fmt: skip
+    ),
     ParamSpec(
         "still_polls",
         3,
@@ -112,10 +114,17 @@ PARAMS = [
         ["pan_joint", "tilt_joint"],
         "pan and tilt joints of joint_states",
         validator=_two("joint_names"),
-    ),  # fmt: skip
+    ),
     ParamSpec(
         "connect_timeout", 10.0, "s to wait for the camera at start", 0.5, 600.0, read_only=True
-    ),  # fmt: skip
+    ),
+    ParamSpec(
+        "calibrate",
+        False,
+        "at start, time a 1 s pan at half speed and fit its latency and rate: the measured pan "
+        "rate replaces top_rates[0] (the camera moves and comes back)",
+        read_only=True,
+    ),
 ]
 
 
@@ -128,8 +137,9 @@ class OnvifPtzNode(SuiteNode):
         if not p["host"]:
             raise StartupError("host is empty: give the camera's address (host:=192.168.1.20)")
         try:
-            self.range = GenericRange(tuple(p["pan_range"]), tuple(p["tilt_range"]),
-                                      tuple(p["top_rates"]))  # fmt: skip
+            self.range = GenericRange(
+                tuple(p["pan_range"]), tuple(p["tilt_range"]), tuple(p["top_rates"])
+            )
         except ValueError as error:
             raise StartupError(str(error)) from error
         self.loop = asyncio.new_event_loop()
@@ -151,6 +161,9 @@ class OnvifPtzNode(SuiteNode):
                 "the camera's GetStatus reports no position: the graph needs where the camera "
                 "looked for each image, so this camera cannot be followed with"
             )
+        self.calibration: Calibration | None = None
+        if p["calibrate"] and self.support.continuous:
+            self._calibrate()
         self.judge = StillJudge(p["still_polls"])
         self.pose: tuple[float, float] | None = None  # REP-103 pan, tilt of the newest status
         self.moving = False
@@ -166,6 +179,25 @@ class OnvifPtzNode(SuiteNode):
         self.create_subscription(Target, "target", self._on_target, 10)
         self.poller = asyncio.run_coroutine_threadsafe(self._poll(), self.loop)
         self.create_steady_timer(0.2, self._check_return)
+
+    def _calibrate(self) -> None:
+        """Measure the pan response; the measured rate replaces top_rates[0]."""
+        try:
+            measured = self._wait(calibrate(self.camera), 10.0)
+        except Exception as error:  # no motion seen, a refused move, no answer: rates as given
+            self.get_logger().warning(f"calibration failed ({error}): top_rates kept as given")
+            return
+        self.calibration = measured
+        span = abs(self.range.pan[1] - self.range.pan[0]) / 2.0  # rad per generic unit
+        pan_rate = abs(measured.rate) * span
+        self.get_logger().info(
+            f"calibration: the head moves {measured.latency:.3f} s after a command, at "
+            f"{pan_rate:.3f} rad/s for velocity 1 (top_rates[0] was {self.range.top_rates[0]}); "
+            "set the tracker's lead_time to about the latency plus the stream's"
+        )
+        self.range = GenericRange(
+            self.range.pan, self.range.tilt, (pan_rate, self.range.top_rates[1])
+        )
 
     # --- the event loop -----------------------------------------------------------------------
 
@@ -258,8 +290,13 @@ class OnvifPtzNode(SuiteNode):
             return
         if command.mode is CommandMode.POSITION:  # no position moves: a rate toward the goal
             pose = None if self.pose is None else CameraPose(*self.pose, 0.0, 0.0, 1.0)
-            rates = velocity_only(command, pose, JointMapping(), self.params["position_gain"],
-                                  max(self.range.top_rates))  # fmt: skip
+            rates = velocity_only(
+                command,
+                pose,
+                JointMapping(),
+                self.params["position_gain"],
+                max(self.range.top_rates),
+            )
         elif command.mode is CommandMode.VELOCITY:
             rates = (command.pan_rate, command.tilt_rate)
         else:
@@ -290,8 +327,14 @@ class OnvifPtzNode(SuiteNode):
             if self.at_return_preset
             else ("moving" if self.moving else "still")
         )
-        details = {"camera": f"{self.params['host']}:{self.params['port']}",
-                   "supports": self.support.describe(), "errors": str(self.errors)}  # fmt: skip
+        details = {
+            "camera": f"{self.params['host']}:{self.params['port']}",
+            "supports": self.support.describe(),
+            "errors": str(self.errors),
+        }
+        if self.calibration is not None:
+            details["calibrated latency [s]"] = f"{self.calibration.latency:.3f}"
+            details["pan top rate [rad/s]"] = f"{self.range.top_rates[0]:.3f}"
         return state, details
 
     def diagnostic_health(self) -> tuple[Health, str]:
