@@ -18,18 +18,13 @@ from tracker_msgs.msg import PtzCommand, PtzState
 from tracker_msgs_py.codec import command_qos, usable_value
 from tracker_msgs_py.node_main import SuiteNode, run_node
 from tracker_msgs_py.params import ParamSpec, declare_parameters
+from tracker_ptz_sim.control.command_messages import command_of
 from tracker_ptz_sim.control.controller import CameraPose, Command, CommandMode
 from tracker_ptz_sim.control.unit_joints import (
     JOINT_MAPPING_PARAMETERS,
     joint_mapping,
     velocity_only,
 )
-
-MODES = {
-    PtzCommand.MODE_POSITION: CommandMode.POSITION,
-    PtzCommand.MODE_VELOCITY: CommandMode.VELOCITY,
-    PtzCommand.MODE_HOLD: CommandMode.HOLD,
-}
 
 PARAMS = [
     ParamSpec(
@@ -61,15 +56,14 @@ class AxisPtzAdapterNode(SuiteNode):
             self.pose = CameraPose(state.pan, state.tilt, 0.0, 0.0, 1.0)
 
     def _on_command(self, msg: PtzCommand) -> None:
-        mode = MODES.get(msg.mode)
-        values = (msg.pan, msg.tilt, msg.pan_rate, msg.tilt_rate)
-        if mode is None or not all(usable_value(v) for v in values):
+        command = command_of(msg)
+        if command is None:
+            values = (msg.pan, msg.tilt, msg.pan_rate, msg.tilt_rate)
             self.problems.report(
                 "unusable command",
                 f"sent a stop for a PtzCommand with mode {msg.mode} and values {values}",
             )
-            mode, values = CommandMode.HOLD, (0.0, 0.0, 0.0, 0.0)
-        command = Command(mode, *values)
+            command = Command(CommandMode.HOLD)
         pan, tilt = velocity_only(
             command, self.pose, self.mapping, self.params["position_gain"], self.params["max_rate"]
         )

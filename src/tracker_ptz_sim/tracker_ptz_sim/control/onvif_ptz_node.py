@@ -25,9 +25,10 @@ from typing import Any, TypeVar
 from sensor_msgs.msg import JointState
 
 from tracker_msgs.msg import PtzCommand, Target
-from tracker_msgs_py.codec import command_qos, result_qos, usable_value
+from tracker_msgs_py.codec import command_qos, result_qos
 from tracker_msgs_py.node_main import Health, StartupError, SuiteNode, run_node
 from tracker_msgs_py.params import ParamSpec, declare_parameters
+from tracker_ptz_sim.control.command_messages import command_of
 from tracker_ptz_sim.control.controller import CameraPose, Command, CommandMode
 from tracker_ptz_sim.control.onvif_ptz import (
     Calibration,
@@ -41,11 +42,6 @@ from tracker_ptz_sim.control.onvif_ptz import (
 from tracker_ptz_sim.control.unit_joints import JointMapping, velocity_only
 
 T = TypeVar("T")
-MODES = {
-    PtzCommand.MODE_POSITION: CommandMode.POSITION,
-    PtzCommand.MODE_VELOCITY: CommandMode.VELOCITY,
-    PtzCommand.MODE_HOLD: CommandMode.HOLD,
-}
 
 
 def _two(name: str) -> Any:
@@ -266,16 +262,16 @@ class OnvifPtzNode(SuiteNode):
             self._send(self.camera.goto_preset(preset), f"GotoPreset {preset}")
 
     def _on_command(self, msg: PtzCommand) -> None:
-        mode = MODES.get(msg.mode)
-        values = (msg.pan, msg.tilt, msg.pan_rate, msg.tilt_rate)
-        if mode is None or not all(usable_value(v) for v in values):
+        command = command_of(msg)
+        if command is None:
+            values = (msg.pan, msg.tilt, msg.pan_rate, msg.tilt_rate)
             self.problems.report(
                 "unusable command", f"stopped for a PtzCommand with mode {msg.mode}, {values}"
             )
-            mode, values = CommandMode.HOLD, (0.0, 0.0, 0.0, 0.0)
+            command = Command(CommandMode.HOLD)
         if self.at_return_preset:
             return  # waiting at the return preset for a target
-        self._act(Command(mode, *values))
+        self._act(command)
 
     def _act(self, command: Command) -> None:
         support = self.support

@@ -33,6 +33,7 @@ from tracker_msgs_py.codec import (
 from tracker_msgs_py.node_main import Health, SuiteNode, run_node
 from tracker_msgs_py.params import ParamSpec, declare_parameters
 from tracker_msgs_py.stamps import Order, StampOrder
+from tracker_ptz_sim.control.command_messages import command_msg
 from tracker_ptz_sim.control.controller import (
     CameraPose,
     Command,
@@ -456,17 +457,7 @@ class PtzControllerNode(SuiteNode):
         looked in the image it answers (a positions_with_speeds hold or rate needs it: without
         it, no JointState goes out, and the unit keeps its last goal)."""
         self.last_mode = command.mode
-        msg = PtzCommand()
-        msg.header.stamp = stamp
-        msg.header.frame_id = self.params["base_frame_id"]
-        msg.mode = {
-            CommandMode.POSITION: PtzCommand.MODE_POSITION,
-            CommandMode.VELOCITY: PtzCommand.MODE_VELOCITY,
-            CommandMode.HOLD: PtzCommand.MODE_HOLD,
-        }[command.mode]
-        msg.pan, msg.tilt = command.pan, command.tilt
-        msg.pan_rate, msg.tilt_rate = command.pan_rate, command.tilt_rate
-        msg.zoom = command.zoom  # 0: keep the current zoom
+        msg = command_msg(command, Header(stamp=stamp, frame_id=self.params["base_frame_id"]))
         self.command_pub.publish(msg)
         if self.joint_pub is not None:
             joints = unit_command(command, pose, self.unit)

@@ -35,6 +35,8 @@ from tracker_msgs_py.codec import (
 )
 from tracker_msgs_py.node_main import SuiteNode, run_node
 from tracker_msgs_py.params import ParamSpec, declare_parameters
+from tracker_ptz_sim.control.command_messages import command_of
+from tracker_ptz_sim.control.controller import CommandMode
 from tracker_ptz_sim.control.joint_pose import JointPoseBridge, JointSample, PtzPose
 from tracker_ptz_sim.control.unit_joints import (
     JOINT_MAPPING_PARAMETERS,
@@ -177,13 +179,15 @@ class PtzStateBridgeNode(SuiteNode):
         return JointSample(stamp_to_ns(msg.header.stamp), pan, tilt, zoom, pan_rate, tilt_rate)
 
     def _on_command(self, msg: PtzCommand) -> None:
-        velocity = msg.mode == PtzCommand.MODE_VELOCITY
-        rates = (msg.pan_rate, msg.tilt_rate) if velocity else (0.0, 0.0)
-        if not all(usable_value(rate) for rate in rates):
+        command = command_of(msg)
+        if command is None:
+            rates = (msg.pan_rate, msg.tilt_rate)
             self.problems.report(
-                "unusable command rate", f"ignored a PtzCommand with rates {rates} (not finite)"
+                "unusable command", f"ignored a PtzCommand with mode {msg.mode}, rates {rates}"
             )
             return
+        velocity = command.mode is CommandMode.VELOCITY
+        rates = (command.pan_rate, command.tilt_rate) if velocity else (0.0, 0.0)
         motion = self.bridge.motion
         if motion is not None:
             motion.add(stamp_to_ns(msg.header.stamp), *rates)
