@@ -171,7 +171,7 @@ class OnvifCamera:
         app = web.Application()
         for path in SERVICES:
             app.router.add_post(f"/onvif/{path}_service", self._handler(path))
-        self._runner = web.AppRunner(app)
+        self._runner = web.AppRunner(app, access_log=None)
         self._loop.run_until_complete(self._runner.setup())
         site = web.TCPSite(self._runner, "127.0.0.1", self.port)
         self._loop.run_until_complete(site.start())

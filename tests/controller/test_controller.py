@@ -146,6 +146,23 @@ def test_loss_scans_then_returns_home_then_searches():
     assert (first_search - first_home) * DT == pytest.approx(1.0, abs=DT + 1e-9)
 
 
+def test_time_held_without_a_decision_counts_for_no_timer():
+    """Lost at t = 0.1, then held 5 s (no images to judge by): the scan still has its whole
+    lost_scan_time to run once stepping resumes."""
+    config = ControllerConfig(mode="direct", lost_scan_time=2.0, scan_amplitude=0.1)
+    controller = PanTiltController(config)
+    unit = IdealUnit()
+    controller.step(0.0, unit.pose(), target_at(CX - 120.0, CY))
+    controller.step(0.1, unit.pose(), None)
+    assert controller.state is ControlState.SCAN
+    assert controller.hold(5.1).mode is CommandMode.HOLD
+    states = [
+        controller.step(5.1 + k * DT, unit.pose(), None) and controller.state for k in range(1, 40)
+    ]
+    first_home = states.index(ControlState.HOME) + 1
+    assert first_home * DT == pytest.approx(1.9, abs=DT + 1e-9)
+
+
 def test_home_position_is_commanded():
     controller = PanTiltController(ControllerConfig(search="none", home=(0.1, -0.05)))
     command = controller.step(0.0, IdealUnit().pose(), None)

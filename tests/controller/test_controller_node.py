@@ -200,6 +200,33 @@ def test_targets_that_stop_are_answered_with_hold_once_two_states_confirm_it(har
     assert len(logged) == 1 and "holding the camera" in logged[0]
 
 
+def test_images_that_resume_after_a_gap_are_not_taken_for_stopped_targets(harness, capfd):
+    """The stream drops for 3 s and returns: the states of the first images after the gap come
+    before their targets, yet they are past target_timeout only because there were no images.
+    No reset: while the tracker takes the target up again (unlocked targets for up to
+    target_timeout) the camera holds instead of scanning, and then follows it."""
+    good_run(harness, 0)  # the last target at frame 9
+    for k in (40, 41, 42):  # the tracker's answers to these are still on their way
+        harness.publish("ptz/state", state_msg(k * NS))
+    harness.spin_for(0.2)
+    assert len(commands(harness)) == 10
+    unlocked = [answer(harness, None, target_msg(k * NS, locked=False)) for k in (40, 41, 42)]
+    assert [c.mode for c in unlocked] == [PtzCommand.MODE_HOLD] * 3
+    locked = [answer(harness, state_msg(k * NS), target_msg(k * NS)) for k in range(43, 55)]
+    assert [c.mode for c in locked] == [PtzCommand.MODE_VELOCITY] * 12
+    assert not [line for line in capfd.readouterr().err.splitlines() if "no target for" in line]
+    # lost again later, with images flowing: a loss, scanned for (positions)
+    lost = answer(harness, state_msg(55 * NS), target_msg(55 * NS, locked=False))
+    assert lost.mode == PtzCommand.MODE_POSITION
+    # the tracker does go quiet: the timeout counts from the last target, as before
+    for k in range(56, 70):
+        harness.publish("ptz/state", state_msg(k * NS))
+    harness.spin_until(lambda: len(commands(harness)) == 26 + 4)
+    held = commands(harness)[26:]
+    assert [stamp_to_ns(c.header.stamp) for c in held] == [k * NS for k in range(66, 70)]
+    assert all(c.mode == PtzCommand.MODE_HOLD for c in held)
+
+
 def test_a_lone_state_stamped_far_ahead_changes_nothing(harness, capfd):
     """One PtzState 1000 s ahead between good frames: no HOLD for it, no reset of the control, one
     line when the states return to their time, and every good frame's command is the clean run's."""

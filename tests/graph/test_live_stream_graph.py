@@ -11,7 +11,10 @@ from rtsp_camera import RtspCamera, require_gstreamer, write_jpegs
 
 from tracker_ptz_sim.simulation.frame_sources import VideoFileSource
 
-FRAMES = 120  # 12 s of a 10 fps camera, the restart's outage on top
+#: 24 s of a 5 fps camera, the restart's outage on top. The graph keeps up with 5 fps (about 7
+#: frames/s here), so every frame is processed and runs repeat (locked 0.800, 0.800, 0.808); on a
+#: 10 fps camera which frames are dropped depends on timing (locked 0.66-0.89 over 9 runs).
+FRAMES = 120
 
 
 def _restart_once_streaming(camera: RtspCamera, log, done: threading.Event) -> None:
@@ -30,7 +33,7 @@ def test_the_demo_follows_people_on_an_rtsp_camera_that_restarts_mid_stream(vtes
     frames = (frame.image for frame in VideoFileSource(vtest_clip).frames(0, 100))
     folder = write_jpegs(frames, tmp_path / "jpegs")
     out = tmp_path / "run"
-    with RtspCamera(folder, fps=10) as camera:
+    with RtspCamera(folder, fps=5) as camera:
         done = threading.Event()
         restarter = threading.Thread(
             target=_restart_once_streaming, args=(camera, out / "logs" / "video_source.log", done)
@@ -52,9 +55,10 @@ def test_the_demo_follows_people_on_an_rtsp_camera_that_restarts_mid_stream(vtes
     log = (out / "logs" / "video_source.log").read_text()
     assert "stream lost" in log and "stream back" in log, log
     assert summary["frames"] == FRAMES, stdout
-    # the outage is a new epoch for the tracker: no track is predicted across its 5 s
+    # the outage (1.5 s down, back about 3 s after it went) is a new epoch for the tracker: no
+    # track is predicted across it
     tracker_log = (out / "logs" / "tracker.log").read_text()
     assert "stamps jumped ahead" in tracker_log, tracker_log
-    assert summary["locked_share"] >= 0.7, stdout  # 0.767 in 3 of 3 runs (before: 0.64-0.73)
+    assert summary["locked_share"] >= 0.7, stdout  # 0.800-0.808 in 3 runs
     assert summary["mean_center_distance_share"] <= 0.2, stdout  # 0.104; once before: 7631 px
     assert f"{FRAMES}/{FRAMES} frames published" in stdout and "end_frame reached" in stdout

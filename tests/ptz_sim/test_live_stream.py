@@ -12,8 +12,11 @@ from rtsp_camera import RtspCamera, require_gstreamer, write_jpegs
 from tracker_ptz_sim.simulation.frame_sources import SourceError
 from tracker_ptz_sim.simulation.live_stream import (
     MAX_STAMP_DRIFT_NS,
+    PROBE_US,
+    READ_TIMEOUT_S,
     LiveStreamSource,
     StreamClock,
+    ffmpeg_options,
     is_live_stream,
     open_input,
     redacted,
@@ -111,15 +114,30 @@ def test_a_slow_reader_gets_the_newest_frame_and_the_others_are_counted_dropped(
         source.close()
 
 
+def test_rtsp_goes_over_tcp_unless_asked_otherwise_and_every_stream_is_probed_briefly():
+    probe = f"analyzeduration;{PROBE_US}"
+    assert ffmpeg_options("rtsp://cam/live", "tcp") == (probe, "rtsp_transport;tcp")
+    assert ffmpeg_options("RTSPS://cam/live", "udp") == (probe, "rtsp_transport;udp")
+    assert ffmpeg_options("rtsp://cam/live", "auto") == (probe,)
+    assert ffmpeg_options("http://cam/mjpg", "tcp") == (probe,)
+    with pytest.raises(ValueError, match="tcp, udp, auto"):
+        ffmpeg_options("rtsp://cam/live", "quic")
+
+
 def test_the_stream_survives_the_server_restarting(camera):
     events = []
-    source = LiveStreamSource(camera.url, lambda level, message: events.append((level, message)))
+
+    def note(level, message):
+        events.append((level, message, time.monotonic()))
+
+    source = LiveStreamSource(camera.url, note)
     stamps = []
     try:
         frames = source.frames(0, None)
         for _ in range(10):
             stamps.append(next(frames).stamp_ns)
         camera.stop()
+        stopped = time.monotonic()
         time.sleep(1.0)
         camera.start()
         for _ in range(10):
@@ -128,9 +146,11 @@ def test_the_stream_survives_the_server_restarting(camera):
         source.close()
     assert source.reconnects == 1
     assert np.all(np.diff(stamps) > 0)
-    levels = [level for level, _ in events]
+    levels = [level for level, _, _ in events]
     assert levels == ["warning", "info"], events
     assert "stream lost" in events[0][1] and "stream back" in events[1][1]
+    # over TCP the closed connection tells at once; over UDP only the read timeout would
+    assert events[0][2] - stopped < READ_TIMEOUT_S / 2, events
 
 
 def test_a_failure_in_the_reader_thread_ends_the_stream_with_its_cause(camera):

@@ -208,6 +208,15 @@ class PanTiltController:
             command = replace(command, zoom=self._zoom(pose, target))
         return self._within_limits(command, pose)
 
+    def hold(self, t: float) -> Command:
+        """HOLD at time t [s] without a decision (the target cannot be judged yet: images have
+        just returned after a gap): the state is kept, and the time since the last step counts
+        for none of its timers."""
+        if self._last_time is not None and self._entered_at is not None:
+            self._entered_at += max(0.0, t - self._last_time)
+        self._last_time = t
+        return Command(CommandMode.HOLD)
+
     def _within_limits(self, command: Command, pose: CameraPose) -> Command:
         """Positions clamped into the unit's range; a rate that would drive an axis further past
         its limit stopped."""

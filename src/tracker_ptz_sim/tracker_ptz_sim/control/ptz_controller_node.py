@@ -39,6 +39,7 @@ from tracker_ptz_sim.control.controller import (
     Command,
     CommandMode,
     ControllerConfig,
+    ControlState,
     PanTiltController,
     TargetEstimate,
     controller_config,
@@ -226,6 +227,7 @@ class PtzControllerNode(SuiteNode):
         self.unanswered_overdue: Any = None
         self.targets_stopped = False
         self.last_target_ns: int | None = None
+        self.images_resumed_ns: int | None = None  # the first state after a gap in the images
         self.last_mode = CommandMode.HOLD
         self.command_pub = self.create_publisher(PtzCommand, "ptz/command", command_qos())
         # where the followed target is, for TF users: a point 1 m along its ray from the camera
@@ -284,6 +286,7 @@ class PtzControllerNode(SuiteNode):
             return
         if order is Order.NEW_EPOCH:
             self._forget_states_after(stamp)
+        self._note_image_gap(stamp)
         self.states[stamp] = pose
         if stamp in self.unusable_states:  # a usable state of the same image wins
             self.unusable_states.remove(stamp)
@@ -294,12 +297,25 @@ class PtzControllerNode(SuiteNode):
             self._respond(self.waiting.pop(target_stamp)[0])
         self._watch_targets(stamp, state.header.stamp)
 
+    def _note_image_gap(self, stamp_ns: int) -> None:
+        """States (images) that resume after more than `target_timeout` without any (a stream
+        that dropped and returned): the target timeout counts from here, as the targets of those
+        images are still on their way and no target could come while there were no images."""
+        earlier = [s for s in self.states if s < stamp_ns]
+        timeout_ns = self.params["target_timeout"] * NS_PER_S
+        if earlier and stamp_ns - max(earlier) > timeout_ns:
+            self.images_resumed_ns = stamp_ns
+
     def _watch_targets(self, stamp_ns: int, stamp: Any) -> None:
         """Targets stopped (detector or tracker down) when two states in a row are more than
-        `target_timeout` past the last target (one alone may carry a bad stamp): stop the camera,
-        and acknowledge those states' images with HOLD until targets return."""
+        `target_timeout` past the last target (one alone may carry a bad stamp) and past the end
+        of a gap in the images: stop the camera, and acknowledge those states' images with HOLD
+        until targets return."""
         timeout_ns = self.params["target_timeout"] * NS_PER_S
-        if self.last_target_ns is None or stamp_ns - self.last_target_ns <= timeout_ns:
+        if self.last_target_ns is None:
+            return
+        since = max(self.last_target_ns, self.images_resumed_ns or 0)
+        if stamp_ns - since <= timeout_ns:
             self.unanswered_overdue = None
             return
         if not self.targets_stopped:
@@ -330,6 +346,8 @@ class PtzControllerNode(SuiteNode):
         self.unanswered_overdue = None
         if self.last_target_ns is not None and self.last_target_ns > stamp_ns:
             self.last_target_ns = stamp_ns  # the target timeout counts from the new epoch
+        if self.images_resumed_ns is not None and self.images_resumed_ns > stamp_ns:
+            self.images_resumed_ns = None
 
     # --- targets --------------------------------------------------------------------------------
 
@@ -409,10 +427,25 @@ class PtzControllerNode(SuiteNode):
             self._publish(Command(CommandMode.HOLD), target.header.stamp)
             return
         estimate = estimate_of(target)
-        command = self.controller.step(stamp / NS_PER_S, pose, estimate)
+        if estimate is None and self._reacquiring(stamp):
+            command = self.controller.hold(stamp / NS_PER_S)
+        else:
+            command = self.controller.step(stamp / NS_PER_S, pose, estimate)
         self._publish(command, target.header.stamp, pose)
         if estimate is not None and self.ray_pub.get_subscription_count():
             self.ray_pub.publish(self._ray(estimate, pose, target.header.stamp))
+
+    def _reacquiring(self, stamp_ns: int) -> bool:
+        """Images have returned after a gap while the camera followed a target, and the tracker
+        has had less than `target_timeout` of them to take it up again (a tracker clears its
+        tracks after a gap): no loss yet, so no scan."""
+        resumed = self.images_resumed_ns
+        timeout_ns = self.params["target_timeout"] * NS_PER_S
+        return (
+            resumed is not None
+            and 0 <= stamp_ns - resumed <= timeout_ns
+            and self.controller.state is ControlState.TRACK
+        )
 
     def _ray(self, estimate: TargetEstimate, pose: CameraPose, stamp: Any) -> PointStamped:
         """The target 1 m along its ray in the optical frame of its image."""

@@ -17,6 +17,7 @@ image topic of several), warned at the start.
 
 from __future__ import annotations
 
+import contextlib
 import os
 import re
 import struct
@@ -162,27 +163,37 @@ def video_frames(path: Path) -> Iterator[np.ndarray]:
     return (frame.image for frame in VideoFileSource(Path(path)).frames())
 
 
+@contextlib.contextmanager
+def capture_options(*options: str) -> Iterator[None]:
+    """FFmpeg options ("name;value") for the captures OpenCV opens inside the block.
+
+    OpenCV takes FFmpeg's options only from an environment variable, read when a capture is
+    opened; it is restored at once (another thread opening a capture meanwhile gets them too,
+    which the options used here only ever change for the inputs they are meant for)."""
+    if not options:
+        yield
+        return
+    with _OPTIONS_LOCK:
+        saved = os.environ.get(CAPTURE_OPTIONS)
+        os.environ[CAPTURE_OPTIONS] = "|".join(filter(None, (saved, *options)))
+        try:
+            yield
+        finally:
+            if saved is None:
+                del os.environ[CAPTURE_OPTIONS]
+            else:
+                os.environ[CAPTURE_OPTIONS] = saved
+
+
 def open_capture(path: Path, index_order: bool) -> cv2.VideoCapture:
     """OpenCV's reader of `path`; `index_order` makes FFmpeg read an AVI in its index's order.
 
     Read front to back, an AVI whose chunk headers are damaged is resynchronised on the next
     intact chunk without a word: the frames in between vanish and every later frame comes out
     under a smaller index. Read in index order (demuxer flag sortdts), each damaged frame is one
-    failed read instead. OpenCV takes demuxer options only from this environment variable, read
-    when a file is opened; it is restored at once (another thread opening a capture meanwhile
-    would get the flag too, which only ever changes how AVI files are read)."""
-    if not index_order:
+    failed read instead."""
+    with capture_options(*(("fflags;+sortdts",) if index_order else ())):
         return cv2.VideoCapture(str(path))
-    with _OPTIONS_LOCK:
-        saved = os.environ.get(CAPTURE_OPTIONS)
-        os.environ[CAPTURE_OPTIONS] = "|".join(filter(None, (saved, "fflags;+sortdts")))
-        try:
-            return cv2.VideoCapture(str(path))
-        finally:
-            if saved is None:
-                del os.environ[CAPTURE_OPTIONS]
-            else:
-                os.environ[CAPTURE_OPTIONS] = saved
 
 
 def count_packets(path: Path, index_order: bool, total: int) -> int:

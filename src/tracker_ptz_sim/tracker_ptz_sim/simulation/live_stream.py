@@ -31,15 +31,27 @@ from urllib.parse import urlsplit, urlunsplit
 import cv2
 import numpy as np
 
-from tracker_ptz_sim.simulation.frame_sources import Frame, FrameSource, SourceError, open_source
+from tracker_ptz_sim.simulation.frame_sources import (
+    Frame,
+    FrameSource,
+    SourceError,
+    capture_options,
+    open_source,
+)
 
 STREAM_SCHEMES = ("rtsp", "rtsps", "rtmp", "http", "https", "udp", "tcp", "srt")
 OPEN_TIMEOUT_S = 5.0  # FFmpeg's limit on opening the stream
 READ_TIMEOUT_S = 5.0  # a stream that sends nothing for this long is dead
 MAX_STAMP_DRIFT_NS = 1_000_000_000  # stream time this far from arrival: re-anchor on arrival
 RECONNECT_FIRST_S = 0.5
+RECONNECT_GROWTH = 1.5  # retries 0.5, 1.25, 2.4, 4.1 s... after a loss: a quick restart is caught
 RECONNECT_MAX_S = 10.0
+#: FFmpeg probes a network stream this long [us] before it hands out frames (its default took
+#: 2 s per connect here, and handed over those 2 s of frames at once, old on arrival); RTSP
+#: describes its streams in the SDP, and half a second holds a keyframe of a usual camera stream.
+PROBE_US = 500_000
 RTSP_PORT = 554
+RTSP_TRANSPORTS = ("tcp", "udp", "auto")  # auto: FFmpeg's own choice, UDP first then TCP
 
 EventSink = Callable[[str, str], None]  # (level "info" | "warning", message)
 
@@ -52,6 +64,20 @@ def is_device(path: str | Path) -> bool:
 def is_live_stream(path: str | Path) -> bool:
     """Whether `path` names a live stream (a URL of a streaming scheme, or /dev/videoN)."""
     return urlsplit(str(path)).scheme.lower() in STREAM_SCHEMES or is_device(path)
+
+
+def ffmpeg_options(url: str, rtsp_transport: str) -> tuple[str, ...]:
+    """FFmpeg's options for opening stream `url` ("name;value"): a short probe, and the RTSP
+    transport of an RTSP URL."""
+    if rtsp_transport not in RTSP_TRANSPORTS:
+        raise ValueError(f"rtsp_transport must be one of {', '.join(RTSP_TRANSPORTS)}")
+    probe = f"analyzeduration;{PROBE_US}"
+    rtsp = urlsplit(url).scheme.lower() in ("rtsp", "rtsps")
+    return (
+        (probe, f"rtsp_transport;{rtsp_transport}")
+        if rtsp and rtsp_transport != "auto"
+        else (probe,)
+    )
 
 
 def redacted(url: str) -> str:
@@ -115,8 +141,14 @@ class LiveStreamSource(FrameSource):
         open_timeout_s: float = OPEN_TIMEOUT_S,
         read_timeout_s: float = READ_TIMEOUT_S,
         clock: Callable[[], int] = time.time_ns,
+        rtsp_transport: str = "tcp",
     ) -> None:
+        """`rtsp_transport` (RTSP URLs only): tcp, RTP interleaved on the RTSP connection, so a
+        camera or server that goes away is noticed at once and no packet is lost on the way;
+        udp; or auto."""
+        ffmpeg_options(url, rtsp_transport)  # a bad transport fails here
         self.url = url
+        self.rtsp_transport = rtsp_transport
         self.path = Path(self.label)  # a URL as a Path folds its "//": logs use `label`
         self.total = 0
         self.skipped = 0
@@ -195,7 +227,8 @@ class LiveStreamSource(FrameSource):
                 cv2.CAP_PROP_READ_TIMEOUT_MSEC,
                 round(self.read_timeout_s * 1000),
             ]
-            capture = cv2.VideoCapture(self.url, cv2.CAP_FFMPEG, timeouts)
+            with capture_options(*ffmpeg_options(self.url, self.rtsp_transport)):
+                capture = cv2.VideoCapture(self.url, cv2.CAP_FFMPEG, timeouts)
         if capture.isOpened():
             return capture
         capture.release()
@@ -219,7 +252,7 @@ class LiveStreamSource(FrameSource):
                 capture = self._open()
                 if capture is None:
                     self.closed.wait(backoff)
-                    backoff = min(2 * backoff, RECONNECT_MAX_S)
+                    backoff = min(RECONNECT_GROWTH * backoff, RECONNECT_MAX_S)
                     continue
                 self.reconnects += 1
                 self.connected = True
@@ -241,7 +274,8 @@ class LiveStreamSource(FrameSource):
                 self.on_event(
                     "warning",
                     f"{self.label}: stream lost ({stream_problem(self.url, 1.0)}); "
-                    f"reconnecting every {RECONNECT_FIRST_S:g} s up to {RECONNECT_MAX_S:g} s",
+                    f"reconnecting after {RECONNECT_FIRST_S:g} s, then less often, "
+                    f"up to every {RECONNECT_MAX_S:g} s",
                 )
         if capture is not None:
             capture.release()
@@ -255,12 +289,16 @@ class LiveStreamSource(FrameSource):
 
 
 def open_input(
-    path: str | Path, fps: float = 0.0, bag_topic: str = "", on_event: EventSink | None = None
+    path: str | Path,
+    fps: float = 0.0,
+    bag_topic: str = "",
+    on_event: EventSink | None = None,
+    rtsp_transport: str = "tcp",
 ) -> FrameSource:
     """A live stream's reader for a stream URL or /dev/videoN, else `open_source`'s for a
     recording (`fps`, `bag_topic` are the recording's)."""
     if is_live_stream(path):
-        return LiveStreamSource(str(path), on_event)
+        return LiveStreamSource(str(path), on_event, rtsp_transport=rtsp_transport)
     return open_source(path, fps, bag_topic)
 
 

@@ -40,7 +40,7 @@ from tracker_msgs_py.node_main import Health, StartupError, SuiteNode, run_node
 from tracker_msgs_py.params import ParamSpec, declare_parameters
 from tracker_ptz_sim.simulation.camera_model import MAX_COMMAND_DELAY_FRAMES
 from tracker_ptz_sim.simulation.frame_sources import Frame, FrameSource, SourceError
-from tracker_ptz_sim.simulation.live_stream import LiveStreamSource, open_input
+from tracker_ptz_sim.simulation.live_stream import RTSP_TRANSPORTS, LiveStreamSource, open_input
 from tracker_ptz_sim.simulation.replay import Pacer, Prefetcher
 
 STATUS_QOS = QoSProfile(
@@ -58,6 +58,14 @@ PARAMS = [
     ),
     ParamSpec(
         "rate", 1.0, "replay speed: 1 = real time, 0 = as fast as the graph allows", 0.0, 100.0
+    ),
+    ParamSpec(
+        "rtsp_transport",
+        "tcp",
+        "RTP over the RTSP connection (tcp: a lost camera is noticed at once, nothing dropped on "
+        "the way), udp, or auto (FFmpeg's: UDP, then TCP)",
+        choices=RTSP_TRANSPORTS,
+        read_only=True,
     ),
     ParamSpec("loop", False, "start again at the end instead of exiting"),
     ParamSpec("start_frame", 0, "first frame index to publish", 0, 2**31 - 1, read_only=True),
@@ -149,7 +157,11 @@ class VideoSourceNode(SuiteNode):
         self.params = declare_parameters(self, PARAMS, on_change=self._on_change)
         try:
             self.source = open_input(
-                self.params["path"], self.params["fps"], self.params["bag_topic"], self._on_stream
+                self.params["path"],
+                self.params["fps"],
+                self.params["bag_topic"],
+                self._on_stream,
+                self.params["rtsp_transport"],
             )
         except SourceError as error:
             raise StartupError(str(error)) from error
