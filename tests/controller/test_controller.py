@@ -163,6 +163,18 @@ def test_time_held_without_a_decision_counts_for_no_timer():
     assert first_home * DT == pytest.approx(1.9, abs=DT + 1e-9)
 
 
+def test_the_aim_leads_a_moving_target_by_the_units_latency():
+    """A target moving right at 100 px/s on a unit that starts moving 0.2 s after a command: the
+    aim is 20 px ahead of the tracker's prediction."""
+    unit = IdealUnit()
+    target = target_at(CX, CY, vx=100.0)
+    plain = PanTiltController(ControllerConfig(mode="direct")).step(0.0, unit.pose(), target)
+    late = PanTiltController(ControllerConfig(mode="direct", unit_latency=0.2))
+    led = late.step(0.0, unit.pose(), target)
+    assert (plain.pan - led.pan) * F == pytest.approx(20.0)
+    assert led.tilt == plain.tilt
+
+
 def test_home_position_is_commanded():
     controller = PanTiltController(ControllerConfig(search="none", home=(0.1, -0.05)))
     command = controller.step(0.0, IdealUnit().pose(), None)

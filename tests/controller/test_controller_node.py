@@ -20,9 +20,10 @@ from hostile_messages import (  # noqa: E402
 )
 from node_harness import NodeHarness  # noqa: E402
 from ptz_messages import state_msg, target_msg  # noqa: E402
+from std_msgs.msg import Float64  # noqa: E402
 
 from tracker_msgs.msg import PtzCommand, PtzState, Target  # noqa: E402
-from tracker_msgs_py.codec import stamp_to_ns  # noqa: E402
+from tracker_msgs_py.codec import result_qos, stamp_to_ns  # noqa: E402
 from tracker_ptz_sim.control.ptz_controller_node import PtzControllerNode  # noqa: E402
 
 pytestmark = pytest.mark.ros
@@ -225,6 +226,28 @@ def test_images_that_resume_after_a_gap_are_not_taken_for_stopped_targets(harnes
     held = commands(harness)[26:]
     assert [stamp_to_ns(c.header.stamp) for c in held] == [k * NS for k in range(66, 70)]
     assert all(c.mode == PtzCommand.MODE_HOLD for c in held)
+
+
+def test_the_units_measured_latency_becomes_the_unit_latency_parameter(capfd):
+    """ptz/unit_latency (a driver's calibration; transient local, so also sent before the
+    controller started) sets unit_latency as a `ros2 param set` would; a value out of its range
+    is refused with one line and changes nothing."""
+    h = NodeHarness(
+        PtzControllerNode,
+        inputs={"ptz/unit_latency": (Float64, result_qos())},
+        outputs={"ptz/command": (PtzCommand, 50)},
+    )
+    try:
+        h.publish("ptz/unit_latency", Float64(data=0.25))
+        h.spin_until(lambda: h.node.controller.config.unit_latency == 0.25)
+        assert h.node.get_parameter("unit_latency").value == 0.25
+        h.publish("ptz/unit_latency", Float64(data=-1.0))
+        h.spin_until(lambda: h.node.problems.count("unusable unit latency") == 1)
+        assert h.node.controller.config.unit_latency == 0.25
+    finally:
+        h.close()
+    logged = [line for line in capfd.readouterr().err.splitlines() if "unit_latency" in line]
+    assert len(logged) == 2 and "as the unit measured it" in logged[0], logged
 
 
 def test_a_lone_state_stamped_far_ahead_changes_nothing(harness, capfd):

@@ -15,6 +15,7 @@ pytest.importorskip("onvif")
 from node_harness import NodeHarness  # noqa: E402
 from onvif_camera import OnvifCamera  # noqa: E402
 from sensor_msgs.msg import JointState  # noqa: E402
+from std_msgs.msg import Float64  # noqa: E402
 
 from tracker_msgs.msg import PtzCommand, Target  # noqa: E402
 from tracker_msgs_py.codec import command_qos, result_qos  # noqa: E402
@@ -25,7 +26,7 @@ pytestmark = pytest.mark.ros
 PAN_RANGE = [1.0, -1.0]  # rad at x = -1, +1: generic 0.5 is 0.5 rad to the right
 
 
-def node_for(camera, **params):
+def node_for(camera, extra_outputs=None, **params):
     defaults = {
         "host": "127.0.0.1",
         "port": camera.port,
@@ -37,7 +38,7 @@ def node_for(camera, **params):
     return NodeHarness(
         OnvifPtzNode,
         inputs={"ptz/command": (PtzCommand, command_qos()), "target": (Target, 10)},
-        outputs={"ptz/joint_states": (JointState, result_qos())},
+        outputs={"ptz/joint_states": (JointState, result_qos()), **(extra_outputs or {})},
         **{**defaults, **params},
     )
 
@@ -144,11 +145,16 @@ def test_a_camera_it_cannot_use_is_one_clear_start_up_error(camera_options, para
 
 def test_calibration_measures_the_pan_rate_and_brings_the_head_back():
     with OnvifCamera(top_speed=(0.5, 0.5)) as camera:
-        h = node_for(camera, calibrate=True, top_rates=[2.0, 0.5])  # a wrong pan rate given
+        latency = {"ptz/unit_latency": (Float64, result_qos())}
+        h = node_for(camera, latency, calibrate=True, top_rates=[2.0, 0.5])  # a wrong pan rate
         try:
             # 0.5 generic units/s at velocity 1 over a range of 1 rad per unit: 0.5 rad/s
             assert h.node.range.top_rates[0] == pytest.approx(0.5, rel=0.15)
             assert h.node.calibration.latency < 0.3
             h.spin_until(lambda: abs(camera.pose()[0]) < 1e-3, timeout=5.0)  # back at the start
+            # the latency for the controller, on a topic a later subscriber still gets
+            h.spin_until(lambda: h.received["ptz/unit_latency"])
+            sent = h.received["ptz/unit_latency"]
+            assert [m.data for m in sent] == [pytest.approx(h.node.calibration.latency)]
         finally:
             h.close()

@@ -95,6 +95,9 @@ class ControllerConfig:
     max_rate: float = 1.5  # rad/s
     feed_forward: bool = True  # add the target's angular velocity to the command
     aim_at_prediction: bool = True  # aim at the tracker's predicted position (latency compensation)
+    # s: the unit's delay from a command to its motion (a movement calibration measures it): the
+    # aim leads the target by this much beyond the tracker's prediction
+    unit_latency: float = 0.0
     search: str = "sweep"  # "sweep", "presets" or "none"
     sweep_rate: float = 0.25  # rad/s
     # rad: the unit's range; no command leaves it, the sweep reverses at it (and on a stall)
@@ -289,6 +292,8 @@ class PanTiltController:
             if cfg.aim_at_prediction
             else (target.x, target.y)
         )
+        aim_x += target.vx * cfg.unit_latency
+        aim_y += target.vy * cfg.unit_latency
         # Scene x grows to the right while pan grows to the left; scene y and tilt both grow down.
         error_pan = -(aim_x - pose.center_x) / pose.focal_length
         error_tilt = (aim_y - pose.center_y) / pose.focal_length

@@ -23,6 +23,7 @@ from collections.abc import Coroutine
 from typing import Any, TypeVar
 
 from sensor_msgs.msg import JointState
+from std_msgs.msg import Float64
 
 from tracker_msgs.msg import PtzCommand, Target
 from tracker_msgs_py.codec import command_qos, result_qos
@@ -171,6 +172,9 @@ class OnvifPtzNode(SuiteNode):
         self.at_return_preset = False
         self.errors = 0
         self.joint_pub = self.create_publisher(JointState, "ptz/joint_states", result_qos())
+        if self.calibration is not None:  # for the controller, also one that starts later
+            latency_pub = self.create_publisher(Float64, "ptz/unit_latency", result_qos())
+            latency_pub.publish(Float64(data=float(self.calibration.latency)))
         self.create_subscription(PtzCommand, "ptz/command", self._on_command, command_qos())
         self.create_subscription(Target, "target", self._on_target, 10)
         self.poller = asyncio.run_coroutine_threadsafe(self._poll(), self.loop)
@@ -189,7 +193,7 @@ class OnvifPtzNode(SuiteNode):
         self.get_logger().info(
             f"calibration: the head moves {measured.latency:.3f} s after a command, at "
             f"{pan_rate:.3f} rad/s for velocity 1 (top_rates[0] was {self.range.top_rates[0]}); "
-            "set the tracker's lead_time to about the latency plus the stream's"
+            "the latency goes to the controller (ptz/unit_latency)"
         )
         self.range = GenericRange(
             self.range.pan, self.range.tilt, (pan_rate, self.range.top_rates[1])

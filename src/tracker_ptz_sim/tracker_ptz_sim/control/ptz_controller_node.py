@@ -16,8 +16,9 @@ from collections import deque
 from typing import Any
 
 from geometry_msgs.msg import PointStamped
+from rclpy.parameter import Parameter
 from sensor_msgs.msg import JointState
-from std_msgs.msg import Header
+from std_msgs.msg import Float64, Header
 
 from tracker_msgs.msg import PtzCommand, PtzState, Target
 from tracker_msgs_py.codec import (
@@ -74,6 +75,15 @@ PARAMS = [
         "aim_at_prediction",
         _DEFAULTS.aim_at_prediction,
         "aim at the target's predicted position (latency compensation)",
+    ),
+    ParamSpec(
+        "unit_latency",
+        _DEFAULTS.unit_latency,
+        "the unit's delay from a command to its motion [s]: the aim leads the target by this much "
+        "beyond the tracker's prediction; set from ptz/unit_latency when the unit's driver "
+        "measures it (onvif_ptz calibrate)",
+        0.0,
+        5.0,
     ),
     ParamSpec(
         "search",
@@ -235,6 +245,7 @@ class PtzControllerNode(SuiteNode):
         self.joint_pub = self._joint_publisher()
         self.create_subscription(Target, "target", self._on_target, 10)
         self.create_subscription(PtzState, "ptz/state", self._on_state, 10)
+        self.create_subscription(Float64, "ptz/unit_latency", self._on_unit_latency, result_qos())
         self.create_steady_timer(0.05, self._answer_overdue)
 
     def destroy_node(self) -> None:
@@ -263,6 +274,18 @@ class PtzControllerNode(SuiteNode):
             if self.joint_pub is not None:
                 self.destroy_publisher(self.joint_pub)
             self.joint_pub = self._joint_publisher()
+
+    def _on_unit_latency(self, msg: Float64) -> None:
+        """The unit's measured command latency (its driver's movement calibration) becomes the
+        `unit_latency` parameter, through the same validation as a user's `ros2 param set`."""
+        result = self.set_parameters([Parameter("unit_latency", value=float(msg.data))])[0]
+        if result.successful:
+            self.get_logger().info(f"unit_latency {msg.data:.3f} s, as the unit measured it")
+        else:
+            self.problems.report(
+                "unusable unit latency",
+                f"ignored ptz/unit_latency {msg.data}: {result.reason}",
+            )
 
     # --- pan-tilt states ------------------------------------------------------------------------
 
