@@ -201,11 +201,31 @@ def test_targets_that_stop_are_answered_with_hold_once_two_states_confirm_it(har
     assert len(logged) == 1 and "holding the camera" in logged[0]
 
 
+def test_when_targets_return_after_stopping_the_control_carries_on_where_it_was(harness):
+    """The detector restarts: while targets are stopped the control keeps tracking (no reset, no
+    sweep), and after they return it holds (for up to lost_scan_time) until the tracker has taken
+    the target up again, then follows it."""
+    from tracker_ptz_sim.control.controller import ControlState
+
+    good_run(harness, 0)
+    for k in range(10, 25):
+        harness.publish("ptz/state", state_msg(k * NS))
+    harness.spin_until(lambda: len(commands(harness)) == 15)
+    assert harness.node.controller.state is ControlState.TRACK
+    unlocked = [
+        answer(harness, state_msg(k * NS), target_msg(k * NS, locked=False)) for k in (25, 26)
+    ]
+    assert [c.mode for c in unlocked] == [PtzCommand.MODE_HOLD] * 2
+    locked = answer(harness, state_msg(27 * NS), target_msg(27 * NS))
+    assert locked.mode == PtzCommand.MODE_VELOCITY
+
+
 def test_images_that_resume_after_a_gap_are_not_taken_for_stopped_targets(harness, capfd):
     """The stream drops for 3 s and returns: the states of the first images after the gap come
     before their targets, yet they are past target_timeout only because there were no images.
-    No reset: while the tracker takes the target up again (unlocked targets for up to
-    target_timeout) the camera holds instead of scanning, and then follows it."""
+    No reset: until the tracker has taken the target up again (unlocked targets, for up to
+    lost_scan_time) the camera holds instead of scanning, and then follows it; a later loss is
+    scanned for as usual."""
     good_run(harness, 0)  # the last target at frame 9
     for k in (40, 41, 42):  # the tracker's answers to these are still on their way
         harness.publish("ptz/state", state_msg(k * NS))

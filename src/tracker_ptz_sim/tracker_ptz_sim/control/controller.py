@@ -215,8 +215,10 @@ class PanTiltController:
         """HOLD at time t [s] without a decision (the target cannot be judged yet: images have
         just returned after a gap): the state is kept, and the time since the last step counts
         for none of its timers."""
+        if self._last_time is not None and t < self._last_time:
+            return Command(CommandMode.HOLD)  # an older image's answer: its time has passed
         if self._last_time is not None and self._entered_at is not None:
-            self._entered_at += max(0.0, t - self._last_time)
+            self._entered_at += t - self._last_time
         self._last_time = t
         return Command(CommandMode.HOLD)
 

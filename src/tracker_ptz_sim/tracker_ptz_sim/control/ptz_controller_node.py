@@ -237,7 +237,7 @@ class PtzControllerNode(SuiteNode):
         self.unanswered_overdue: Any = None
         self.targets_stopped = False
         self.last_target_ns: int | None = None
-        self.images_resumed_ns: int | None = None  # the first state after a gap in the images
+        self.resumed_ns: int | None = None  # the first image after a gap in images or targets
         self.last_mode = CommandMode.HOLD
         self.command_pub = self.create_publisher(PtzCommand, "ptz/command", command_qos())
         # where the followed target is, for TF users: a point 1 m along its ray from the camera
@@ -327,7 +327,7 @@ class PtzControllerNode(SuiteNode):
         earlier = [s for s in self.states if s < stamp_ns]
         timeout_ns = self.params["target_timeout"] * NS_PER_S
         if earlier and stamp_ns - max(earlier) > timeout_ns:
-            self.images_resumed_ns = stamp_ns
+            self.resumed_ns = stamp_ns
 
     def _watch_targets(self, stamp_ns: int, stamp: Any) -> None:
         """Targets stopped (detector or tracker down) when two states in a row are more than
@@ -337,7 +337,7 @@ class PtzControllerNode(SuiteNode):
         timeout_ns = self.params["target_timeout"] * NS_PER_S
         if self.last_target_ns is None:
             return
-        since = max(self.last_target_ns, self.images_resumed_ns or 0)
+        since = max(self.last_target_ns, self.resumed_ns or 0)
         if stamp_ns - since <= timeout_ns:
             self.unanswered_overdue = None
             return
@@ -351,10 +351,15 @@ class PtzControllerNode(SuiteNode):
                 f"no target for {(stamp_ns - self.last_target_ns) / NS_PER_S:.3f} s of scene time "
                 "(is the detector or tracker running?): holding the camera until targets return",
             )
-            self.controller.reset()
-            self._publish(Command(CommandMode.HOLD), self.unanswered_overdue)
+            self._hold(self.unanswered_overdue)
             self.unanswered_overdue = None
-        self._publish(Command(CommandMode.HOLD), stamp)
+        self._hold(stamp)
+
+    def _hold(self, stamp: Any) -> None:
+        """HOLD for an image whose target is not coming: the control keeps its state, and the
+        time held counts for none of its timers (a detector that restarts finds the camera where
+        it was, still tracking, not sweeping away)."""
+        self._publish(self.controller.hold(stamp_to_ns(stamp) / NS_PER_S), stamp)
 
     def _forget_states_after(self, stamp_ns: int) -> None:
         """The state stream jumped back (a new replay epoch, or past a lone state stamped ahead):
@@ -369,8 +374,8 @@ class PtzControllerNode(SuiteNode):
         self.unanswered_overdue = None
         if self.last_target_ns is not None and self.last_target_ns > stamp_ns:
             self.last_target_ns = stamp_ns  # the target timeout counts from the new epoch
-        if self.images_resumed_ns is not None and self.images_resumed_ns > stamp_ns:
-            self.images_resumed_ns = None
+        if self.resumed_ns is not None and self.resumed_ns > stamp_ns:
+            self.resumed_ns = None
 
     # --- targets --------------------------------------------------------------------------------
 
@@ -395,6 +400,8 @@ class PtzControllerNode(SuiteNode):
         if order is Order.NEW_EPOCH:
             self._start_epoch(stamp)
         self.last_target_ns = stamp
+        if self.targets_stopped:  # targets are back: the tracker takes its target up again
+            self.resumed_ns = stamp
         self.targets_stopped = False
         self.unanswered_overdue = None
         if self._pose_known(stamp):
@@ -450,6 +457,8 @@ class PtzControllerNode(SuiteNode):
             self._publish(Command(CommandMode.HOLD), target.header.stamp)
             return
         estimate = estimate_of(target)
+        if estimate is not None:
+            self.resumed_ns = None  # taken up again (or never lost)
         if estimate is None and self._reacquiring(stamp):
             command = self.controller.hold(stamp / NS_PER_S)
         else:
@@ -459,14 +468,15 @@ class PtzControllerNode(SuiteNode):
             self.ray_pub.publish(self._ray(estimate, pose, target.header.stamp))
 
     def _reacquiring(self, stamp_ns: int) -> bool:
-        """Images have returned after a gap while the camera followed a target, and the tracker
-        has had less than `target_timeout` of them to take it up again (a tracker clears its
-        tracks after a gap): no loss yet, so no scan."""
-        resumed = self.images_resumed_ns
-        timeout_ns = self.params["target_timeout"] * NS_PER_S
+        """Images (or targets) have returned after a gap while the camera followed a target, and
+        the target has not been taken up again for less than `lost_scan_time`: the scan around
+        its last position is done standing still, as the tracker (which clears its tracks after
+        a gap) and a restarted detector (relearning its background) need a still camera."""
+        resumed = self.resumed_ns
+        window_ns = self.controller.config.lost_scan_time * NS_PER_S
         return (
             resumed is not None
-            and 0 <= stamp_ns - resumed <= timeout_ns
+            and 0 <= stamp_ns - resumed <= window_ns
             and self.controller.state is ControlState.TRACK
         )
 
