@@ -167,7 +167,7 @@ def test_graph_description_is_consistent():
     graph = load_graph()
     names = [n.name for n in graph.nodes]
     assert names == ["video_source", "ptz_camera", "ssim_detector", "tracker", "ptz_controller"]
-    assert [p.name for p in graph.params_files] == ["surveillance.yaml"]
+    assert [p.name for p in graph.params_files] == ["surveillance.yaml", "person.yaml"]
     for name in names:
         assert node_parameters(graph.params_files, name).get("use_sim_time") is True
     args = ros_args(
