@@ -163,6 +163,30 @@ def test_time_held_without_a_decision_counts_for_no_timer():
     assert first_home * DT == pytest.approx(1.9, abs=DT + 1e-9)
 
 
+def test_after_a_gap_a_lost_target_is_looked_for_standing_still_until_it_is_locked_again():
+    """Images return at t = 5 after a gap while a target was followed: no target -> HOLD (still
+    tracking) for up to lost_scan_time, then the usual scan; a locked target ends the wait, and a
+    later loss is scanned for at once."""
+    config = ControllerConfig(mode="direct", lost_scan_time=2.0, scan_amplitude=0.1)
+    unit = IdealUnit()
+    waiting = PanTiltController(config)
+    waiting.step(0.0, unit.pose(), target_at(CX - 120.0, CY))
+    waiting.resume(5.0)
+    held = [waiting.step(5.0 + k * DT, unit.pose(), None) for k in range(round(2.0 / DT) + 1)]
+    assert all(c.mode is CommandMode.HOLD for c in held)
+    assert waiting.state is ControlState.TRACK
+    assert waiting.step(7.0 + DT, unit.pose(), None).mode is CommandMode.POSITION
+    assert waiting.state is ControlState.SCAN
+
+    found = PanTiltController(config)
+    found.step(0.0, unit.pose(), target_at(CX - 120.0, CY))
+    found.resume(5.0)
+    assert found.step(5.0, unit.pose(), None).mode is CommandMode.HOLD
+    assert found.step(5.1, unit.pose(), target_at(CX - 100.0, CY)).mode is CommandMode.POSITION
+    found.step(5.2, unit.pose(), None)
+    assert found.state is ControlState.SCAN  # lost again: no more waiting
+
+
 def test_the_aim_leads_a_moving_target_by_the_units_latency():
     """A target moving right at 100 px/s on a unit that starts moving 0.2 s after a command: the
     aim is 20 px ahead of the tracker's prediction."""

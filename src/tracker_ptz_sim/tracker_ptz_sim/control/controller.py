@@ -185,12 +185,17 @@ class PanTiltController:
         self._sweep_moved = False
         self._last_pan: float | None = None
         self._zooming = False
+        self._resumed_at: float | None = None  # s: images or targets came back after a gap
 
     def reset(self) -> None:
         self._start(self.config)
 
     def step(self, t: float, pose: CameraPose, target: TargetEstimate | None) -> Command:
         """The command for time t [s] given the camera pose and the locked target (None if none)."""
+        if target is not None:
+            self._resumed_at = None  # taken up again (or never lost)
+        elif self._reacquiring(t):
+            return self.hold(t)
         dt = 0.0 if self._last_time is None else max(0.0, t - self._last_time)
         self._last_time = t
         if self.config.mode == "hold":  # a fixed camera: it stays where it is, whatever is tracked
@@ -211,10 +216,25 @@ class PanTiltController:
             command = replace(command, zoom=self._zoom(pose, target))
         return self._within_limits(command, pose)
 
+    def resume(self, t: float) -> None:
+        """Images or targets return at time t [s] after a gap (a stream outage, a restarted
+        detector). If the camera was following a target, the scan around its last position is
+        done standing still until a target is locked again, for up to `lost_scan_time`: the
+        tracker (which clears its tracks after a gap) and a restarted detector (relearning its
+        background) need a still camera."""
+        self._resumed_at = t
+
+    def _reacquiring(self, t: float) -> bool:
+        resumed = self._resumed_at
+        return (
+            resumed is not None
+            and 0.0 <= t - resumed <= self.config.lost_scan_time
+            and self.state is ControlState.TRACK
+        )
+
     def hold(self, t: float) -> Command:
-        """HOLD at time t [s] without a decision (the target cannot be judged yet: images have
-        just returned after a gap): the state is kept, and the time since the last step counts
-        for none of its timers."""
+        """HOLD at time t [s] without a decision (no target can come, or it cannot be judged yet):
+        the state is kept, and the time since the last step counts for none of its timers."""
         if self._last_time is not None and t < self._last_time:
             return Command(CommandMode.HOLD)  # an older image's answer: its time has passed
         if self._last_time is not None and self._entered_at is not None:

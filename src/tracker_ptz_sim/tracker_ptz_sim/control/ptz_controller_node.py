@@ -40,7 +40,6 @@ from tracker_ptz_sim.control.controller import (
     Command,
     CommandMode,
     ControllerConfig,
-    ControlState,
     PanTiltController,
     TargetEstimate,
     controller_config,
@@ -237,7 +236,7 @@ class PtzControllerNode(SuiteNode):
         self.unanswered_overdue: Any = None
         self.targets_stopped = False
         self.last_target_ns: int | None = None
-        self.resumed_ns: int | None = None  # the first image after a gap in images or targets
+        self.images_resumed_ns: int | None = None  # the first state after a gap in the images
         self.last_mode = CommandMode.HOLD
         self.command_pub = self.create_publisher(PtzCommand, "ptz/command", command_qos())
         # where the followed target is, for TF users: a point 1 m along its ray from the camera
@@ -323,11 +322,13 @@ class PtzControllerNode(SuiteNode):
     def _note_image_gap(self, stamp_ns: int) -> None:
         """States (images) that resume after more than `target_timeout` without any (a stream
         that dropped and returned): the target timeout counts from here, as the targets of those
-        images are still on their way and no target could come while there were no images."""
-        earlier = [s for s in self.states if s < stamp_ns]
+        images are still on their way and no target could come while there were no images; the
+        control looks for its target standing still (`PanTiltController.resume`)."""
+        previous = max((s for s in self.states if s < stamp_ns), default=None)
         timeout_ns = self.params["target_timeout"] * NS_PER_S
-        if earlier and stamp_ns - max(earlier) > timeout_ns:
-            self.resumed_ns = stamp_ns
+        if previous is not None and stamp_ns - previous > timeout_ns:
+            self.images_resumed_ns = stamp_ns
+            self.controller.resume(stamp_ns / NS_PER_S)
 
     def _watch_targets(self, stamp_ns: int, stamp: Any) -> None:
         """Targets stopped (detector or tracker down) when two states in a row are more than
@@ -337,7 +338,7 @@ class PtzControllerNode(SuiteNode):
         timeout_ns = self.params["target_timeout"] * NS_PER_S
         if self.last_target_ns is None:
             return
-        since = max(self.last_target_ns, self.resumed_ns or 0)
+        since = max(self.last_target_ns, self.images_resumed_ns or 0)
         if stamp_ns - since <= timeout_ns:
             self.unanswered_overdue = None
             return
@@ -374,8 +375,8 @@ class PtzControllerNode(SuiteNode):
         self.unanswered_overdue = None
         if self.last_target_ns is not None and self.last_target_ns > stamp_ns:
             self.last_target_ns = stamp_ns  # the target timeout counts from the new epoch
-        if self.resumed_ns is not None and self.resumed_ns > stamp_ns:
-            self.resumed_ns = None
+        if self.images_resumed_ns is not None and self.images_resumed_ns > stamp_ns:
+            self.images_resumed_ns = None
 
     # --- targets --------------------------------------------------------------------------------
 
@@ -401,7 +402,7 @@ class PtzControllerNode(SuiteNode):
             self._start_epoch(stamp)
         self.last_target_ns = stamp
         if self.targets_stopped:  # targets are back: the tracker takes its target up again
-            self.resumed_ns = stamp
+            self.controller.resume(stamp / NS_PER_S)
         self.targets_stopped = False
         self.unanswered_overdue = None
         if self._pose_known(stamp):
@@ -457,28 +458,10 @@ class PtzControllerNode(SuiteNode):
             self._publish(Command(CommandMode.HOLD), target.header.stamp)
             return
         estimate = estimate_of(target)
-        if estimate is not None:
-            self.resumed_ns = None  # taken up again (or never lost)
-        if estimate is None and self._reacquiring(stamp):
-            command = self.controller.hold(stamp / NS_PER_S)
-        else:
-            command = self.controller.step(stamp / NS_PER_S, pose, estimate)
+        command = self.controller.step(stamp / NS_PER_S, pose, estimate)
         self._publish(command, target.header.stamp, pose)
         if estimate is not None and self.ray_pub.get_subscription_count():
             self.ray_pub.publish(self._ray(estimate, pose, target.header.stamp))
-
-    def _reacquiring(self, stamp_ns: int) -> bool:
-        """Images (or targets) have returned after a gap while the camera followed a target, and
-        the target has not been taken up again for less than `lost_scan_time`: the scan around
-        its last position is done standing still, as the tracker (which clears its tracks after
-        a gap) and a restarted detector (relearning its background) need a still camera."""
-        resumed = self.resumed_ns
-        window_ns = self.controller.config.lost_scan_time * NS_PER_S
-        return (
-            resumed is not None
-            and 0 <= stamp_ns - resumed <= window_ns
-            and self.controller.state is ControlState.TRACK
-        )
 
     def _ray(self, estimate: TargetEstimate, pose: CameraPose, stamp: Any) -> PointStamped:
         """The target 1 m along its ray in the optical frame of its image."""
