@@ -131,3 +131,28 @@ def test_the_box_filter_follows_a_box_moving_at_constant_velocity():
     kalman.predict(DT)
     assert kalman.boxes()[0] == pytest.approx([120.0, 0.0, 20.0, 50.0], abs=0.5)
     assert kalman.means[0, 4] == pytest.approx(40.0, abs=1.0)  # px/s
+
+
+@pytest.mark.parametrize(("distance", "same"), [(60.0, True), (250.0, False)])
+def test_a_look_alike_is_found_again_only_within_a_walkers_reach(distance, same):
+    """A red-coated person (70 px tall) standing at the left is hidden for 1 s; then a red coat
+    shows `distance` px from where they stood. 60 px is within a walker's reach in that time
+    (`refind_reach` 1.5 heights a second: 115 px): the same person, their id. 250 px is not:
+    someone else in the same colours, a new track, though the old one is still kept."""
+    tracker = ByteTracker(ByteConfig(refind_similarity=0.8, max_misses=20))
+    red = (0, 0, 220)
+    frames, images = [], []
+    for k in range(22):
+        if k < 6:
+            shown = [((40.0, 90.0, 24.0, 70.0), red)]
+        elif k < 16:
+            shown = []
+        else:
+            shown = [((40.0 + distance, 90.0, 24.0, 70.0), red)]
+        images.append(coloured_scene(shown))
+        frames.append(boxes_at([b for b, _ in shown], [0.9] * len(shown)))
+    sets = run(tracker, frames, images)
+    before = ids_of(sets[5], (40.0, 90.0, 24.0, 70.0))
+    after = ids_of(sets[21], (40.0 + distance, 90.0, 24.0, 70.0))
+    assert before != -1 and after != -1
+    assert (before == after) == same

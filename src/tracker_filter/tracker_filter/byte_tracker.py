@@ -12,8 +12,11 @@ score, higher = surer (the `person` detector). What it needs once detections are
    confident boxes left go to the tracks missed for a frame or more whose colours they match
    (`appearance`: hue-saturation histograms of the box's upper and lower half, Bhattacharyya
    coefficient >= `refind_similarity`) within `refind_reach` heights of their predicted box per
-   frame missed: a person coming out from behind the sign or another person, where a constant-
-   velocity box has gone on without them;
+   second missed (a frame's interval counted for the frame they are found in): a person coming
+   out from behind the sign or another person, where a constant-velocity box has gone on without
+   them. The reach is a walker's: at 1.5 heights a second a person who turned round inside the
+   gap is still reached, while one who walks in from elsewhere after a few seconds is not taken
+   for them on colours alone;
 4. the weak boxes (`low` <= score < `high`: a person half hidden, blurred, small) go to the
    confirmed tracks still unmatched, by IoU (>= `weak_iou`): they continue a track, never start
    one;
@@ -64,7 +67,7 @@ class ByteConfig:
     position_noise: float = 0.05  # box centre and size noise per frame, as a share of its height
     velocity_noise: float = 0.00625  # their rates' noise per frame, as a share of its height
     refind_similarity: float = 0.8  # colours a missed track's box must match to be found again
-    refind_reach: float = 0.5  # ... within this many heights of its prediction per frame missed
+    refind_reach: float = 1.5  # ... within this many heights of its prediction per second missed
     max_tracks: int = 100
 
     def __post_init__(self) -> None:
@@ -328,7 +331,8 @@ class ByteTracker:
         distance = np.hypot(
             *(centre[:, None] - (found[None, :, :2] + found[None, :, 2:] / 2)).transpose(2, 0, 1)
         )
-        reach = c.refind_reach * predicted[missed, 3:4] * (book.misses[missed, None] + 1)
+        seconds = (book.misses[missed, None] + 1) * self.interval
+        reach = c.refind_reach * predicted[missed, 3:4] * seconds
         alike = similarity(self.looks[missed], looks[candidates])
         good = (distance <= reach) & (alike >= c.refind_similarity)
         good &= self._same_label(missed, detections.labels[candidates])
@@ -422,7 +426,7 @@ PARAMETERS: tuple[ParamSpec, ...] = (
     ParamSpec(
         "refind_reach",
         _B.refind_reach,
-        "... within this many heights of its prediction per frame missed",
+        "... within this many heights of its prediction per second missed",
         0.0,
         100.0,
     ),
