@@ -17,6 +17,7 @@ from typing import Any
 
 from geometry_msgs.msg import PointStamped
 from rclpy.parameter import Parameter
+from rclpy.publisher import Publisher
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64, Header
 
@@ -262,7 +263,7 @@ class PtzControllerNode(SuiteNode):
                 self.joint_pub.publish(joint_state(stop, header))
         super().destroy_node()
 
-    def _joint_publisher(self):  # noqa: ANN202 - Publisher | None
+    def _joint_publisher(self) -> Publisher | None:
         topic = self.params["joint_command_topic"]
         return self.create_publisher(JointState, topic, command_qos()) if topic else None
 
