@@ -24,6 +24,7 @@ from std_msgs.msg import Float64  # noqa: E402
 
 from tracker_msgs.msg import PtzCommand, PtzState, Target  # noqa: E402
 from tracker_msgs_py.codec import result_qos, stamp_to_ns  # noqa: E402
+from tracker_ptz_sim.control.controller import ControlState  # noqa: E402
 from tracker_ptz_sim.control.ptz_controller_node import PtzControllerNode  # noqa: E402
 
 pytestmark = pytest.mark.ros
@@ -205,8 +206,6 @@ def test_when_targets_return_after_stopping_the_control_carries_on_where_it_was(
     """The detector restarts: while targets are stopped the control keeps tracking (no reset, no
     sweep), and after they return it holds (for up to lost_scan_time) until the tracker has taken
     the target up again, then follows it."""
-    from tracker_ptz_sim.control.controller import ControlState
-
     good_run(harness, 0)
     for k in range(10, 25):
         harness.publish("ptz/state", state_msg(k * NS))
