@@ -51,6 +51,7 @@ setup(
             "single_target_benchmark = tracker_ptz_sim.entry_points:single_target_benchmark",
             "phd_benchmark = tracker_ptz_sim.entry_points:phd_benchmark",
             "voxel_benchmark = tracker_ptz_sim.entry_points:voxel_benchmark",
+            "parameter_tables = tracker_ptz_sim.entry_points:parameter_tables",
         ],
     },
 )

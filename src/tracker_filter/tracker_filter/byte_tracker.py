@@ -36,7 +36,6 @@ centre and its velocity (px, px/s); each track's box is its filter's.
 
 from __future__ import annotations
 
-from collections.abc import Mapping
 from dataclasses import dataclass, replace
 from typing import Any
 
@@ -48,7 +47,7 @@ from tracker_filter.layout import StateLayout
 from tracker_filter.observation import Detections, Need, Observation
 from tracker_filter.tracking import TrackBook, TrackSet
 from tracker_msgs_py.geometry import iou_matrix
-from tracker_msgs_py.params import ParamSpec, check_config, config_from_params
+from tracker_msgs_py.params import check_config, param
 from tracker_msgs_py.registry import Method
 
 LAYOUT = StateLayout.from_names("x y vx vy")
@@ -58,35 +57,58 @@ LOOK_MEMORY = 0.9  # a track's colours: this share of what they were, the rest t
 
 @dataclass(frozen=True)
 class ByteConfig:
-    high: float = 0.5  # a box at least this confident is matched first and may start a track
-    low: float = 0.2  # weaker boxes than high but at least this: only continue confirmed tracks
-    match_iou: float = 0.2  # least IoU of a confident box with a track's predicted box
-    weak_iou: float = 0.5  # least IoU of a weak box with a track's predicted box
-    confirm_hits: int = 3  # hits in a row that confirm a track
-    max_misses: int = 20  # frames a confirmed track may go unmatched before it is LOST
-    position_noise: float = 0.05  # box centre and size noise per frame, as a share of its height
-    velocity_noise: float = 0.00625  # their rates' noise per frame, as a share of its height
-    refind_similarity: float = 0.8  # colours a missed track's box must match to be found again
-    refind_reach: float = 1.5  # ... within this many heights of its prediction per second missed
-    max_tracks: int = 100
+    high: float = param(
+        0.5, "a box at least this confident is matched first, may start a track", min=0.0, max=1.0
+    )
+    low: float = param(
+        0.2, "weaker boxes (but at least this) only continue confirmed tracks", min=0.0, max=1.0
+    )
+    match_iou: float = param(
+        0.2, "least IoU of a confident box with a track's predicted box", min=0.01, max=1.0
+    )
+    weak_iou: float = param(
+        0.5, "least IoU of a weak box with a track's predicted box", min=0.01, max=1.0
+    )
+    confirm_hits: int = param(3, "hits in a row that confirm a track", min=1, max=100)
+    max_misses: int = param(
+        20, "frames a confirmed track may go unmatched before it is LOST", min=0, max=10000
+    )
+    position_noise: float = param(
+        0.05,
+        "box centre and size noise per frame",
+        min=1e-4,
+        max=10.0,
+        unit="share of its height",
+    )
+    velocity_noise: float = param(
+        0.00625,
+        "their rates' noise per frame",
+        min=1e-5,
+        max=10.0,
+        unit="share of its height",
+    )
+    refind_similarity: float = param(
+        0.8,
+        "colours (Bhattacharyya coefficient) a missed track's box must match to be found again "
+        "(0: no appearance; > 0: the tracker needs the camera image)",
+        min=0.0,
+        max=1.0,
+    )
+    refind_reach: float = param(
+        1.5,
+        "... within this many heights of its prediction per second missed",
+        min=0.0,
+        max=100.0,
+    )
+    max_tracks: int = param(100, "tracks kept at most", min=1, max=100000)
 
     def __post_init__(self) -> None:
         check_config(self)
 
     def problems(self) -> list[str]:
-        found = []
-        if not 0.0 <= self.low <= self.high <= 1.0:
-            found.append(f"need 0 <= low <= high <= 1, got low {self.low}, high {self.high}")
-        for name in ("match_iou", "weak_iou"):
-            if not 0.0 < getattr(self, name) <= 1.0:
-                found.append(f"{name} must be in (0, 1], got {getattr(self, name)}")
-        if self.confirm_hits < 1 or self.max_misses < 0 or self.max_tracks < 1:
-            found.append("need confirm_hits >= 1, max_misses >= 0, max_tracks >= 1")
-        if not (self.position_noise > 0 and self.velocity_noise > 0):
-            found.append("position_noise and velocity_noise must be > 0")
-        if not 0.0 <= self.refind_similarity <= 1.0 or self.refind_reach < 0:
-            found.append("need 0 <= refind_similarity <= 1 and refind_reach >= 0")
-        return found
+        if self.low > self.high:
+            return [f"need low <= high, got low {self.low}, high {self.high}"]
+        return []
 
 
 class BoxKalman:
@@ -370,78 +392,10 @@ class ByteTracker:
         return left[np.argsort(-detections.scores[left], kind="stable")]
 
 
-_B = ByteConfig()
-
-PARAMETERS: tuple[ParamSpec, ...] = (
-    ParamSpec(
-        "high",
-        _B.high,
-        "a box at least this confident is matched first, may start a track",
-        0.0,
-        1.0,
-    ),
-    ParamSpec(
-        "low", _B.low, "weaker boxes (but at least this) only continue confirmed tracks", 0.0, 1.0
-    ),
-    ParamSpec(
-        "match_iou",
-        _B.match_iou,
-        "least IoU of a confident box with a track's predicted box",
-        0.01,
-        1.0,
-    ),
-    ParamSpec(
-        "weak_iou", _B.weak_iou, "least IoU of a weak box with a track's predicted box", 0.01, 1.0
-    ),
-    ParamSpec("confirm_hits", _B.confirm_hits, "hits in a row that confirm a track", 1, 100),
-    ParamSpec(
-        "max_misses",
-        _B.max_misses,
-        "frames a confirmed track may go unmatched before it is LOST",
-        0,
-        10000,
-    ),
-    ParamSpec(
-        "position_noise",
-        _B.position_noise,
-        "box centre and size noise per frame [share of its height]",
-        1e-4,
-        10.0,
-    ),
-    ParamSpec(
-        "velocity_noise",
-        _B.velocity_noise,
-        "their rates' noise per frame [share of its height]",
-        1e-5,
-        10.0,
-    ),
-    ParamSpec(
-        "refind_similarity",
-        _B.refind_similarity,
-        "colours (Bhattacharyya coefficient) a missed track's box must match to be found again "
-        "(0: no appearance; > 0: the tracker needs the camera image)",
-        0.0,
-        1.0,
-    ),
-    ParamSpec(
-        "refind_reach",
-        _B.refind_reach,
-        "... within this many heights of its prediction per second missed",
-        0.0,
-        100.0,
-    ),
-    ParamSpec("max_tracks", _B.max_tracks, "tracks kept at most", 1, 100000),
-)
-
-
-def build(values: Mapping[str, Any], first_id: int = 1) -> ByteTracker:
-    return ByteTracker(config_from_params(ByteConfig, values), first_id)
-
-
-METHOD: Method[Any] = Method(
+METHOD: Method[Any] = Method.of(
     name="byte",
     description="scored boxes in the manner of ByteTrack: a Kalman filter per box, confident "
     "boxes matched by IoU first, weak ones only to confirmed tracks, confirmation by hits",
-    build=build,
-    parameters=PARAMETERS,
+    config=ByteConfig,
+    make=ByteTracker,
 )

@@ -1,7 +1,11 @@
 """Parameter conventions shared by the suite's nodes.
 
-A node lists its parameters once as `ParamSpec`s (plain data: the functional core describes its
-own parameters with them, and the README's parameter tables are checked against them).
+A method declares each of its parameters once, as a field of its frozen config dataclass made
+with `param(default, description, min=, max=, unit=, ...)`. Everything else is derived from those
+fields: `specs_of(Config)` gives the `ParamSpec`s (plain data) the node declares and the package
+README's tables are generated from (`markdown_table`); `check_config` checks every field against
+its declared range and choices before the config's own `problems()` (the checks between fields);
+`config_from_params` builds the typed config from the node's values.
 `declare_parameters` declares them with descriptors (description, type, numeric range, allowed
 choices), rejects bad start-up values with a clear message, and rejects bad runtime changes
 (`ros2 param set`) with a reason while leaving the node's state untouched. Accepted changes are
@@ -13,7 +17,7 @@ from __future__ import annotations
 import math
 import weakref
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass, fields
+from dataclasses import MISSING, Field, dataclass, field, fields, is_dataclass
 from typing import TYPE_CHECKING, Any, Protocol, TypeVar
 
 if TYPE_CHECKING:  # rclpy is imported where a node declares parameters, not by the core
@@ -33,19 +37,46 @@ class Config(Protocol):
 
 
 def check_config(config: Config) -> None:
-    """Raises ValueError listing `config.problems()`, if any."""
-    problems = config.problems()
+    """Raises ValueError listing why `config` is unusable: its fields outside their declared
+    range or choices (`param`), then its own `problems()`."""
+    problems = field_problems(config) + config.problems()
     if problems:
         raise ValueError(f"invalid {type(config).__name__}: " + "; ".join(problems))
 
 
+def field_problems(config: object) -> list[str]:
+    """Why the `param` fields of `config` are outside what they declare."""
+    found = []
+    for spec in specs_of(type(config)):
+        reason = spec.check(getattr(config, spec.name))
+        if reason:
+            found.append(reason)
+    return found
+
+
 def config_from_params(cls: type[C], values: Mapping[str, Any], **overrides: Any) -> C:
     """The config dataclass `cls` from the parameter values named like its fields (others are
-    ignored) and `overrides`; raises ValueError listing its problems."""
-    names = {f.name for f in fields(cls)}  # type: ignore[arg-type]
-    config = cls(**{k: v for k, v in values.items() if k in names} | overrides)
+    ignored; a list for a field whose default is a tuple becomes a tuple) and `overrides`; raises
+    ValueError listing its problems."""
+    tuples = {f.name for f in fields(cls) if isinstance(f.default, tuple)}  # type: ignore[arg-type]
+    given = {
+        name: tuple(value) if name in tuples else value
+        for name, value in values.items()
+        if name in _field_names(cls)
+    }
+    config = cls(**given | overrides)
     check_config(config)  # type: ignore[arg-type]
     return config
+
+
+def _field_names(cls: type) -> frozenset[str]:
+    names = _FIELD_NAMES.get(cls)
+    if names is None:
+        names = _FIELD_NAMES[cls] = frozenset(f.name for f in fields(cls))
+    return names
+
+
+_FIELD_NAMES: dict[type, frozenset[str]] = {}
 
 
 Validator = Callable[[Any], str | None]
@@ -64,6 +95,12 @@ class ParamSpec:
     read_only: bool = False  # may only be set at start-up
     validator: Validator | None = None  # returns a reason when the value is unacceptable
     interval: bool = False  # a [min, max] pair: two numbers, min < max
+    unit: str = ""  # of a number: px, s, px/s, ... ("" for ratios, counts and words)
+
+    @property
+    def documentation(self) -> str:
+        """The description with its unit, as the descriptor and the README show it."""
+        return f"{self.description} [{self.unit}]" if self.unit else self.description
 
     def check(self, value: Any) -> str | None:
         """Why `value` is not acceptable for this parameter, or None when it is."""
@@ -93,7 +130,7 @@ class ParamSpec:
         descriptor = ParameterDescriptor(
             name=self.name,
             type=_parameter_type(self.default),
-            description=self.description,
+            description=self.documentation,
             read_only=self.read_only,
         )
         if self.choices:
@@ -112,6 +149,129 @@ class ParamSpec:
                     )
                 ]
         return descriptor
+
+
+PARAM_KEY = "tracker_param"  # a dataclass field's metadata key for its `ParamSpec` parts
+
+
+@dataclass(frozen=True)
+class _Declared:
+    """What `param` records on a field: a `ParamSpec` but for its name and default."""
+
+    description: str
+    min: float | None
+    max: float | None
+    choices: tuple[str, ...] | None
+    read_only: bool
+    validator: Validator | None
+    interval: bool
+    unit: str
+
+
+def param(
+    default: Any,
+    description: str,
+    *,
+    min: float | None = None,  # noqa: A002 -- named as ParamSpec's and ROS's range ends
+    max: float | None = None,  # noqa: A002
+    unit: str = "",
+    choices: Sequence[str] | None = None,
+    read_only: bool = False,
+    validator: Validator | None = None,
+    interval: bool = False,
+) -> Any:
+    """A config dataclass field that is also a node parameter of the same name: its default,
+    one-line description, inclusive numeric range, unit, allowed choices, whether it may only be
+    set at start-up, an extra check, and whether it is a [min, max] pair. A list default is held
+    as a tuple (the config is frozen); the node still sees a list."""
+    declared = _Declared(
+        description,
+        min,
+        max,
+        tuple(choices) if choices is not None else None,
+        read_only,
+        validator,
+        interval,
+        unit,
+    )
+    value = tuple(default) if isinstance(default, list) else default
+    return field(default=value, metadata={PARAM_KEY: declared})
+
+
+def specs_of(cls: type) -> tuple[ParamSpec, ...]:
+    """The `ParamSpec`s of the `param` fields of the config dataclass `cls`, in field order."""
+    specs = _SPECS.get(cls)
+    if specs is None:
+        if not is_dataclass(cls):
+            raise TypeError(f"{cls!r} is not a config dataclass")
+        specs = _SPECS[cls] = tuple(_spec_of(f) for f in fields(cls) if PARAM_KEY in f.metadata)
+    return specs
+
+
+_SPECS: dict[type, tuple[ParamSpec, ...]] = {}
+
+
+def _spec_of(declared_field: Field[Any]) -> ParamSpec:
+    declared: _Declared = declared_field.metadata[PARAM_KEY]
+    default = declared_field.default
+    if default is MISSING:
+        raise TypeError(f"parameter field {declared_field.name} needs a default")
+    return ParamSpec(
+        declared_field.name,
+        list(default) if isinstance(default, tuple) else default,
+        declared.description,
+        declared.min,
+        declared.max,
+        declared.choices,
+        declared.read_only,
+        declared.validator,
+        declared.interval,
+        declared.unit,
+    )
+
+
+def markdown_value(value: Any) -> str:
+    """A parameter value as the READMEs' tables write it."""
+    if isinstance(value, bool):
+        return str(value).lower()
+    if isinstance(value, float):
+        return f"{value:g}"
+    if isinstance(value, str):
+        return f"`{value}`" if value else "''"
+    if isinstance(value, list | tuple):
+        if len(value) > LONG_LIST:
+            return f"{len(value)} numbers"
+        return "[" + ", ".join(markdown_value(v).strip("`") for v in value) + "]"
+    return str(value)
+
+
+LONG_LIST = 8  # matrices: a table cell says how many numbers rather than listing them
+
+
+def _range_end(end: float | None, default: ParamValue) -> str:
+    if end is None:
+        return ""
+    integer = isinstance(default, int) and not isinstance(default, bool)
+    return str(int(end)) if integer else markdown_value(float(end))
+
+
+def markdown_table(specs: Sequence[ParamSpec]) -> str:
+    """The README table of `specs`: parameter, default, range or choices, meaning (with unit)."""
+    lines = ["| parameter | default | range / choices | meaning |", "|---|---|---|---|"]
+    for spec in specs:
+        if spec.choices:
+            allowed = ", ".join(f"`{c}`" for c in spec.choices)
+        elif spec.min is not None or spec.max is not None:
+            allowed = (
+                f"[{_range_end(spec.min, spec.default)}, {_range_end(spec.max, spec.default)}]"
+            )
+        else:
+            allowed = ""
+        if spec.read_only:
+            allowed = f"{allowed} (start-up only)".strip()
+        meaning = spec.documentation.replace("|", "\\|")
+        lines.append(f"| `{spec.name}` | {markdown_value(spec.default)} | {allowed} | {meaning} |")
+    return "\n".join(lines)
 
 
 class ParameterError(ValueError):

@@ -2,8 +2,12 @@
 
 A method is a name, a one-line description, its own parameters (`ParamSpec`s, whose defaults are
 the method's defaults), optional named presets, and a `build` function from parameter values to
-the object. A node's `method` parameter picks one; adding a method is a new module plus one
-`register` call, never a change to a node. Another installed package can add methods without
+the object. A method with a config dataclass (`Method.of`) derives all of that from the config's
+`param` fields: its parameters are `specs_of(config)`, and `build` makes the typed config from
+the values and hands it to the method's constructor.
+
+A node's `method` parameter picks one; adding a method is a new module plus one `register` call,
+never a change to a node. Another installed package can add methods without
 touching this suite, as pluginlib does for C++: it declares each `Method` object as a Python entry
 point in the role's group (e.g. ``tracker_suite.trackers``), and the node loads the group.
 """
@@ -15,9 +19,10 @@ from dataclasses import dataclass, field
 from importlib.metadata import entry_points
 from typing import Any, Generic, TypeVar
 
-from tracker_msgs_py.params import ParamSpec
+from tracker_msgs_py.params import ParamSpec, config_from_params, specs_of
 
 T = TypeVar("T")
+C = TypeVar("C")
 
 
 @dataclass(frozen=True)
@@ -34,6 +39,26 @@ class Method(Generic[T]):
     #: compiles the method's kernels (numba) ahead of its first frame; a node calls it before it
     #: subscribes, so a lockstep replay's first frames do not wait for a compiler
     warm_up: Callable[[], None] | None = None
+    #: the config dataclass the parameters come from (None: `parameters` are written out)
+    config: type | None = None
+
+    @classmethod
+    def of(
+        cls,
+        name: str,
+        description: str,
+        config: type[C],
+        make: Callable[..., T],
+        presets: Mapping[str, Mapping[str, Any]] | None = None,
+        warm_up: Callable[[], None] | None = None,
+    ) -> Method[T]:
+        """The method whose parameters are the `param` fields of `config`, built by
+        `make(config_instance, **role_arguments)` (a tracker's first id, ...)."""
+
+        def build(values: Mapping[str, Any], *role_arguments: Any, **named: Any) -> T:
+            return make(config_from_params(config, values), *role_arguments, **named)
+
+        return cls(name, description, build, specs_of(config), presets or {}, warm_up, config)
 
     def defaults(self, preset: str = "") -> dict[str, Any]:
         """Parameter values of `preset` ("" = the parameters' own defaults)."""

@@ -78,3 +78,7 @@ def voxel_benchmark() -> int:
 
 def annotate() -> int:
     return guarded_main("tracker_ptz_sim.annotation.cli", batch=True)
+
+
+def parameter_tables() -> int:
+    return guarded_main("tracker_ptz_sim.bringup.parameter_tables", batch=True)
