@@ -238,8 +238,7 @@ def executor_run(
         {},
         demo.install_space(),
         timeout=1800.0,
-        single_process=single_process,
-        executor=executor,
+        options=demo.RunOptions(single_process=single_process, executor=executor),
     )
     frames = run_report.collect(run.bag)
     summary = run_report.summarize(frames, run_report.message_counts(frames))

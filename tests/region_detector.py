@@ -3,7 +3,7 @@ every frame. It proves the `select_region` plumbing of the detector node for see
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from dataclasses import dataclass
 from typing import Any
 
 from tracker_detect.detector import Blob, CameraFrame, Detection, StaleFrameError
@@ -12,10 +12,18 @@ from tracker_msgs_py.geometry import Rect
 from tracker_msgs_py.registry import Method
 
 
+@dataclass(frozen=True)
+class RegionConfig:
+    """The region detector has no parameters."""
+
+    def problems(self) -> list[str]:
+        return []
+
+
 class RegionDetector:
     estimates_ego_motion = False
 
-    def __init__(self) -> None:
+    def __init__(self, config: RegionConfig | None = None) -> None:
         self.region: Rect | None = None
         self.last_stamp: int | None = None
 
@@ -52,9 +60,10 @@ class RegionDetector:
     def reset(self) -> None:
         self.last_stamp = None
 
+    def reconfigure(self, config: RegionConfig) -> None:
+        """Nothing to change: the region stays selected."""
 
-def build(values: Mapping[str, Any]) -> RegionDetector:
-    return RegionDetector()
 
-
-METHOD: Method[Any] = Method("region_test", "test only: reports the selected region", build)
+METHOD: Method[Any] = Method.of(
+    "region_test", "test only: reports the selected region", RegionConfig, RegionDetector
+)

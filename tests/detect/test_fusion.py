@@ -7,7 +7,6 @@ import itertools
 import numpy as np
 import pytest
 
-from tracker_detect.background import BackgroundConfig
 from tracker_detect.detector import Blob, CameraFrame
 from tracker_detect.fusion import (
     FusionConfig,
@@ -64,7 +63,7 @@ def test_a_still_person_shape_is_never_confident_and_a_walker_is(vtest_clip):
     h, w = person.shape[:2]
     rng = np.random.default_rng(3)
     ground = rng.integers(90, 110, (264, 264, 3), dtype=np.uint8)
-    detector = FusionDetector(BackgroundConfig(), PersonConfig(score_threshold=0.2), FusionConfig())
+    detector = FusionDetector(FusionConfig())
     walker_scores, still_scores = [], []
     for k in range(30):
         image = ground.copy()
@@ -92,7 +91,7 @@ def test_the_model_beside_the_motion_detector_gives_the_model_s_own_boxes(vtest_
     from tracker_ptz_sim.simulation.frame_sources import video_frames
 
     config = PersonConfig(score_threshold=0.2)
-    detector = FusionDetector(BackgroundConfig(), config, FusionConfig(still_score=1.0))
+    detector = FusionDetector(FusionConfig(person=config, still_score=1.0))
     alone = PersonModel(config)
     frames = itertools.islice(video_frames(vtest_clip), 0, 40, 4)
     for k, frame in enumerate(frames):
@@ -115,7 +114,7 @@ def test_a_frame_the_motion_detector_refuses_is_reported_with_its_cause(monkeypa
     the model's, and the next frame is processed as usual."""
     from tracker_detect.detector import StaleFrameError
 
-    detector = FusionDetector(BackgroundConfig(), PersonConfig(), FusionConfig())
+    detector = FusionDetector(FusionConfig(person=PersonConfig()))
     image = np.full((198, 264, 3), 100, np.uint8)
     detector.process(CameraFrame(200_000_000, image))
 

@@ -17,10 +17,11 @@ import pytest
 from box_scores import BoxScore
 
 from tracker_detect.detector import CameraFrame, Detection, StaleFrameError
-from tracker_detect.detectors import DETECTORS, MOG2_PARAMETERS
+from tracker_detect.detectors import DETECTORS
 from tracker_detect.mog2 import Mog2Config, Mog2Detector, close_square, diamond
 from tracker_detect.registration import View
 from tracker_msgs_py.geometry import Rect
+from tracker_msgs_py.params import specs_of
 from tracker_ptz_sim.simulation.scenes import SceneConfig, generate_scene
 
 NS = 100_000_000
@@ -388,7 +389,7 @@ def test_reset_and_determinism():
 def test_the_method_is_registered_with_its_parameters():
     method = DETECTORS.get("mog2")
     assert "seed 004" in method.description
-    assert method.parameters == MOG2_PARAMETERS
+    assert method.parameters == specs_of(Mog2Config)
     defaults = method.defaults()
     assert defaults == {
         "equalize": False,
@@ -418,23 +419,23 @@ def test_reconfigure_keeps_the_model_for_live_parameters_and_restarts_it_for_its
     frames = [CameraFrame((k + 1) * NS, f) for k, f in enumerate(scene.frames)]
     run(detector, frames[:10])
     run(twin, frames[:10])
-    detector.reconfigure(values | {"dilate_radius": 2})
+    detector.reconfigure(method.configure(values | {"dilate_radius": 2}))
     narrow, wide = detector.process(frames[10]), twin.process(frames[10])
     assert narrow.compared and detector.frames_learned == 11  # the model was kept
     assert narrow.mask is not None and wide.mask is not None and narrow.blobs
     assert np.all(narrow.mask <= wide.mask) and narrow.mask.sum() < 0.8 * wide.mask.sum()
     live = {"var_threshold": 9.0, "history": 100, "detect_shadows": False, "learning_rate": 0.01}
-    detector.reconfigure(values | live)
+    detector.reconfigure(method.configure(values | live))
     model = detector._model
     assert model is not None and model.getVarThreshold() == 9.0 and model.getHistory() == 100
     assert not model.getDetectShadows()
     assert detector.process(frames[11]).compared and detector.frames_learned == 12
-    detector.reconfigure(values | {"equalize": True})
+    detector.reconfigure(method.configure(values | {"equalize": True}))
     restarted = run(detector, frames[12:20])
     assert [d.compared for d in restarted] == [False] * WARMUP + [True] * 3
     assert detector.frames_learned == 8
     with pytest.raises(ValueError, match="close_size"):
-        detector.reconfigure(values | {"close_size": 0})
+        detector.reconfigure(method.configure(values | {"close_size": 0}))
     assert detector.config.equalize  # the bad values were not taken
 
 

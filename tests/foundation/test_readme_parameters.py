@@ -16,17 +16,31 @@ pytestmark = pytest.mark.ros
 
 from pathlib import Path  # noqa: E402
 
-from tracker_msgs_py.params import PARAM_KEY, config_from_params, markdown_value  # noqa: E402
+from tracker_msgs_py.params import (  # noqa: E402
+    NESTED_KEY,
+    PARAM_KEY,
+    config_from_params,
+    markdown_value,
+)
 
 SRC = Path(__file__).resolve().parents[2] / "src"
 
 
 def configured_methods() -> list:
     """Every registered method whose parameters come from a config dataclass."""
+    return [m for m in _methods() if m.config is not None]
+
+
+def _methods() -> list:
     from tracker_detect.detectors import DETECTORS
     from tracker_filter.trackers import TRACKERS
 
-    return [m for registry in (DETECTORS, TRACKERS) for m in registry if m.config is not None]
+    for registry, role in ((DETECTORS, "detector"), (TRACKERS, "tracker")):
+        ROLE.update({m.name: role for m in registry})
+    return [*DETECTORS, *TRACKERS]
+
+
+ROLE: dict[str, str] = {}  # method name -> "detector" or "tracker"
 
 
 def test_the_readme_tables_are_generated_from_the_declarations():
@@ -52,23 +66,22 @@ def test_each_field_is_the_parameter_everywhere(method):
     """Field -> ParamSpec -> ROS descriptor, validation, construction and README row."""
     from rcl_interfaces.msg import ParameterDescriptor
 
-    from tracker_ptz_sim.bringup.parameter_tables import TABLES, table
+    from tracker_ptz_sim.bringup.parameter_tables import table
 
-    declared = [f for f in fields(method.config) if PARAM_KEY in f.metadata]
+    declared = list(_declared(method.config))
     specs = {spec.name: spec for spec in method.parameters}
-    assert [f.name for f in declared] == list(specs), "every field is a parameter, in order"
+    assert [f.name for f, _, _ in declared] == list(specs), "every field is a parameter, in order"
     rows = {
         line.split("|")[1].strip().strip("`"): line
-        for key in TABLES
+        for key in TABLES_OF.get(method.name, [f"{ROLE[method.name]}/{method.name}"])
         for line in table(key).splitlines()[2:]
-        if key.endswith(method.name) or key in ("detector", "tracker")
     }
     defaults = method.defaults()
     config = config_from_params(method.config, defaults)
-    for f in declared:
+    for f, default, path in declared:
         spec, meta = specs[f.name], f.metadata[PARAM_KEY]
-        default = list(f.default) if isinstance(f.default, tuple) else f.default
-        assert spec.default == default and getattr(config, f.name) == f.default
+        held = _follow(config, path)
+        assert spec.default == _ros(default) and getattr(held, f.name) == default
         assert (spec.min, spec.max, spec.choices) == (meta.min, meta.max, meta.choices)
         descriptor: ParameterDescriptor = spec.descriptor()
         assert descriptor.read_only == meta.read_only and meta.description in descriptor.description
@@ -79,7 +92,36 @@ def test_each_field_is_the_parameter_everywhere(method):
             assert spec.check(outside), f"{f.name}={outside!r} accepted by the node"
             with pytest.raises(ValueError, match=f.name):
                 config_from_params(method.config, defaults | {f.name: outside})
-        assert f.name in rows and f"| {markdown_value(default)} |" in rows[f.name]
+        assert f.name in rows and f"| {markdown_value(spec.default)} |" in rows[f.name]
+
+
+#: the README tables a method's parameters are in, when not its own "role/method" table alone (a
+#: later table's row wins): the first detector's are the node's; person_motion's table has only
+#: what it does not share with its parts
+TABLES_OF = {
+    "ssim": ["detector"],
+    "person_motion": ["detector/ssim_background", "detector/person", "detector/person_motion"],
+}
+
+
+def _declared(cls, overrides=None, path=()):
+    """(field, its default here, the path of nested config fields to it), in declaration order."""
+    for f in fields(cls):
+        if PARAM_KEY in f.metadata:
+            yield f, (overrides or {}).get(f.name, f.default), path
+        elif NESTED_KEY in f.metadata:
+            inner, inner_defaults = f.metadata[NESTED_KEY]
+            yield from _declared(inner, inner_defaults, (*path, f.name))
+
+
+def _follow(config, path):
+    for name in path:
+        config = getattr(config, name)
+    return config
+
+
+def _ros(value):
+    return list(value) if isinstance(value, tuple) else value
 
 
 def _outside(spec) -> list:

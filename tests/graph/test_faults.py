@@ -64,9 +64,11 @@ def run(paths, out, during=None, respawn_limit=0, **overrides):
         settings,
         demo.install_space(),
         timeout=240.0,
-        during=during,
-        respawn_limit=respawn_limit,
-        shared_memory=False,  # nodes are killed here (config/fastdds_udp.xml)
+        options=demo.RunOptions(
+            during=during,
+            respawn_limit=respawn_limit,
+            shared_memory=False,  # nodes are killed here (config/fastdds_udp.xml)
+        ),
     )
 
 

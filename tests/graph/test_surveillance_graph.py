@@ -287,7 +287,7 @@ def test_killing_the_detector_stops_the_camera_and_tracking_resumes(one_walker, 
         overrides,
         demo.install_space(),
         300.0,
-        during=during,
+        demo.RunOptions(during=during),
     )
     failed = {name: code for name, code in run.exit_codes.items() if code != 0}
     assert failed == {}, with_logs(run, tmp_path)

@@ -45,12 +45,13 @@ which the next `process` does first when nobody called it; the detections are th
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
 
 import cv2
 import numpy as np
 
+from tracker_detect import blob_params
+from tracker_detect.blob_params import odd_side
 from tracker_detect.detector import CameraFrame, Detection, UnusableViewError, checked_view
 from tracker_detect.mosaic import MosaicSample, SceneMosaic
 from tracker_detect.motion import (
@@ -64,7 +65,8 @@ from tracker_detect.motion import (
 from tracker_detect.registration import View, phase_correlation_shift
 from tracker_detect.ssim import SsimParams, auto_downsample_factor, ssim_map
 from tracker_msgs_py.geometry import Rect
-from tracker_msgs_py.params import check_config
+from tracker_msgs_py.params import check_config, param
+from tracker_msgs_py.registry import Method
 
 # Share of the view's height within which a blob is cut by the view's top or bottom edge (the
 # judged area ends a few px inside the view: SSIM window, erosion).
@@ -103,64 +105,82 @@ LASTING_MIN_PX = 200  # image px: smaller blobs (a leaf at rest) are held only b
 class BackgroundConfig:
     """Parameters of `BackgroundDetector`."""
 
-    threshold: float = 0.5  # SSIM at or below which a pixel differs from the background (seed)
-    gap: int = 3  # frames to the image that tells changing pixels from still ones (seed)
-    learning_rate: float = 0.05  # per frame, where the view matches the background
-    heal_rate: float = 0.05  # per frame, where the view differs but does not change
-    stopped_heal_rate: float = 0.05  # per frame, ... on an object whose outline is in the view
-    warmup_observations: int = 20  # a scene pixel's first observations are averaged
-    min_observations: int = 3  # a pixel is judged once the background saw it this often
-    flicker_observations: int = 30  # the flicker rate is trusted once a pixel was seen this often
-    flicker_memory: float = 300.0  # frames, time constant of the flicker rate
-    flicker_level: float = 0.5  # flicker rate at and above which a pixel moves in place
-    close_size: int = 5  # px, side of the elliptic closing element (1: no closing)
-    shrink_size: int = 3  # px, elliptic erosion that undoes the SSIM window's spread (1: none)
-    connectivity: int = 8
-    min_blob_area: float = 60.0  # scene px^2; smaller blobs are dropped
-    min_aspect: float = 0.0  # height / width below which a blob is dropped (0: keep all)
-    shadow_ratio: float = 0.0  # darkest shadow, as a share of the background's brightness (0: off)
-    register_reach: int = 0  # px: align the view with the mosaic up to this far (0: trust the pose)
-    presence_fraction: float = 0.0008  # presence test, as the seed
-    auto_downsample: bool = True
+    threshold: float = param(0.5, "SSIM at or below which a pixel is foreground", min=-1.0, max=1.0)
+    gap: int = param(3, "frames to the image that tells moving from still pixels", min=1, max=100)
+    learning_rate: float = param(
+        0.05, "background blend rate where nothing differs", min=0.0, max=1.0
+    )
+    heal_rate: float = param(
+        0.05,
+        "background blend rate where the view differs but does not change (ghosts, stopped "
+        "objects)",
+        min=0.0,
+        max=1.0,
+    )
+    stopped_heal_rate: float = param(
+        0.05,
+        "background blend rate where the view differs but does not change, on a blob whose "
+        "outline is an edge of the view and not of the background (a stopped object, not a "
+        "ghost); below heal_rate it stays foreground longer",
+        min=0.0,
+        max=1.0,
+    )
+    warmup_observations: int = param(
+        20, "a scene pixel's first observations are averaged", min=1, max=100000
+    )
+    min_observations: int = param(
+        3, "a pixel is judged once the background has seen it this often", min=1, max=100000
+    )
+    flicker_observations: int = param(
+        30, "the flicker rate is trusted once a pixel was seen this often", min=1, max=100000
+    )
+    flicker_memory: float = param(
+        300.0, "time constant of the flicker rate", min=1.0, max=1e6, unit="frames"
+    )
+    flicker_level: float = param(
+        0.5,
+        "flicker rate (share of frames foreground and changing) from which a pixel moves in "
+        "place and is ignored",
+        min=0.0,
+        max=1.0,
+    )
+    close_size: int = odd_side(5, "side of the elliptic closing element (1: none)", "close_size")
+    shrink_size: int = odd_side(
+        3, "side of the elliptic erosion undoing the SSIM window's spread (1: none)", "shrink_size"
+    )
+    connectivity: int = blob_params.connectivity(8)
+    min_blob_area: float = blob_params.min_blob_area(60.0)
+    min_aspect: float = param(
+        0.0,
+        "drop blobs flatter than this height / width (0: keep all; people stand, tape lies)",
+        min=0.0,
+        max=10.0,
+    )
+    shadow_ratio: float = param(
+        0.0,
+        "ignore cast shadows: pixels darkened to between this and 0.95 of the background's "
+        "brightness that keep its colour (colour images only; 0: off)",
+        min=0.0,
+        max=0.94,  # below SHADOW_MAX_RATIO
+    )
+    register_reach: int = param(
+        0,
+        "align each view with the background mosaic by phase correlation, up to this far, "
+        "when the camera shakes more than its pose reports (0: trust the pose)",
+        min=0,
+        max=MAX_REGISTER_REACH,
+        unit="px",
+    )
+    presence_fraction: float = blob_params.presence_fraction(0.0008)
+    auto_downsample: bool = blob_params.auto_downsample(True)
     ssim: SsimParams = field(default_factory=SsimParams)
 
     def __post_init__(self) -> None:
         check_config(self)
 
     def problems(self) -> list[str]:
-        """Why this config is unusable (empty when it is fine)."""
-        found = []
-        if not -1.0 <= self.threshold <= 1.0:
-            found.append(f"threshold must be in [-1, 1], got {self.threshold}")
-        if self.gap < 1:
-            found.append(f"gap must be >= 1, got {self.gap}")
-        rates = ("learning_rate", "heal_rate", "stopped_heal_rate")
-        for name in (*rates, "flicker_level", "presence_fraction"):
-            value = getattr(self, name)
-            if not 0.0 <= value <= 1.0:
-                found.append(f"{name} must be in [0, 1], got {value}")
-        if min(self.warmup_observations, self.min_observations, self.flicker_observations) < 1:
-            found.append("warmup_, min_ and flicker_observations must be >= 1")
-        if not self.flicker_memory >= 1.0:
-            found.append(f"flicker_memory must be >= 1 frame, got {self.flicker_memory}")
-        for name in ("close_size", "shrink_size"):
-            if getattr(self, name) < 1 or getattr(self, name) % 2 == 0:
-                found.append(f"{name} must be odd and >= 1, got {getattr(self, name)}")
-        if self.connectivity not in (4, 8):
-            found.append(f"connectivity must be 4 or 8, got {self.connectivity}")
-        if not (math.isfinite(self.min_aspect) and 0.0 <= self.min_aspect <= 10.0):
-            found.append(f"min_aspect must be in [0, 10], got {self.min_aspect}")
-        if not (math.isfinite(self.shadow_ratio) and 0.0 <= self.shadow_ratio < SHADOW_MAX_RATIO):
-            found.append(
-                f"shadow_ratio must be in [0, {SHADOW_MAX_RATIO}), got {self.shadow_ratio}"
-            )
-        if not 0 <= self.register_reach <= MAX_REGISTER_REACH:
-            found.append(
-                f"register_reach must be in [0, {MAX_REGISTER_REACH}] px, got {self.register_reach}"
-            )
-        if not (math.isfinite(self.min_blob_area) and self.min_blob_area >= 0):
-            found.append(f"min_blob_area must be >= 0, got {self.min_blob_area}")
-        return found
+        """Why this config is unusable beyond its fields' own ranges (empty when it is fine)."""
+        return []
 
 
 @dataclass(frozen=True)
@@ -521,3 +541,12 @@ def _chromaticity(bgr: np.ndarray) -> np.ndarray:
     np.divide(green, safe, out=out[..., 1])
     out[..., 2] = total
     return out
+
+
+METHOD: Method[BackgroundDetector] = Method.of(
+    name="ssim_background",
+    description="SSIM against a background mosaic kept in scene coordinates, with a learned "
+    "flicker map; object silhouettes, undilated boxes",
+    config=BackgroundConfig,
+    make=BackgroundDetector,
+)

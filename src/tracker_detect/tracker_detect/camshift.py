@@ -40,7 +40,8 @@ from tracker_detect.detector import Blob, CameraFrame, Detection, StaleFrameErro
 from tracker_detect.registration import View
 from tracker_msgs_py.geometry import Rect
 from tracker_msgs_py.histograms import background_weights
-from tracker_msgs_py.params import check_config
+from tracker_msgs_py.params import check_config, param
+from tracker_msgs_py.registry import Method
 
 HUE_RANGE = 180  # OpenCV's 8-bit hue convention: [0, 180)
 SAME_TARGET_IOU = 0.3  # a handed-over box overlapping the tracked one this much is the same target
@@ -50,51 +51,81 @@ SAME_TARGET_IOU = 0.3  # a handed-over box overlapping the tracked one this much
 class CamShiftConfig:
     """Parameters; the defaults are the thesis's (OpenCV camshiftdemo) where it gives them."""
 
-    hue_bins: int = 32
-    saturation_bins: int = 0  # 0: a hue histogram (the thesis); else a hue x saturation one
-    background_weighting: bool = True  # down-weight colours of the selection's surroundings
-    background_margin: float = 1.0  # surroundings: the selection grown by this x its size per side
-    v_min: int = 10
-    v_max: int = 256
-    s_min: int = 30
-    max_iterations: int = 10  # mean-shift steps per frame (OpenCV sample)
-    epsilon: float = 1.0  # px, mean shift stops when the window moves less
-    search_margin: float = 1.0  # search region: the window grown by this x its size on each side
-    min_density_ratio: float = 0.3  # found box's mean back-projection / the model's, else a miss
-    lost_after: int = 5  # consecutive misses after which the whole image is searched
-    max_size_ratio: float = 4.0  # a window growing beyond this x the selected side is a miss
-    min_model_pixels: int = 20  # pixels of the selection passing the S/V mask
-    # a box offered while tracking something apart is taken when its colours match the model's at
-    # least this well (Bhattacharyya) and better than the tracked box's do (0: never)
-    rehandover_similarity: float = 0.6
-    # a found box whose colours match the model's less (Bhattacharyya) is a miss: CamShift slid
-    # onto a background of a like colour (0: no check)
-    min_similarity: float = 0.6
-    # a selection whose mean back-projection is less than this x its surroundings' is refused:
-    # its colours do not stand out (0: no check)
-    min_contrast: float = 3.0
+    hue_bins: int = param(32, "bins of the hue histogram over [0, 180) (seed: 32)", min=2, max=180)
+    saturation_bins: int = param(
+        0,
+        "0: a hue histogram (seed); else also this many saturation bins (a hue x saturation one)",
+        min=0,
+        max=256,
+        validator=lambda v: None if v != 1 else "saturation_bins must be 0 or in [2, 256]",
+    )
+    background_weighting: bool = param(
+        True,
+        "down-weight the colours of the selection's surroundings (Comaniciu's background-"
+        "weighted histogram; false: the seed's plain histogram)",
+    )
+    background_margin: float = param(
+        1.0, "surroundings: the selection grown by this x its size on each side", min=0.05, max=10.0
+    )
+    v_min: int = param(10, "pixels darker than this are ignored (seed: 10)", min=0, max=256)
+    v_max: int = param(256, "pixels brighter than this are ignored (seed: 256)", min=0, max=256)
+    s_min: int = param(30, "pixels less saturated than this are ignored (seed: 30)", min=0, max=255)
+    max_iterations: int = param(10, "mean-shift steps per frame at most", min=1, max=100)
+    epsilon: float = param(
+        1.0, "mean shift stops when the window moves less", min=0.01, max=100.0, unit="px"
+    )
+    search_margin: float = param(
+        1.0, "search region: the window grown by this x its size on each side", min=0.0, max=10.0
+    )
+    min_density_ratio: float = param(
+        0.3,
+        "a found box whose mean back-projection is below this x the selection's is a miss",
+        min=0.0,
+        max=1.0,
+    )
+    lost_after: int = param(
+        5,
+        "consecutive misses after which the whole image is searched (re-acquisition)",
+        min=1,
+        max=100000,
+    )
+    max_size_ratio: float = param(
+        4.0,
+        "a box larger than this x the selection's side is a miss (spread over the background)",
+        min=1.01,
+        max=100.0,
+    )
+    min_model_pixels: int = param(
+        20, "coloured pixels (passing the S/V limits) a selection needs", min=1, max=1_000_000
+    )
+    min_contrast: float = param(
+        3.0,
+        "a selection whose mean back-projection is below this x its surroundings' is refused: its "
+        "colours do not stand out (0: no check)",
+        min=0.0,
+        max=1000.0,
+    )
+    min_similarity: float = param(
+        0.6,
+        "a found box whose colours match the model's less (Bhattacharyya coefficient of the "
+        "plain histograms) is a miss: CamShift slid onto a like-coloured background (0: no check)",
+        min=0.0,
+        max=1.0,
+    )
+    rehandover_similarity: float = param(
+        0.6,
+        "while tracking, a handed-over box apart from the tracked one is taken when its colours "
+        "match the model at least this well (Bhattacharyya) and better than the tracked box's "
+        "(0: never)",
+        min=0.0,
+        max=1.0,
+    )
 
     def problems(self) -> list[str]:
-        """What is wrong with these values (empty when usable)."""
-        checks = {
-            "hue_bins must be in [2, 180]": 2 <= self.hue_bins <= HUE_RANGE,
-            "saturation_bins must be 0 or in [2, 256]": self.saturation_bins == 0
-            or 2 <= self.saturation_bins <= 256,
-            "background_margin must be > 0": self.background_margin > 0,
-            "v_min must not exceed v_max": 0 <= self.v_min <= self.v_max,
-            "s_min must be in [0, 255]": 0 <= self.s_min <= 255,
-            "max_iterations must be >= 1": self.max_iterations >= 1,
-            "epsilon must be > 0": self.epsilon > 0,
-            "search_margin must be >= 0": self.search_margin >= 0,
-            "min_density_ratio must be in [0, 1]": 0 <= self.min_density_ratio <= 1,
-            "lost_after must be >= 1": self.lost_after >= 1,
-            "max_size_ratio must be > 1": self.max_size_ratio > 1,
-            "min_model_pixels must be >= 1": self.min_model_pixels >= 1,
-            "rehandover_similarity must be in [0, 1]": 0 <= self.rehandover_similarity <= 1,
-            "min_similarity must be in [0, 1]": 0 <= self.min_similarity <= 1,
-            "min_contrast must be >= 0": self.min_contrast >= 0,
-        }
-        return [message for message, ok in checks.items() if not ok]
+        """What is wrong with these values beyond their own ranges (empty when usable)."""
+        if self.v_min > self.v_max:
+            return [f"v_min ({self.v_min}) must not exceed v_max ({self.v_max})"]
+        return []
 
 
 @dataclass(frozen=True)
@@ -533,3 +564,13 @@ class CamShiftTracker:
         scene_angle = math.atan2(s * view.scale_y, c * view.scale_x)
         x, y = view.to_scene(cx, cy)
         return OrientedBox(x, y, along, across, scene_angle)
+
+
+METHOD: Method[CamShiftTracker] = Method.of(
+    name="camshift",
+    description="CamShift colour tracking of one target started from a rectangle "
+    "(select_region) or handed over from a tracked target; prediction-guided search, "
+    "loss and re-acquisition (seed 001)",
+    config=CamShiftConfig,
+    make=CamShiftTracker,
+)

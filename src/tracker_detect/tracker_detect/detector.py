@@ -2,9 +2,10 @@
 
 - `CameraFrame`: a camera image with its stamp and, when known, where it lies in the scene
   (`registration.View`); the colour image is kept, the grey one made on first use.
-- `Detector`: what every detector offers -- SSIM motion detection (`detectors.SsimDetector`,
-  `detectors.SsimBackground`), CamShift colour tracking (`camshift.CamShiftTracker`), MOG2
-  background subtraction for a static camera (`mog2.Mog2Detector`). Methods
+- `Detector`: what every detector offers -- SSIM motion detection (`motion.SsimDetector`,
+  `background.BackgroundDetector`), CamShift colour tracking (`camshift.CamShiftTracker`), MOG2
+  background subtraction for a static camera (`mog2.Mog2Detector`), the person model
+  (`person.PersonDetector`) and its fusion with motion (`fusion.FusionDetector`). Methods
   seeded from a rectangle (CamShift) also implement `SeededDetector.select_region`, which the
   detector node serves as `select_region`, and `guide`, where the node places the next search
   at the tracker's prediction.
@@ -12,7 +13,8 @@
 
 Contract (tests/detect/test_detector_contract.py, for every registered detector): one Detection
 per accepted frame, with the frame's stamp; a frame not newer than the last raises
-`StaleFrameError` and changes nothing; `reset()` forgets the history. A method whose `build`
+`StaleFrameError` and changes nothing; `reset()` forgets the history; `reconfigure(config)` takes
+new parameter values and keeps the history it can. A method whose `build`
 cannot start (a learned model that will not load) raises `DetectorUnavailableError`.
 """
 
@@ -20,7 +22,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from functools import cached_property
-from typing import Protocol, runtime_checkable
+from typing import Any, Protocol, runtime_checkable
 
 import cv2
 import numpy as np
@@ -138,6 +140,11 @@ class Detector(Protocol):
 
     def reset(self) -> None:
         """Forget all history (a new replay epoch)."""
+        ...
+
+    def reconfigure(self, config: Any) -> None:
+        """New parameter values (the config its `Method` builds it from) from the next frame
+        on, keeping the history it can."""
         ...
 
 

@@ -274,7 +274,7 @@ class DetectorNode(SuiteNode):
         return None
 
     def _max_gap_ns(self) -> int:
-        return round(self.params["pose_max_gap"] * NS_PER_S)
+        return round(float(self.params["pose_max_gap"]) * NS_PER_S)
 
     def _scene_settings(self) -> SceneSettings:
         params = self.params
@@ -294,10 +294,9 @@ class DetectorNode(SuiteNode):
     def _on_change(self, changed: dict[str, Any]) -> None:
         if any(spec.name in changed for spec in self.method.parameters):
             values = self._method_values(self.params)
-            reconfigure = getattr(self.detector, "reconfigure", None)
-            if reconfigure is not None:  # keeps the history it can
-                reconfigure(values)
-            else:
+            if self.method.config is not None:  # keeps the history it can
+                self.detector.reconfigure(self.method.configure(values))
+            else:  # a plug-in without a config dataclass: a new detector
                 self.detector = self._build(values)
         self.pairing.configure(
             self.params["pose_buffer_size"],

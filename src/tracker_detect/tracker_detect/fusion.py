@@ -28,10 +28,8 @@ with `ssim_background`.
 from __future__ import annotations
 
 import functools
-from collections.abc import Mapping
 from concurrent.futures import ThreadPoolExecutor, wait
 from dataclasses import dataclass, replace
-from typing import Any
 
 import cv2
 import numpy as np
@@ -41,30 +39,44 @@ from tracker_detect.detector import Blob, CameraFrame, Detection
 from tracker_detect.person import PersonConfig, PersonModel, box_blob
 from tracker_msgs_py.geometry import intersection_areas
 from tracker_msgs_py.labels import MOTION
-from tracker_msgs_py.params import check_config, config_from_params
+from tracker_msgs_py.params import check_config, param, params_of
+from tracker_msgs_py.registry import Method
 
 
 @dataclass(frozen=True)
 class FusionConfig:
     """How motion blobs and person boxes are combined."""
 
-    explained_share: float = 0.5  # a blob whose box person boxes cover this much is theirs
-    motion_blobs: bool = True  # publish the unexplained blobs (labelled motion)
-    motion_share: float = 0.05  # share of a person box's pixels moving that vouches for it
-    still_score: float = 0.45  # score cap of a box motion does not vouch for (1: no cap)
+    background: BackgroundConfig = params_of(BackgroundConfig)
+    # the person model keeps its weak boxes: the tracker's second association stage uses them
+    person: PersonConfig = params_of(PersonConfig, score_threshold=0.2)
+    explained_share: float = param(
+        0.5,
+        "a motion blob whose box person boxes cover at least this share is those people's "
+        "(else it is published labelled motion)",
+        min=0.01,
+        max=1.0,
+    )
+    motion_blobs: bool = param(True, "publish the blobs no person explains (label motion)")
+    motion_share: float = param(
+        0.05,
+        "share of a person box's pixels in the motion mask that vouches for it",
+        min=0.0,
+        max=1.0,
+    )
+    still_score: float = param(
+        0.45,
+        "score cap of a person box motion does not vouch for (below the tracker's high: it "
+        "continues a track, never starts one; 1: no cap)",
+        min=0.0,
+        max=1.0,
+    )
 
     def __post_init__(self) -> None:
         check_config(self)
 
     def problems(self) -> list[str]:
-        found = []
-        if not 0.0 < self.explained_share <= 1.0:
-            found.append(f"explained_share must be in (0, 1], got {self.explained_share}")
-        if not 0.0 <= self.motion_share <= 1.0:
-            found.append(f"motion_share must be in [0, 1], got {self.motion_share}")
-        if not 0.0 <= self.still_score <= 1.0:
-            found.append(f"still_score must be in [0, 1], got {self.still_score}")
-        return found
+        return []
 
 
 def _boxes(blobs: list[Blob]) -> np.ndarray:
@@ -133,12 +145,10 @@ class FusionDetector:
 
     estimates_ego_motion = False
 
-    def __init__(
-        self, background: BackgroundConfig, person: PersonConfig, fusion: FusionConfig
-    ) -> None:
-        self.motion = BackgroundDetector(background)
-        self.model = PersonModel(person)
-        self.config = fusion
+    def __init__(self, config: FusionConfig) -> None:
+        self.motion = BackgroundDetector(config.background)
+        self.model = PersonModel(config.person)
+        self.config = config
 
     def process(self, frame: CameraFrame) -> Detection:
         # The model runs on a second core while the motion detector works on this one: neither
@@ -169,8 +179,18 @@ class FusionDetector:
     def reset(self) -> None:
         self.motion.reset()
 
-    def reconfigure(self, values: Mapping[str, Any]) -> None:
+    def reconfigure(self, config: FusionConfig) -> None:
         """New parameter values from the next frame on (the background and model are kept)."""
-        self.motion.reconfigure(config_from_params(BackgroundConfig, values))
-        self.model = PersonModel(config_from_params(PersonConfig, values))
-        self.config = config_from_params(FusionConfig, values)
+        self.motion.reconfigure(config.background)
+        self.model = PersonModel(config.person)
+        self.config = config
+
+
+METHOD: Method[FusionDetector] = Method.of(
+    name="person_motion",
+    description="motion proposes, the person model decides: the SSIM background detector's "
+    "blobs and the person model's boxes on each camera image; person boxes labelled person, "
+    "blobs no person explains labelled motion",
+    config=FusionConfig,
+    make=FusionDetector,
+)

@@ -29,16 +29,17 @@ not compared, and a frame whose view moved or zoomed (any edge of its scene rect
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import cv2
 import numpy as np
 
+from tracker_detect import blob_params
 from tracker_detect.detector import CameraFrame, Detection, checked_view
 from tracker_detect.motion import find_blobs, presence_test
 from tracker_detect.registration import View
-from tracker_msgs_py.params import check_config
+from tracker_msgs_py.params import check_config, param
+from tracker_msgs_py.registry import Method
 
 #: MOG2's label of a foreground pixel (shadows are 127, `getShadowValue()`; background 0).
 FOREGROUND_VALUE = 255
@@ -55,46 +56,58 @@ MODEL_INPUT_PARAMETERS = ("equalize", "colour")
 class Mog2Config:
     """Parameters of `Mog2Detector` (defaults: seed 004 with OpenCV's MOG2 defaults)."""
 
-    equalize: bool = False  # histogram-equalise the image (colour: each channel) first
-    colour: bool = True  # model the BGR image (false: the grey image, as the thesis)
-    history: int = 500  # frames of MOG2's history (OpenCV default)
-    var_threshold: float = 16.0  # squared Mahalanobis distance to a background mode (OpenCV)
-    detect_shadows: bool = True  # MOG2's shadow pixels are background
-    learning_rate: float = -1.0  # per frame in [0, 1]; negative: OpenCV's automatic rate
-    dilate_radius: int = 4  # px, radius of the diamond (seed: 4; 0: no dilation)
-    close_size: int = 2  # px, side of the closing square (seed: 2; 1: no closing)
-    min_blob_area: float = 50.0  # scene px^2; a lone foreground pixel dilates to 41 px
-    warmup_frames: int = 5  # frames after a (re)start that are learned, not compared (>= 1)
-    presence_fraction: float = 0.0  # presence test (0: any blob is a measurement)
+    equalize: bool = param(
+        False, "histogram-equalise the image first (the grey image, or each colour channel)"
+    )
+    colour: bool = param(
+        True,
+        "model the colour image (a grey one replicated); false: the grey image, as the thesis "
+        "(MOG2's shadow test then takes any pixel darkened to 50-100 % for a shadow)",
+    )
+    history: int = param(500, "frames of MOG2's history (OpenCV: 500)", min=1, max=100000)
+    var_threshold: float = param(
+        16.0,
+        "squared Mahalanobis distance within which a pixel matches a background mode (OpenCV: 16)",
+        min=0.01,
+        max=10000.0,
+    )
+    detect_shadows: bool = param(True, "MOG2's shadow pixels are background, not objects")
+    learning_rate: float = param(
+        -1.0,
+        "model learning rate per frame (negative: OpenCV's automatic 1 / min(2 n, history))",
+        min=-1.0,
+        max=1.0,
+    )
+    dilate_radius: int = param(
+        4,
+        "radius of the diamond the mask is dilated with (seed: 4; 0: none)",
+        min=0,
+        max=50,
+        unit="px",
+    )
+    close_size: int = param(
+        2,
+        "side of the square the dilated mask is closed with (seed: 2; 1: none)",
+        min=1,
+        max=51,
+        unit="px",
+    )
+    min_blob_area: float = blob_params.min_blob_area(50.0)  # a lone pixel dilates to 41 px
+    warmup_frames: int = param(
+        5,
+        "frames after a (re)start of the model that are learned, not compared (a new model's "
+        "first frame is all foreground)",
+        min=1,
+        max=100000,
+    )
+    presence_fraction: float = blob_params.presence_fraction(0.0)  # 0: any blob is a measurement
 
     def __post_init__(self) -> None:
         check_config(self)
 
     def problems(self) -> list[str]:
-        """Why this config is unusable (empty when it is fine)."""
-        found = []
-        if self.history < 1:
-            found.append(f"history must be >= 1, got {self.history}")
-        if not (math.isfinite(self.var_threshold) and self.var_threshold > 0):
-            found.append(f"var_threshold must be > 0, got {self.var_threshold}")
-        if not (math.isfinite(self.learning_rate) and self.learning_rate <= 1.0):
-            found.append(
-                f"learning_rate must be <= 1 (negative: automatic), got {self.learning_rate}"
-            )
-        if not 0 <= self.dilate_radius <= 50:
-            found.append(f"dilate_radius must be in [0, 50], got {self.dilate_radius}")
-        if not 1 <= self.close_size <= 51:
-            found.append(f"close_size must be in [1, 51], got {self.close_size}")
-        if not (math.isfinite(self.min_blob_area) and self.min_blob_area >= 0):
-            found.append(f"min_blob_area must be >= 0, got {self.min_blob_area}")
-        if self.warmup_frames < 1:
-            found.append(
-                f"warmup_frames must be >= 1 (a new model's first frame is all "
-                f"foreground), got {self.warmup_frames}"
-            )
-        if not 0.0 <= self.presence_fraction <= 1.0:
-            found.append(f"presence_fraction must be in [0, 1], got {self.presence_fraction}")
-        return found
+        """Why this config is unusable beyond its fields' own ranges (empty when it is fine)."""
+        return []
 
 
 def diamond(radius: int) -> np.ndarray:
@@ -243,3 +256,12 @@ def same_view(previous: View, current: View) -> bool:
         (b.y + b.height - a.y - a.height) / current.scale_y,
     )
     return all(abs(e) <= VIEW_TOLERANCE for e in edges)
+
+
+METHOD: Method[Mog2Detector] = Method.of(
+    name="mog2",
+    description="OpenCV MOG2 background subtraction for a static camera, dilate (diamond 4) "
+    "+ close (2x2), 8-connected blobs of small objects (seed 004)",
+    config=Mog2Config,
+    make=Mog2Detector,
+)

@@ -14,7 +14,6 @@ shared detector types of `tracker_detect.detector`.
 
 from __future__ import annotations
 
-import math
 from collections import deque
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -23,7 +22,9 @@ import cv2
 import numpy as np
 from scipy import ndimage
 
-from tracker_detect.detector import Blob, Detection, StaleFrameError
+from tracker_detect import blob_params
+from tracker_detect.blob_params import odd_side
+from tracker_detect.detector import Blob, CameraFrame, Detection, StaleFrameError
 from tracker_detect.registration import (
     Alignment,
     PixelMap,
@@ -35,7 +36,8 @@ from tracker_detect.registration import (
     ssim_shift_search,
 )
 from tracker_detect.ssim import SsimParams, auto_downsample_factor, ssim_map
-from tracker_msgs_py.params import check_config
+from tracker_msgs_py.params import check_config, param
+from tracker_msgs_py.registry import Method
 
 #: The seed's dilation element H (Principal.m), a 7x7 "diamond".
 SEED_KERNEL = np.array(
@@ -183,65 +185,67 @@ def presence_test(blob_pixels: int, compared_pixels: int, min_fraction: float = 
 class DetectorConfig:
     """Parameters of `MotionDetector` (defaults: the seed's recommended values, §7)."""
 
-    gap: int = 3  # frames between the compared images
-    threshold: float = 0.5  # SSIM at or below which a pixel is motion
-    morphology: tuple[str, ...] = SEED_MORPHOLOGY
-    kernel_shape: str = "seed"
-    kernel_size: int = 7  # px, for kernel shapes other than 'seed'
-    connectivity: int = 4
-    presence_fraction: float = 0.0008  # 0.08 % of the compared area
-    min_blob_area: float = 0.0  # scene px^2; smaller blobs are dropped (0: keep all, the seed)
-    compensation: str = "known"  # one of COMPENSATION_MODES
-    search_radius: int = 30  # px, estimators search prior +- radius
-    search_window: int = 5  # px, uniform window of the simplified SSIM
-    search_pyramid_levels: int = 2  # 0 = the seed's exhaustive search at full resolution
-    phase_candidates: int = 5  # phase-correlation peaks verified by the simplified SSIM
-    subpixel_alignment: bool = True  # resample fractional shifts (else round them)
-    auto_downsample: bool = True  # Wang's automatic downsampling for large images
-    min_overlap_fraction: float = 0.1  # of the image; less and the frames are not compared
-    double_detection: bool = False
-    reference_max_age: int = 50  # frames a double-detection reference is kept at most
+    gap: int = param(3, "frames between the compared images (seed: 3)", min=1, max=100)
+    threshold: float = param(0.5, "SSIM at or below which a pixel is motion", min=-1.0, max=1.0)
+    morphology: tuple[str, ...] = param(
+        list(SEED_MORPHOLOGY),
+        "mask clean-up steps in order, each one of: " + ", ".join(MORPHOLOGY_STEPS),
+        validator=lambda v: (
+            None
+            if all(s in MORPHOLOGY_STEPS for s in v)
+            else f"morphology steps must be among {', '.join(MORPHOLOGY_STEPS)}"
+        ),
+    )
+    kernel_shape: str = param(
+        "seed", "dilation element ('seed' = the thesis' 7x7 H)", choices=KERNEL_SHAPES
+    )
+    kernel_size: int = odd_side(
+        7, "odd side of the element for shapes other than 'seed'", "kernel_size"
+    )
+    connectivity: int = blob_params.connectivity(4)
+    presence_fraction: float = blob_params.presence_fraction(0.0008)  # 0.08 %: the seed's
+    min_blob_area: float = blob_params.min_blob_area(0.0)  # 0: keep all, the seed
+    compensation: str = param(
+        "known",
+        "ego-motion compensation: known (from the poses), ssim_search (seed's exhaustive "
+        "simplified-SSIM search), phase_correlation, off",
+        choices=COMPENSATION_MODES,
+    )
+    search_radius: int = param(30, "shift estimators search +- this", min=0, max=200, unit="px")
+    search_window: int = param(5, "uniform window of the simplified SSIM", min=1, max=31, unit="px")
+    search_pyramid_levels: int = param(
+        2,
+        "coarse-to-fine levels of ssim_search (0 = the seed's full-resolution search)",
+        min=0,
+        max=5,
+    )
+    phase_candidates: int = param(
+        5, "phase_correlation: peaks verified by the simplified SSIM", min=1, max=50
+    )
+    subpixel_alignment: bool = param(
+        True, "resample fractional shifts bilinearly (else round them)"
+    )
+    auto_downsample: bool = blob_params.auto_downsample(True)
+    min_overlap_fraction: float = param(
+        0.1,
+        "compare only when the aligned images overlap at least this much",
+        min=0.01,
+        max=1.0,
+    )
+    double_detection: bool = param(
+        False, "also compare with the frame where motion began (slow / stopped objects)"
+    )
+    reference_max_age: int = param(
+        50, "frames a double-detection reference is kept at most", min=1, max=100000
+    )
     ssim: SsimParams = field(default_factory=SsimParams)
 
     def __post_init__(self) -> None:
         check_config(self)
 
     def problems(self) -> list[str]:
-        """Why this config is unusable (empty when it is fine)."""
-        c, problems = self, []  # c: short for the many checks below
-
-        if c.gap < 1:
-            problems.append(f"gap must be >= 1, got {c.gap}")
-        if not -1.0 <= c.threshold <= 1.0:
-            problems.append(f"threshold must be in [-1, 1], got {c.threshold}")
-        unknown = [s for s in c.morphology if s not in MORPHOLOGY_STEPS]
-        if unknown:
-            problems.append(
-                f"unknown morphology steps {unknown} (known: {', '.join(MORPHOLOGY_STEPS)})"
-            )
-        if c.kernel_shape not in KERNEL_SHAPES:
-            problems.append(f"kernel_shape must be one of {', '.join(KERNEL_SHAPES)}")
-        if c.kernel_size < 1 or c.kernel_size % 2 == 0:
-            problems.append(f"kernel_size must be odd and >= 1, got {c.kernel_size}")
-        if c.connectivity not in (4, 8):
-            problems.append(f"connectivity must be 4 or 8, got {c.connectivity}")
-        if not 0.0 <= c.presence_fraction <= 1.0:
-            problems.append(f"presence_fraction must be in [0, 1], got {c.presence_fraction}")
-        if not (math.isfinite(c.min_blob_area) and c.min_blob_area >= 0):
-            problems.append(f"min_blob_area must be >= 0, got {c.min_blob_area}")
-        if c.compensation not in COMPENSATION_MODES:
-            problems.append(f"compensation must be one of {', '.join(COMPENSATION_MODES)}")
-        if c.search_radius < 0 or c.search_window < 1 or c.search_pyramid_levels < 0:
-            problems.append(
-                "search_radius and search_pyramid_levels must be >= 0, search_window >= 1"
-            )
-        if c.phase_candidates < 1:
-            problems.append(f"phase_candidates must be >= 1, got {c.phase_candidates}")
-        if not 0.0 < c.min_overlap_fraction <= 1.0:
-            problems.append(f"min_overlap_fraction must be in (0, 1], got {c.min_overlap_fraction}")
-        if c.reference_max_age < 1:
-            problems.append(f"reference_max_age must be >= 1, got {c.reference_max_age}")
-        return problems
+        """Why this config is unusable beyond its fields' own ranges (empty when it is fine)."""
+        return []
 
 
 @dataclass
@@ -474,3 +478,37 @@ def paste_map(
     rows = min(local.shape[0], y1 - top)
     cols = min(local.shape[1], x1 - left)
     full[top : top + rows, left : left + cols] = local[:rows, :cols]
+
+
+class SsimDetector:
+    """Seed 000's SSIM motion detection (`MotionDetector`) as a `detector.Detector`."""
+
+    def __init__(self, config: DetectorConfig) -> None:
+        self.motion = MotionDetector(config)
+
+    @property
+    def config(self) -> DetectorConfig:
+        return self.motion.config
+
+    @property
+    def estimates_ego_motion(self) -> bool:
+        return self.motion.config.compensation in ESTIMATORS
+
+    def process(self, frame: CameraFrame) -> Detection:
+        return self.motion.process(frame.gray, frame.stamp_ns, frame.view)
+
+    def reset(self) -> None:
+        self.motion.reset()
+
+    def reconfigure(self, config: DetectorConfig) -> None:
+        """New parameter values from the next frame on, keeping the history it can."""
+        self.motion.reconfigure(config)
+
+
+METHOD: Method[SsimDetector] = Method.of(
+    name="ssim",
+    description="SSIM change detection between frames `gap` apart after ego-motion "
+    "compensation, morphology, connected blobs (seed 000)",
+    config=DetectorConfig,
+    make=SsimDetector,
+)

@@ -27,7 +27,6 @@ import hashlib
 import math
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
 
 import cv2
 import numpy as np
@@ -43,7 +42,8 @@ from tracker_detect.registration import View
 from tracker_msgs_py.geometry import Rect, corner_iou_matrix
 from tracker_msgs_py.labels import PERSON
 from tracker_msgs_py.package_files import package_data
-from tracker_msgs_py.params import check_config, config_from_params
+from tracker_msgs_py.params import check_config, param
+from tracker_msgs_py.registry import Method
 
 #: The shipped model files by precision: int8 is NanoDet quantised by
 #: scripts/quantize_person_model.py, about twice as fast on a CPU (docs/results/people.md).
@@ -65,36 +65,44 @@ class ModelUnavailableError(DetectorUnavailableError):
 class PersonConfig:
     """How the person model looks at an image."""
 
-    input_size: int = 256  # px, the model input's longer side (a multiple of 32)
-    score_threshold: float = 0.5  # person score below which a box is dropped
-    nms_iou: float = 0.5  # boxes overlapping more than this (IoU) are one person
-    threads: int = 1  # the runtime's threads for one image
-    runtime: str = "onnxruntime"  # or "opencv" (OpenCV's DNN: a fallback, same boxes)
-    precision: str = "int8"  # the shipped model's: int8 (quantised) or float32
-    model_path: str = ""  # an ONNX file of the same layout; "" = the shipped NanoDet
+    input_size: int = param(
+        256,
+        "the model input's longer side (a multiple of 32; the image is scaled to it)",
+        min=32,
+        max=2048,
+        unit="px",
+        validator=lambda v: None if v % 32 == 0 else "input_size must be a multiple of 32",
+    )
+    score_threshold: float = param(
+        0.5, "person score below which a box is dropped", min=0.0, max=1.0
+    )
+    nms_iou: float = param(
+        0.5, "boxes overlapping more than this IoU are one person", min=0.01, max=1.0
+    )
+    threads: int = param(1, "the runtime's threads per image", min=1, max=64, read_only=True)
+    runtime: str = param(
+        "onnxruntime",
+        "onnxruntime, or opencv (OpenCV's DNN: a fallback giving the same boxes)",
+        choices=RUNTIMES,
+        read_only=True,
+    )
+    precision: str = param(
+        "int8",
+        "the shipped NanoDet's: int8 (quantised, about twice as fast on a CPU) or float32",
+        choices=tuple(MODEL_FILES),
+        read_only=True,
+    )
+    model_path: str = param(
+        "",
+        "an ONNX person model of NanoDet's layout ('' = the shipped NanoDet of `precision`)",
+        read_only=True,
+    )
 
     def __post_init__(self) -> None:
         check_config(self)
 
     def problems(self) -> list[str]:
-        found = []
-        if not (32 <= self.input_size <= 2048 and self.input_size % 32 == 0):
-            found.append(
-                f"input_size must be a multiple of 32 in [32, 2048], got {self.input_size}"
-            )
-        if not 0.0 <= self.score_threshold <= 1.0:
-            found.append(f"score_threshold must be in [0, 1], got {self.score_threshold}")
-        if not 0.0 < self.nms_iou <= 1.0:
-            found.append(f"nms_iou must be in (0, 1], got {self.nms_iou}")
-        if not 1 <= self.threads <= 64:
-            found.append(f"threads must be in [1, 64], got {self.threads}")
-        if self.runtime not in RUNTIMES:
-            found.append(f"runtime must be one of {', '.join(RUNTIMES)}, got '{self.runtime}'")
-        if self.precision not in MODEL_FILES:
-            found.append(
-                f"precision must be one of {', '.join(MODEL_FILES)}, got '{self.precision}'"
-            )
-        return found
+        return []
 
 
 def shipped_model(precision: str = "int8") -> Path:
@@ -249,7 +257,8 @@ class PersonModel:
         if not found:
             return np.zeros((0, 5), np.float32)
         boxes = np.concatenate(found).astype(np.float32)
-        return boxes[non_maximum_suppression(boxes, self.config.nms_iou)]
+        kept: np.ndarray = boxes[non_maximum_suppression(boxes, self.config.nms_iou)]
+        return kept
 
 
 def _outputs_of(outputs: dict[str, np.ndarray], cells: int) -> tuple[np.ndarray, np.ndarray]:
@@ -310,9 +319,9 @@ class PersonDetector:
     def reset(self) -> None:
         self.last_stamp_ns = None
 
-    def reconfigure(self, values: dict[str, Any]) -> None:
+    def reconfigure(self, config: PersonConfig) -> None:
         """New parameter values from the next frame on (the loaded model is reused)."""
-        self.model = PersonModel(config_from_params(PersonConfig, values))
+        self.model = PersonModel(config)
 
 
 def box_blob(box: np.ndarray, view: View) -> Blob:
@@ -329,3 +338,12 @@ def box_blob(box: np.ndarray, view: View) -> Blob:
         score=float(box[4]),
         label=PERSON,
     )
+
+
+METHOD: Method[PersonDetector] = Method.of(
+    name="person",
+    description="a learned person model (NanoDet, COCO's person class, onnxruntime) on each "
+    "camera image: person boxes with scores",
+    config=PersonConfig,
+    make=PersonDetector,
+)

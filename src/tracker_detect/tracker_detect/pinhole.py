@@ -34,7 +34,8 @@ def _pinhole_of_equiangular(pixels: int, span: float, focal: float) -> np.ndarra
     """Per pixel of an equiangular axis spanning `span`, where it lies on the pinhole axis."""
     offsets = (np.arange(pixels) + 0.5) * (span / pixels) - span / 2.0  # scene px from the axis
     fx = pinhole_focal(pixels, span, focal)
-    return (pixels / 2.0 + fx * np.tan(offsets / focal) - 0.5).astype(np.float32)
+    positions: np.ndarray = (pixels / 2.0 + fx * np.tan(offsets / focal) - 0.5).astype(np.float32)
+    return positions
 
 
 def _equiangular_of_pinhole(pixels: int, span: float, focal: float) -> np.ndarray:
@@ -42,7 +43,8 @@ def _equiangular_of_pinhole(pixels: int, span: float, focal: float) -> np.ndarra
     start (the inverse of `_pinhole_of_equiangular`)."""
     fx = pinhole_focal(pixels, span, focal)
     angles = np.arctan((np.arange(pixels) + 0.5 - pixels / 2.0) / fx)
-    return (span / 2.0 + focal * angles - 0.5).astype(np.float32)
+    offsets: np.ndarray = (span / 2.0 + focal * angles - 0.5).astype(np.float32)
+    return offsets
 
 
 @lru_cache(maxsize=8)

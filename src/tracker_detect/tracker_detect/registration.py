@@ -363,7 +363,7 @@ class _ShiftScorer:
         h, w = self.curr[0].shape
         x0, x1 = max(0, -dx), min(w, w - dx)
         y0, y1 = max(0, -dy), min(h, h - dy)
-        area = (x1 - x0) * (y1 - y0)
+        area: int = (x1 - x0) * (y1 - y0)
         if x1 <= x0 or y1 <= y0 or area < self.min_area:
             return -math.inf
         mp, sp, qp, vp = (a[y0 + dy : y1 + dy, x0 + dx : x1 + dx] for a in self.prev)

@@ -153,7 +153,9 @@ def _workspace(shape: tuple[int, int]) -> list[np.ndarray]:
     A 768x576 map needs ~11 MB of temporaries; allocating them afresh each call costs more in
     page faults than the arithmetic itself (they are above malloc's mmap threshold).
     """
-    cache = getattr(_THREAD_BUFFERS, "by_shape", None)
+    cache: OrderedDict[tuple[int, int], list[np.ndarray]] | None = getattr(
+        _THREAD_BUFFERS, "by_shape", None
+    )
     if cache is None:
         cache = _THREAD_BUFFERS.by_shape = OrderedDict()
     if shape not in cache:

@@ -35,7 +35,8 @@ def mahalanobis_squared(
     d = s_inverse[:, 1, 1, None]
     dx = z[None, :, 0] - z_predicted[:, 0, None]
     dy = z[None, :, 1] - z_predicted[:, 1, None]
-    return a * dx * dx + b * dx * dy + d * dy * dy
+    distances: np.ndarray = a * dx * dx + b * dx * dy + d * dy * dy
+    return distances
 
 
 @dataclass(frozen=True)

@@ -223,7 +223,8 @@ def appearance(image: np.ndarray, boxes: np.ndarray) -> np.ndarray:
 def similarity(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """(N, M) Bhattacharyya coefficients of appearances, averaged over the parts."""
     root_a, root_b = np.sqrt(np.asarray(a)), np.sqrt(np.asarray(b))
-    return (root_a @ root_b.T) / PARTS
+    coefficients: np.ndarray = (root_a @ root_b.T) / PARTS
+    return coefficients
 
 
 class ByteTracker:

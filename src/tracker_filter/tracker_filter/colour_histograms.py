@@ -50,7 +50,8 @@ def bin_image(image: np.ndarray, space: ColourSpace, bins: int) -> np.ndarray:
         raise ValueError(f"bins per channel must be in [2, 256], got {bins}")
     if ColourSpace(space) is ColourSpace.RGB:
         index = (image.astype(np.int32) * bins) >> 8  # [0, 256) -> [0, K)
-        return (index[..., 2] * bins + index[..., 1]) * bins + index[..., 0]
+        rgb_bins: np.ndarray = (index[..., 2] * bins + index[..., 1]) * bins + index[..., 0]
+        return rgb_bins
     hsv = cv2.cvtColor(image, cv2.COLOR_BGR2HSV)  # H in [0, 180), S in [0, 256)
     hue = (hsv[..., 0].astype(np.int32) * bins) // 180
     saturation = (hsv[..., 1].astype(np.int32) * bins) >> 8
@@ -174,7 +175,8 @@ def _take_coefficient(  # pragma: no cover
     for b in held:
         total += np.sqrt(counts[b]) * sqrt_reference[b]
     counts[:] = 0
-    return total / np.sqrt(pixels)
+    rho: float = total / np.sqrt(pixels)
+    return rho
 
 
 @numba.njit(cache=True, nogil=True)

@@ -229,7 +229,10 @@ def corrected_weights(weights: np.ndarray, config: ParticleFilterConfig) -> np.n
             return np.ones_like(weights)
         return 0.9 * (weights - low) / (high - low) + 0.1
     if rule is WeightCorrection.SIGMOID:
-        return (erf(config.sigmoid_alpha * (weights - config.sigmoid_beta)) + 1.0) / 2.0
+        sigmoid: np.ndarray = (
+            erf(config.sigmoid_alpha * (weights - config.sigmoid_beta)) + 1.0
+        ) / 2.0
+        return sigmoid
     return np.exp(-config.exponential_lambda * (1.0 - weights))
 
 
@@ -355,7 +358,8 @@ class HistogramAppearance:
             x0, y0, x1, y1 = (int(v) for v in b)
             return np.bincount(bins_of_pixels[y0:y1, x0:x1].ravel(), minlength=count)
 
-        return (counts(outer) - counts(inner)).astype(float)
+        band: np.ndarray = (counts(outer) - counts(inner)).astype(float)
+        return band
 
     def similarities(self, image: np.ndarray, boxes: np.ndarray) -> np.ndarray:
         if self._sqrt_references is None or self._sqrt_whole is None:
@@ -368,7 +372,7 @@ class HistogramAppearance:
         bins_of_pixels = bin_image(image[y0:y1, x0:x1], self.space, self.bins)
         shift = np.array([x0, y0, x0, y0])
         which = np.tile(np.arange(self.regions), len(boxes))
-        rho = coefficients(bins_of_pixels, bounds - shift, self._sqrt_references, which)
+        rho: np.ndarray = coefficients(bins_of_pixels, bounds - shift, self._sqrt_references, which)
         rho = rho.reshape(len(boxes), self.regions).prod(axis=1)
         if rings is None:
             return rho
@@ -377,7 +381,10 @@ class HistogramAppearance:
             bins_of_pixels, inner, rings - shift, self._sqrt_whole, RING_STRIDE
         )
         # (1 - contrast * rho_ring) ^ contrast_power (see the class docstring)
-        return rho * np.clip(1.0 - self.contrast * rho_ring, 0.0, 1.0) ** self.contrast_power
+        contrasted: np.ndarray = (
+            rho * np.clip(1.0 - self.contrast * rho_ring, 0.0, 1.0) ** self.contrast_power
+        )
+        return contrasted
 
     def _rings(self, boxes: np.ndarray, shape: tuple[int, ...]) -> np.ndarray:
         """The bounds of each box grown by `contrast_margin` x its size per side."""
@@ -497,6 +504,15 @@ class ImageView:
         return out
 
 
+def _check_mask_size(foreground: ForegroundMask | None, image: np.ndarray) -> None:
+    """Refuse a foreground mask of another size than the image."""
+    if foreground is not None and foreground.shape != image.shape[:2]:
+        raise ValueError(
+            f"the foreground mask is {foreground.shape[1]}x{foreground.shape[0]} px, "
+            f"the image {image.shape[1]}x{image.shape[0]}"
+        )
+
+
 class ColourParticleFilter:
     """One target's filter: started on a rectangle of an image, stepped once per frame. Boxes and
     states are in the frame of `view` (scene px when the camera moves; image px by default)."""
@@ -540,7 +556,8 @@ class ColourParticleFilter:
         zeta = static_noise_share(
             self.estimate.similarity, self.config.noise_alpha, self.config.noise_beta
         )
-        return self.base_sigma * np.repeat([zeta, 1.0 - zeta], 4)
+        sigma: np.ndarray = self.base_sigma * np.repeat([zeta, 1.0 - zeta], 4)
+        return sigma
 
     def step(
         self,
@@ -553,15 +570,37 @@ class ColourParticleFilter:
         for the foreground cue (ignored when the cue is off), and the target's `height` where
         it stands, in the particles' coordinates, for the height prior (ignored when
         `height_spread` is 0)."""
-        if foreground is not None and foreground.shape != image.shape[:2]:
-            raise ValueError(
-                f"the foreground mask is {foreground.shape[1]}x{foreground.shape[0]} px, "
-                f"the image {image.shape[1]}x{image.shape[0]}"
-            )
+        _check_mask_size(foreground, image)
         if height is None and self.config.height_before_line:
             height = self.start_height
-        cue = self.config.foreground
-        mask = foreground if cue.enabled else None
+        mask = foreground if self.config.foreground.enabled else None
+        particles = self._moved_particles(mask, view, height)
+        particles, in_image, raw, hidden, partial = self._scored(image, particles, view, mask)
+        weights = self._weights(raw, particles, in_image, mask, height, hidden, partial)
+        if self.config.estimate is EstimateRule.MEAN:
+            state = weights @ particles
+        else:
+            state = particles[int(np.argmax(weights))]
+        in_image_box = view.to_image(state[None, :4])
+        similarity = self._similarity(image, in_image_box, partial)
+        if not hidden and not partial:
+            self._learn_upper_level(image, in_image_box)
+        self._update_velocity(particles, weights, state, hidden)
+        box, unfitted = self._estimate_box(state, mask, view, hidden, partial)
+        self.estimate = ParticleEstimate(
+            box, state[4:].copy(), similarity, hidden, unfitted=unfitted, partial=partial
+        )
+        if not hidden:
+            drawn = resample(weights, self.config.resampling, self.rng, self.config.particles)
+            particles = particles[drawn]
+        self.particles = particles
+        return self.estimate
+
+    def _moved_particles(
+        self, mask: ForegroundMask | None, view: ImageView, height: ExpectedHeight | None
+    ) -> np.ndarray:
+        """The particles propagated one frame; while hidden, rescaled in perspective and joined
+        by the probes (when those are on)."""
         # the size moves only where the mask can hold it (colour alone lets it shrink or grow)
         size_noise = self.config.size_noise if mask is not None else 0.0
         particles = propagate(self.particles, self.noise(), self.rng, size_noise)
@@ -569,6 +608,18 @@ class ColourParticleFilter:
             particles[:, :4] = in_perspective(particles[:, :4], self.particles[:, :4], height)
         if self.estimate.hidden and mask is not None and self.config.probes > 0:
             particles = np.vstack([particles, self._probes(particles, mask, view)])
+        return particles
+
+    def _scored(
+        self,
+        image: np.ndarray,
+        particles: np.ndarray,
+        view: ImageView,
+        mask: ForegroundMask | None,
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, bool, bool]:
+        """(particles, their boxes in image px, their scores, hidden, partial): the scores of
+        the whole boxes, or of their top parts when those follow the target (partial); a hidden
+        target's probes dropped again when none found it."""
         in_image = view.to_image(particles[:, :4])
         raw = self.appearance.similarities(image, in_image)
         best = float(self._reappearing(raw, mask, in_image).max())
@@ -581,10 +632,24 @@ class ColourParticleFilter:
         if hidden and len(particles) > self.config.particles:  # no probe found the target
             kept = self.config.particles
             particles, in_image, raw = particles[:kept], in_image[:kept], raw[:kept]
+        return particles, in_image, raw, hidden, partial
+
+    def _weights(
+        self,
+        raw: np.ndarray,
+        particles: np.ndarray,
+        in_image: np.ndarray,
+        mask: ForegroundMask | None,
+        height: ExpectedHeight | None,
+        hidden: bool,
+        partial: bool,
+    ) -> np.ndarray:
+        """The particles' normalised weights: the corrected scores times the foreground cue's
+        and the height prior's factors."""
         # hidden: the scores say nothing about the target, every particle counts the same
         weights = np.ones(len(raw)) if hidden else corrected_weights(raw, self.config)
         if mask is not None and not hidden and not partial:  # the mask holds only the part seen
-            factor = cue.weights(mask, in_image)
+            factor = self.config.foreground.weights(mask, in_image)
             if factor is not None:
                 weights = weights * factor
         if height is not None and self.config.height_spread > 0 and not hidden:
@@ -592,15 +657,14 @@ class ColourParticleFilter:
                 particles[:, :4], self.config.height_spread, self.config.aspect_spread
             )
         total = float(weights.sum())
-        weights = weights / total if total > 0 else np.full(len(raw), 1.0 / len(raw))
-        if self.config.estimate is EstimateRule.MEAN:
-            state = weights @ particles
-        else:
-            state = particles[int(np.argmax(weights))]
-        in_image_box = view.to_image(state[None, :4])
-        similarity = self._similarity(image, in_image_box, partial)
-        if not hidden and not partial:
-            self._learn_upper_level(image, in_image_box)
+        normalised: np.ndarray = weights / total if total > 0 else np.full(len(raw), 1.0 / len(raw))
+        return normalised
+
+    def _update_velocity(
+        self, particles: np.ndarray, weights: np.ndarray, state: np.ndarray, hidden: bool
+    ) -> None:
+        """The velocity seen, updated on a frame the target is seen; on the frame it is first
+        hidden, the cloud (`particles`, `state`, in place) set to coast at it."""
         if hidden and not self.estimate.hidden:
             # the last frames, half hidden, slowed the cloud: coast at the velocity seen before,
             # the particles' spread about it narrowed as the noise is
@@ -614,6 +678,18 @@ class ColourParticleFilter:
             self.frames_seen += 1
             gain = max(LEVEL_GAIN, 1.0 / self.frames_seen)
             self.seen_velocity += gain * (state[4:] - self.seen_velocity)
+
+    def _estimate_box(
+        self,
+        state: np.ndarray,
+        mask: ForegroundMask | None,
+        view: ImageView,
+        hidden: bool,
+        partial: bool,
+    ) -> tuple[np.ndarray, np.ndarray | None]:
+        """(box, the cloud's own box when `box` was fitted to the mask, else None): the
+        state's box, cut to the part in sight when partial, or fitted to the mask by the cue."""
+        cue = self.config.foreground
         box, unfitted = state[:4].copy(), None
         if partial and mask is not None:
             unfitted = box
@@ -622,14 +698,7 @@ class ColourParticleFilter:
         elif mask is not None and not hidden and cue.fit > 0:
             unfitted = box
             box = view.to_scene(cue.fitted(mask, view.to_image(box[None])[0])[None])[0]
-        self.estimate = ParticleEstimate(
-            box, state[4:].copy(), similarity, hidden, unfitted=unfitted, partial=partial
-        )
-        if not hidden:
-            drawn = resample(weights, self.config.resampling, self.rng, self.config.particles)
-            particles = particles[drawn]
-        self.particles = particles
-        return self.estimate
+        return box, unfitted
 
     def _upper_scores(
         self,

@@ -134,7 +134,8 @@ class KinematicFilter(ABC):
 
     def predicted_position(self, lead: float) -> np.ndarray:
         """Position the current estimate reaches after `lead` seconds of its own motion."""
-        return self.model.transition(lead)[:AXES] @ self.mean
+        position: np.ndarray = self.model.transition(lead)[:AXES] @ self.mean
+        return position
 
 
 class KalmanFilter(KinematicFilter):
@@ -165,11 +166,13 @@ class KalmanFilter(KinematicFilter):
 
     @property
     def mean(self) -> np.ndarray:
-        return self._kf.x.copy()
+        mean: np.ndarray = self._kf.x.copy()
+        return mean
 
     @property
     def covariance(self) -> np.ndarray:
-        return self._kf.P.copy()
+        covariance: np.ndarray = self._kf.P.copy()
+        return covariance
 
     def predict(self, t: float) -> None:
         dt = self._interval_to(t)

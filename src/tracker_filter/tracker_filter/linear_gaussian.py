@@ -26,13 +26,15 @@ def innovation_covariance(
     covariances: np.ndarray, measurement_covariance: np.ndarray
 ) -> np.ndarray:
     """S = H P H^T + R for a stack of state covariances (..., n, n)."""
-    return covariances[..., :AXES, :AXES] + measurement_covariance
+    s: np.ndarray = covariances[..., :AXES, :AXES] + measurement_covariance
+    return s
 
 
 def kalman_gain(covariances: np.ndarray, measurement_covariance: np.ndarray) -> np.ndarray:
     """K = P H^T S^-1, shape (..., n, 2)."""
     s_inverse = inverse_2x2(innovation_covariance(covariances, measurement_covariance))
-    return covariances[..., :, :AXES] @ s_inverse
+    gain: np.ndarray = covariances[..., :, :AXES] @ s_inverse
+    return gain
 
 
 def fixed_gain(g: np.ndarray, h: np.ndarray, k: np.ndarray, dt: float, order: int) -> np.ndarray:
@@ -65,9 +67,10 @@ def joseph_update(
     n = covariances.shape[-1]
     i_kh = np.broadcast_to(np.eye(n), gains.shape[:-2] + (n, n)).copy()
     i_kh[..., :, :AXES] -= gains
-    return i_kh @ covariances @ np.swapaxes(
+    corrected: np.ndarray = i_kh @ covariances @ np.swapaxes(
         i_kh, -1, -2
     ) + gains @ measurement_covariance @ np.swapaxes(gains, -1, -2)
+    return corrected
 
 
 def correct(

@@ -355,7 +355,8 @@ class MofNConfirmation:
         # A tentative track older than N frames has had its M hits (else it failed), so only
         # the travel (or the size) can still be missing.
         moved = (travel >= self.min_travel) & (straightness >= self.min_straightness)
-        return (hits >= self.hits) & moved & self._tall_enough(boxes)
+        confirmed: np.ndarray = (hits >= self.hits) & moved & self._tall_enough(boxes)
+        return confirmed
 
     def _tall_enough(self, boxes: np.ndarray) -> np.ndarray:
         least = self.min_height
@@ -376,7 +377,8 @@ class MofNConfirmation:
 
     def failed(self, hits: np.ndarray, frames: np.ndarray, travel: np.ndarray) -> np.ndarray:
         stalled = (frames >= self.travel_window) & (travel < self.min_travel)
-        return (hits + (self.window - frames) < self.hits) | stalled
+        failed: np.ndarray = (hits + (self.window - frames) < self.hits) | stalled
+        return failed
 
 
 class Deleter(Protocol):

@@ -150,7 +150,8 @@ class LinearModel:
 
     def process_noise(self, dt: float, sigma: float = 1.0) -> np.ndarray:
         """G Q G^T (sigma is not used: Q is given)."""
-        return self.noise_gain @ self.process_covariance @ self.noise_gain.T
+        noise: np.ndarray = self.noise_gain @ self.process_covariance @ self.noise_gain.T
+        return noise
 
 
 def seed001_nominal_model(frame_interval: float = 1.0 / 20.0) -> LinearModel:
@@ -182,6 +183,7 @@ def extrapolate_positions(
     names = layout.names if isinstance(layout, StateLayout) else tuple(layout)
     for model in (CONSTANT_VELOCITY, CONSTANT_ACCELERATION):
         if model.state_layout == names:
-            return means @ model.transition(lead)[:AXES].T
+            positions: np.ndarray = means @ model.transition(lead)[:AXES].T
+            return positions
     general = layout if isinstance(layout, StateLayout) else StateLayout.from_names(names)
     return general.positions(means) + lead * general.velocities(means)

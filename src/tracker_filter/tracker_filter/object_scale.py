@@ -56,7 +56,8 @@ def robust_line(x: np.ndarray, y: np.ndarray) -> tuple[float, float]:
 
 def bottom_rows(boxes: np.ndarray) -> np.ndarray:
     """The row (px) of each (x, y, width, height) box's bottom edge: where the object stands."""
-    return boxes[:, 1] + boxes[:, 3]
+    rows: np.ndarray = boxes[:, 1] + boxes[:, 3]
+    return rows
 
 
 class HeightByRow:

@@ -53,7 +53,8 @@ class GridGeometry:
     @property
     def size(self) -> np.ndarray:
         """Extent of the grid per axis, world units."""
-        return np.asarray(self.shape) * np.asarray(self.cell)
+        extent: np.ndarray = np.asarray(self.shape) * np.asarray(self.cell)
+        return extent
 
     def centres(self, indices: np.ndarray) -> np.ndarray:
         """World coordinates (..., 3) of the centres of cells `indices` (..., 3)."""
@@ -65,7 +66,8 @@ class GridGeometry:
     def indices(self, points: np.ndarray) -> np.ndarray:
         """Cell indices (..., 3) int64 holding world `points` (..., 3); may lie outside the grid."""
         scaled = (points - np.asarray(self.origin)) / np.asarray(self.cell)
-        return np.floor(scaled).astype(np.int64)
+        cells: np.ndarray = np.floor(scaled).astype(np.int64)
+        return cells
 
 
 class OccupancyGrid:

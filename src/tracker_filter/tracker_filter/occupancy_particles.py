@@ -157,7 +157,7 @@ def jitter_widths(
         return np.full(3, width)
     extent = np.asarray(geometry.size, dtype=float)
     dims = sum(1 for s in geometry.shape if s > 1)
-    widths = extent / n ** (1.0 / max(dims, 1))
+    widths: np.ndarray = extent / n ** (1.0 / max(dims, 1))
     widths[geometry.vertical] *= config.vertical_jitter_factor
     widths[np.asarray(geometry.shape) == 1] = 0.0
     return widths

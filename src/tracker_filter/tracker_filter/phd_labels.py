@@ -63,7 +63,7 @@ def labelling_costs(
     a, b, d = cov[None, :, 0, 0] + extra, cov[None, :, 0, 1], cov[None, :, 1, 1] + extra
     det = a * d - b * b
     gx, gy = gaps[..., 0], gaps[..., 1]
-    costs = (d * gx * gx - 2.0 * b * gx * gy + a * gy * gy) / det
+    costs: np.ndarray = (d * gx * gx - 2.0 * b * gx * gy + a * gy * gy) / det
     occluded = np.flatnonzero(np.isfinite(tracks.occlusion_centres[:, 0]))
     for row in occluded:
         heading = tracks.velocities[row]

@@ -175,8 +175,9 @@ class OcclusionMonitor:
             return True
         x, y, width, height = window
         margin = self.config.border_margin
-        return (x + margin <= position[0] <= x + width - margin) and (
-            y + margin <= position[1] <= y + height - margin
+        return bool(
+            (x + margin <= position[0] <= x + width - margin)
+            and (y + margin <= position[1] <= y + height - margin)
         )
 
     def advance(self, labels: np.ndarray, hit: np.ndarray) -> list[int]:

@@ -51,7 +51,8 @@ def region_covariances(integral: np.ndarray, bounds: np.ndarray) -> np.ndarray:
     second[:, _UPPER[0], _UPPER[1]] = sums[:, k:] / n
     second[:, _UPPER[1], _UPPER[0]] = sums[:, k:] / n
     covariance = second - mean[:, :, None] * mean[:, None, :]
-    return covariance + RIDGE * np.eye(k)
+    ridged: np.ndarray = covariance + RIDGE * np.eye(k)
+    return ridged
 
 
 def forstner_distances(covariances: np.ndarray, reference: np.ndarray) -> np.ndarray:
@@ -60,4 +61,5 @@ def forstner_distances(covariances: np.ndarray, reference: np.ndarray) -> np.nda
     values, vectors = np.linalg.eigh(reference)
     whiten = vectors @ np.diag(values**-0.5) @ vectors.T
     eigenvalues = np.linalg.eigvalsh(whiten @ covariances @ whiten)
-    return np.sqrt((np.log(np.maximum(eigenvalues, 1e-300)) ** 2).sum(axis=1))
+    distances: np.ndarray = np.sqrt((np.log(np.maximum(eigenvalues, 1e-300)) ** 2).sum(axis=1))
+    return distances

@@ -241,7 +241,7 @@ class RobustModel:
         if 0 < best < EXACT_GRID_POINTS - 1:
             vertex = _vertex(_SEARCH_GRID[best - 1 : best + 2], costs[best - 1 : best + 2])
             if vertex is not None:
-                lam = self.lower_bound * (1.0 + 10.0**vertex)
+                lam: float = self.lower_bound * (1.0 + 10.0**vertex)
                 if terms.cost(lam) < costs[best]:
                     return lam
         return float(self._search_lambdas[best])
@@ -257,7 +257,8 @@ class _CostTerms:
     def costs(self, lams: np.ndarray) -> np.ndarray:
         """G at each lambda > lambda_l of `lams`."""
         lams = lams[:, None]
-        return (self.g2 * lams / (lams + self.nu)).sum(axis=1)
+        costs: np.ndarray = (self.g2 * lams / (lams + self.nu)).sum(axis=1)
+        return costs
 
     def cost(self, lam: float) -> float:
         return float((self.g2 * lam / (lam + self.nu)).sum())
@@ -283,7 +284,8 @@ class _CostTerms:
         b = math.sqrt(-g2[down[0]] * nu_down)
         if a <= b:
             return math.inf
-        return (b * nu_up - a * nu_down) / (a - b)
+        turning: float = (b * nu_up - a * nu_down) / (a - b)
+        return turning
 
 
 def _vertex(s: np.ndarray, g: np.ndarray) -> float | None:
@@ -384,7 +386,8 @@ class RobustKalmanFilter:
     def mean(self) -> np.ndarray:
         """x_{i+1|i} between predict and update, else x_{i|i}."""
         if self._pending:
-            return self._modified.F @ self._filtered[0]
+            predicted: np.ndarray = self._modified.F @ self._filtered[0]
+            return predicted
         return self._filtered[0].copy()
 
     @property
@@ -395,7 +398,9 @@ class RobustKalmanFilter:
 
     def _predicted_covariance(self, modified: ModifiedModel) -> np.ndarray:
         F = self.model.transition_matrix  # the nominal F of this step's model
-        return F @ modified.P @ F.T + modified.G @ modified.Q @ modified.G.T  # (3.47)
+        # (3.47)
+        predicted: np.ndarray = F @ modified.P @ F.T + modified.G @ modified.Q @ modified.G.T
+        return predicted
 
     def predict(self, t: float) -> None:
         if not math.isfinite(t) or t < self._time:

@@ -266,10 +266,14 @@ class TargetSelector:
         if self.policy is SelectionPolicy.LARGEST_BLOB:
             return tracks.areas.astype(float)
         if self.policy is SelectionPolicy.NEAREST_CENTRE and view_centre is not None:
-            return -np.hypot(*(tracks.positions - np.asarray(view_centre, dtype=float)).T)
+            nearness: np.ndarray = -np.hypot(
+                *(tracks.positions - np.asarray(view_centre, dtype=float)).T
+            )
+            return nearness
         if self.policy is SelectionPolicy.FARTHEST_TRAVELLED:
             assert tracks.travel is not None and tracks.straightness is not None  # __post_init__
-            return tracks.travel * tracks.straightness
+            travelled: np.ndarray = tracks.travel * tracks.straightness
+            return travelled
         return tracks.ages.astype(float)
 
     def _update_automatic(

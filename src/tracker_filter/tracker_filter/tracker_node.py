@@ -327,7 +327,7 @@ class TrackerNode(SuiteNode):
         return None
 
     def _max_gap_ns(self) -> int:
-        return round(self._params["max_input_gap"] * NS_PER_S)
+        return round(float(self._params["max_input_gap"]) * NS_PER_S)
 
     def _on_parameters(self, changed: dict[str, Any]) -> None:
         self._selector.configure(*selector_settings(self._params))

@@ -322,7 +322,8 @@ class TrackBook:
         many times their way."""
         net = self.measured_travel()
         path = self.path + np.hypot(*(self.measured - self.waypoints).T)
-        return np.divide(net, path, out=np.ones(len(self)), where=path > 0)
+        straightness: np.ndarray = np.divide(net, path, out=np.ones(len(self)), where=path > 0)
+        return straightness
 
     def moved_boxes(self, positions: np.ndarray) -> np.ndarray:
         """Every track's last measured box (N, 4), moved with its estimate to `positions` (N, 2)."""

@@ -138,7 +138,8 @@ def header_stamp_ns(cdr: bytes) -> int:
     std_msgs/Header (Image, CompressedImage, CameraInfo...), read without deserializing it."""
     little = len(cdr) > 1 and cdr[1] & 1  # the encapsulation: CDR_LE or CDR_BE
     sec, nanosec = struct.unpack_from("<iI" if little else ">iI", cdr, 4)
-    return sec * NS_PER_S + nanosec
+    stamp_ns: int = sec * NS_PER_S + nanosec
+    return stamp_ns
 
 
 def joint_values(

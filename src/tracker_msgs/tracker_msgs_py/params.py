@@ -17,7 +17,7 @@ from __future__ import annotations
 import math
 import weakref
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import MISSING, Field, dataclass, field, fields, is_dataclass
+from dataclasses import MISSING, Field, dataclass, field, fields, is_dataclass, replace
 from typing import TYPE_CHECKING, Any, Protocol, TypeVar
 
 if TYPE_CHECKING:  # rclpy is imported where a node declares parameters, not by the core
@@ -47,36 +47,31 @@ def check_config(config: Config) -> None:
 def field_problems(config: object) -> list[str]:
     """Why the `param` fields of `config` are outside what they declare."""
     found = []
-    for spec in specs_of(type(config)):
-        reason = spec.check(getattr(config, spec.name))
-        if reason:
-            found.append(reason)
+    for declared_field in fields(config):  # type: ignore[arg-type]
+        if PARAM_KEY in declared_field.metadata:
+            reason = _spec_of(declared_field).check(getattr(config, declared_field.name))
+            if reason:
+                found.append(reason)
     return found
 
 
 def config_from_params(cls: type[C], values: Mapping[str, Any], **overrides: Any) -> C:
     """The config dataclass `cls` from the parameter values named like its fields (others are
-    ignored; a list for a field whose default is a tuple becomes a tuple) and `overrides`; raises
-    ValueError listing its problems."""
-    tuples = {f.name for f in fields(cls) if isinstance(f.default, tuple)}  # type: ignore[arg-type]
-    given = {
-        name: tuple(value) if name in tuples else value
-        for name, value in values.items()
-        if name in _field_names(cls)
-    }
+    ignored; a list for a field whose default is a tuple becomes a tuple), its `params_of` fields
+    made the same way from the same values, and `overrides`; raises ValueError listing its
+    problems."""
+    given: dict[str, Any] = {}
+    for declared_field in fields(cls):  # type: ignore[arg-type]
+        name, metadata = declared_field.name, declared_field.metadata
+        if NESTED_KEY in metadata:
+            inner_cls, inner_defaults = metadata[NESTED_KEY]
+            given[name] = config_from_params(inner_cls, {**inner_defaults, **values})
+        elif name in values:
+            value = values[name]
+            given[name] = tuple(value) if isinstance(declared_field.default, tuple) else value
     config = cls(**given | overrides)
     check_config(config)  # type: ignore[arg-type]
     return config
-
-
-def _field_names(cls: type) -> frozenset[str]:
-    names = _FIELD_NAMES.get(cls)
-    if names is None:
-        names = _FIELD_NAMES[cls] = frozenset(f.name for f in fields(cls))
-    return names
-
-
-_FIELD_NAMES: dict[type, frozenset[str]] = {}
 
 
 Validator = Callable[[Any], str | None]
@@ -152,6 +147,7 @@ class ParamSpec:
 
 
 PARAM_KEY = "tracker_param"  # a dataclass field's metadata key for its `ParamSpec` parts
+NESTED_KEY = "tracker_params_of"  # ... for a nested config whose parameters are the field's
 
 
 @dataclass(frozen=True)
@@ -199,13 +195,43 @@ def param(
 
 
 def specs_of(cls: type) -> tuple[ParamSpec, ...]:
-    """The `ParamSpec`s of the `param` fields of the config dataclass `cls`, in field order."""
+    """The `ParamSpec`s of the `param` fields of the config dataclass `cls`, in field order, a
+    `params_of` field's in its place."""
     specs = _SPECS.get(cls)
     if specs is None:
         if not is_dataclass(cls):
             raise TypeError(f"{cls!r} is not a config dataclass")
-        specs = _SPECS[cls] = tuple(_spec_of(f) for f in fields(cls) if PARAM_KEY in f.metadata)
+        specs = _SPECS[cls] = tuple(spec for f in fields(cls) for spec in _specs_of_field(f))
+        names = [spec.name for spec in specs]
+        twice = sorted({name for name in names if names.count(name) > 1})
+        if twice:
+            raise TypeError(f"{cls.__name__} declares {', '.join(twice)} more than once")
     return specs
+
+
+def _specs_of_field(declared_field: Field[Any]) -> tuple[ParamSpec, ...]:
+    if PARAM_KEY in declared_field.metadata:
+        return (_spec_of(declared_field),)
+    if NESTED_KEY in declared_field.metadata:
+        inner_cls, inner_defaults = declared_field.metadata[NESTED_KEY]
+        return tuple(
+            replace(spec, default=_ros_value(inner_defaults[spec.name]))
+            if spec.name in inner_defaults
+            else spec
+            for spec in specs_of(inner_cls)
+        )
+    return ()
+
+
+def params_of(cls: type[C], **defaults: Any) -> Any:
+    """A config field holding the config `cls`, whose parameters are this config's too (the same
+    names), with `defaults` in place of its own: a method made of others (motion and a person
+    model) declares theirs once, where they are."""
+    return field(default=cls(**defaults), metadata={NESTED_KEY: (cls, defaults)})
+
+
+def _ros_value(value: Any) -> Any:
+    return list(value) if isinstance(value, tuple) else value
 
 
 _SPECS: dict[type, tuple[ParamSpec, ...]] = {}
@@ -218,7 +244,7 @@ def _spec_of(declared_field: Field[Any]) -> ParamSpec:
         raise TypeError(f"parameter field {declared_field.name} needs a default")
     return ParamSpec(
         declared_field.name,
-        list(default) if isinstance(default, tuple) else default,
+        _ros_value(default),
         declared.description,
         declared.min,
         declared.max,
@@ -256,8 +282,11 @@ def _range_end(end: float | None, default: ParamValue) -> str:
 
 
 def markdown_table(specs: Sequence[ParamSpec]) -> str:
-    """The README table of `specs`: parameter, default, range or choices, meaning (with unit)."""
-    lines = ["| parameter | default | range / choices | meaning |", "|---|---|---|---|"]
+    """The README table of `specs`: parameter, default, unit, range or choices, meaning."""
+    lines = [
+        "| parameter | default | unit | range / choices | meaning |",
+        "|---|---|---|---|---|",
+    ]
     for spec in specs:
         if spec.choices:
             allowed = ", ".join(f"`{c}`" for c in spec.choices)
@@ -269,8 +298,9 @@ def markdown_table(specs: Sequence[ParamSpec]) -> str:
             allowed = ""
         if spec.read_only:
             allowed = f"{allowed} (start-up only)".strip()
-        meaning = spec.documentation.replace("|", "\\|")
-        lines.append(f"| `{spec.name}` | {markdown_value(spec.default)} | {allowed} | {meaning} |")
+        meaning = spec.description.replace("|", "\\|")
+        default = markdown_value(spec.default)
+        lines.append(f"| `{spec.name}` | {default} | {spec.unit} | {allowed} | {meaning} |")
     return "\n".join(lines)
 
 
@@ -281,20 +311,24 @@ class ParameterError(ValueError):
 def _parameter_type(default: ParamValue) -> int:
     from rcl_interfaces.msg import ParameterType
 
-    if isinstance(default, bool):
-        return ParameterType.PARAMETER_BOOL
-    if isinstance(default, int):
-        return ParameterType.PARAMETER_INTEGER
-    if isinstance(default, float):
-        return ParameterType.PARAMETER_DOUBLE
-    if isinstance(default, str):
-        return ParameterType.PARAMETER_STRING
-    if isinstance(default, list) and default and isinstance(default[0], float):
-        return ParameterType.PARAMETER_DOUBLE_ARRAY
-    if isinstance(default, list) and default and isinstance(default[0], int):
-        return ParameterType.PARAMETER_INTEGER_ARRAY
-    if isinstance(default, list):
-        return ParameterType.PARAMETER_STRING_ARRAY
+    kinds: list[tuple[bool, str]] = [
+        (isinstance(default, bool), "BOOL"),
+        (isinstance(default, int), "INTEGER"),
+        (isinstance(default, float), "DOUBLE"),
+        (isinstance(default, str), "STRING"),
+        (
+            isinstance(default, list) and bool(default) and isinstance(default[0], float),
+            "DOUBLE_ARRAY",
+        ),
+        (
+            isinstance(default, list) and bool(default) and isinstance(default[0], int),
+            "INTEGER_ARRAY",
+        ),
+        (isinstance(default, list), "STRING_ARRAY"),
+    ]
+    for matches, kind in kinds:
+        if matches:
+            return int(getattr(ParameterType, f"PARAMETER_{kind}"))
     raise TypeError(f"unsupported parameter default {default!r}")
 
 

@@ -60,6 +60,13 @@ class Method(Generic[T]):
 
         return cls(name, description, build, specs_of(config), presets or {}, warm_up, config)
 
+    def configure(self, values: Mapping[str, Any]) -> Any:
+        """The method's config from parameter values (raises ValueError); for a detector's or
+        tracker's `reconfigure`. Only for a method made with `Method.of`."""
+        if self.config is None:
+            raise TypeError(f"{self.name} has no config dataclass")
+        return config_from_params(self.config, values)
+
     def defaults(self, preset: str = "") -> dict[str, Any]:
         """Parameter values of `preset` ("" = the parameters' own defaults)."""
         values = {spec.name: spec.default for spec in self.parameters}

@@ -27,7 +27,7 @@ import os
 import signal
 import sys
 import threading
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from types import FrameType
 
 STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM)
@@ -114,7 +114,7 @@ def guarded_main(module: str, function: str = "main", batch: bool = False) -> in
     install()
     _exit_at_once = True
     try:
-        entry = getattr(importlib.import_module(module), function)
+        entry: Callable[[], int] = getattr(importlib.import_module(module), function)
     finally:
         _exit_at_once = False
     if not batch:

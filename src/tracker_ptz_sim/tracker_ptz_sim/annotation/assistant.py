@@ -66,7 +66,8 @@ class CenterNet:
         (detections,) = self.session.run(["tower_0/detections"], {self.input_name: rgb})
         d = detections[0]
         keep = (d[:, 5] == 0) & (d[:, 4] >= threshold)
-        return d[keep, :5].astype(np.float32)
+        people: np.ndarray = d[keep, :5].astype(np.float32)
+        return people
 
 
 def _tiles(width: int, height: int, size: int, overlap: float) -> Iterator[tuple[int, int]]:

@@ -66,13 +66,15 @@ class _Live:
 
 
 def _heights(boxes: np.ndarray) -> np.ndarray:
-    return boxes[:, 3] - boxes[:, 1]
+    heights: np.ndarray = boxes[:, 3] - boxes[:, 1]
+    return heights
 
 
 def _size_fits(predicted: np.ndarray, boxes: np.ndarray, change: float) -> np.ndarray:
     """(N, M): box m's height within `change` x of prediction n's."""
     ratio = _heights(boxes)[None, :] / np.maximum(_heights(predicted)[:, None], 1e-6)
-    return (ratio <= change) & (ratio >= 1 / change)
+    fits: np.ndarray = (ratio <= change) & (ratio >= 1 / change)
+    return fits
 
 
 def _match(

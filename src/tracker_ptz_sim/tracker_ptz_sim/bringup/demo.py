@@ -454,7 +454,7 @@ class Supervisor:
         while time.monotonic() - started < limit:
             status = self.recorder.status
             if status is not None and status.state != ReplayStatus.STATE_PLAYING:
-                return status.state == ReplayStatus.STATE_ENDED
+                return bool(status.state == ReplayStatus.STATE_ENDED)
             if time.monotonic() - max(self.recorder.status_received, started) > quiet:
                 return False
             time.sleep(0.05)
@@ -526,25 +526,11 @@ def input_name(video: VideoInput) -> str:
     return redacted(str(video)) if is_live_stream(video) else Path(video).name
 
 
-def run_graph(
-    graph: Graph,
-    video: VideoInput,
-    out: Path,
-    overrides: dict[str, dict[str, Any]],
-    install_dir: Path,
-    timeout: float,
-    storage: str = "mcap",
-    during: Callable[[ReplayStatus | None, GraphProcesses], None] | None = None,
-    respawn_limit: int = 0,
-    shared_memory: bool | None = None,
-    raw_images: bool = False,
-    single_process: bool = False,
-    executor: str = DEFAULT_EXECUTOR,
-) -> RunResult:
-    """Replay `video` through the graph, recording every topic into out/bag.
+@dataclass(frozen=True)
+class RunOptions:
+    """How `run_graph` runs the graph and records it.
 
-    Never raises for a node that dies, a graph that does not come up, a timeout or a stop signal:
-    the run ends, the bag is closed, and the result says why (`complete`, `problems`).
+    `storage`: the bag's storage plugin ("mcap" or "sqlite3").
     `during(status, nodes)` is called while the replay runs (tests use it to kill and restart
     nodes); `respawn_limit` restarts per node (0: a node that dies ends the run).
     `shared_memory` (default: unless nodes may be killed or restarted, i.e. with `during` or
@@ -556,32 +542,58 @@ def run_graph(
     rclpy executor (`node_main.EXECUTORS`) of every node process (or of graph_host) and of the
     recorder.
     """
+
+    storage: str = "mcap"
+    during: Callable[[ReplayStatus | None, GraphProcesses], None] | None = None
+    respawn_limit: int = 0
+    shared_memory: bool | None = None
+    raw_images: bool = False
+    single_process: bool = False
+    executor: str = DEFAULT_EXECUTOR
+
+
+def run_graph(
+    graph: Graph,
+    video: VideoInput,
+    out: Path,
+    overrides: dict[str, dict[str, Any]],
+    install_dir: Path,
+    timeout: float,
+    options: RunOptions = RunOptions(),
+) -> RunResult:
+    """Replay `video` through the graph, recording every topic into out/bag, run as `options`
+    say (`RunOptions`).
+
+    Never raises for a node that dies, a graph that does not come up, a timeout or a stop signal:
+    the run ends, the bag is closed, and the result says why (`complete`, `problems`).
+    """
     bag_path = out / "bag"
     for previous in (bag_path, out / "logs"):  # a run into the same out/ replaces the last one's
         if previous.exists():
             shutil.rmtree(previous)
-    topics = recorded_topics({t.name: t.type for t in graph.topics}, raw_images)
-    bag = BagWriter(bag_path, topics, storage)
+    topics = recorded_topics({t.name: t.type for t in graph.topics}, options.raw_images)
+    bag = BagWriter(bag_path, topics, options.storage)
     result = RunResult(bag_path)
     # Our stop signals, not rclpy's: the graph is stopped and the bag closed on Ctrl-C.
     rclpy.init(
         args=["--ros-args", "--disable-rosout-logs"],
         signal_handler_options=SignalHandlerOptions.NO,
     )
-    recorder = Recorder(graph, bag, raw_images)
+    recorder = Recorder(graph, bag, options.raw_images)
     # The recorder spins in its own thread: one executor for the whole run is far cheaper per
     # message than spin_once from the supervising loop below.
-    recording = EXECUTORS[executor]()
+    recording = EXECUTORS[options.executor]()
     recording.add_node(recorder)
     recorded = threading.Event()  # set: the recorder's thread stops spinning
     spinner = threading.Thread(
         target=_spin_recorder, args=(recording, recorded, result), daemon=True
     )
     spinner.start()
+    shared_memory = options.shared_memory
     if shared_memory is None:
-        shared_memory = respawn_limit == 0 and during is None
+        shared_memory = options.respawn_limit == 0 and options.during is None
     environment = {} if shared_memory else GraphProcesses.without_shared_memory(graph)
-    nodes = GraphProcesses(graph, install_dir, out / "logs", environment, executor)
+    nodes = GraphProcesses(graph, install_dir, out / "logs", environment, options.executor)
     live = any(node.name == LIVE_VIEW.name for node in graph.nodes)
     source_overrides = {
         "path": str(video),
@@ -596,18 +608,22 @@ def run_graph(
     }
     overrides = {**overrides, **stand_in_scene(graph, video, overrides)}
     supervisor = Supervisor(
-        nodes, recorder, result, {**overrides, "video_source": source_overrides}, respawn_limit
+        nodes,
+        recorder,
+        result,
+        {**overrides, "video_source": source_overrides},
+        options.respawn_limit,
     )
     try:
-        if single_process:
+        if options.single_process:
             nodes.start_host({**overrides, "video_source": source_overrides}, live)
-            _supervise(recorder, supervisor, timeout, during, nodes, input_name(video))
+            _supervise(recorder, supervisor, timeout, options.during, nodes, input_name(video))
             return result
         for node in graph.nodes:
             if node.name != "video_source":
                 nodes.start(node.name, overrides.get(node.name))
         if _wait_for_graph(graph, recorder, supervisor) and _wait_for_matches(graph, recorder):
-            _replay(nodes, recorder, supervisor, source_overrides, timeout, during)
+            _replay(nodes, recorder, supervisor, source_overrides, timeout, options.during)
     finally:
         _stop_nodes(nodes, result)
         recorded.set()
@@ -844,6 +860,43 @@ class RenderingInterruptedError(Exception):
 
 
 def main(argv: list[str] | None = None) -> int:
+    parser = _argument_parser()
+    args = parser.parse_args(argv)
+
+    video, note = resolve_video(args.video)
+    print(note, flush=True)
+    overrides, requested = _overrides_of(args, parser)
+    graph = load_graph(args.graph)
+    problem = unknown_override_nodes(requested, [with_live_view(graph) if args.live else graph])
+    if problem:
+        parser.error(problem)
+    args.out.mkdir(parents=True, exist_ok=True)
+    graph = _graph_to_run(graph, args, parser, overrides)
+    run = run_graph(
+        graph,
+        video,
+        args.out,
+        overrides,
+        install_space(),
+        args.timeout,
+        RunOptions(
+            storage=args.storage,
+            respawn_limit=RESPAWN_LIMIT if args.respawn else 0,
+            raw_images=args.raw_images,
+            single_process=args.single_process,
+            executor=args.executor,
+        ),
+    )
+    try:
+        summary = report(run.bag, args.out, render=not args.no_video, run=run)
+    except RenderingInterruptedError:
+        print(f"\nrendering interrupted; {args.out}/summary.json and tracks.txt are written")
+        return 130
+    _print_outcome(run, summary, video, args)
+    return _exit_code(run, summary)
+
+
+def _argument_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
     )
@@ -932,10 +985,14 @@ def main(argv: list[str] | None = None) -> int:
         "--timeout", type=float, default=1800.0, help="give up after this many seconds"
     )
     parser.add_argument("--storage", choices=("mcap", "sqlite3"), default="mcap")
-    args = parser.parse_args(argv)
+    return parser
 
-    video, note = resolve_video(args.video)
-    print(note, flush=True)
+
+def _overrides_of(
+    args: argparse.Namespace, parser: argparse.ArgumentParser
+) -> tuple[dict[str, dict[str, Any]], dict[str, None]]:
+    """The parameter overrides of --set, --frames, --frames-in-flight and --mode, and the nodes
+    --set names (before the runner adds its own); exits through `parser` on a bad value."""
     overrides = parse_overrides(args.set)
     if args.frames is not None:
         if args.frames < 1:
@@ -951,11 +1008,17 @@ def main(argv: list[str] | None = None) -> int:
             overrides.setdefault(node, {}).update(values)
     if args.mode:
         overrides.setdefault("ptz_controller", {})["mode"] = args.mode
-    graph = load_graph(args.graph)
-    problem = unknown_override_nodes(requested, [with_live_view(graph) if args.live else graph])
-    if problem:
-        parser.error(problem)
-    args.out.mkdir(parents=True, exist_ok=True)
+    return overrides, requested
+
+
+def _graph_to_run(
+    graph: Graph,
+    args: argparse.Namespace,
+    parser: argparse.ArgumentParser,
+    overrides: dict[str, dict[str, Any]],
+) -> Graph:
+    """`graph` without the --external nodes, with the live view when --live (and where to open
+    it said); exits through `parser` on an unknown external node or a conflicting option."""
     unknown = set(args.external) - {node.name for node in graph.nodes}
     if unknown:
         parser.error(f"--external: no node {sorted(unknown)} in the {graph.name} graph")
@@ -966,24 +1029,13 @@ def main(argv: list[str] | None = None) -> int:
         graph = with_live_view(graph)
         port = overrides.get("live_view", {}).get("port", 8765)
         print(f"live view: open ws://127.0.0.1:{port} in Foxglove (Open connection)", flush=True)
-    run = run_graph(
-        graph,
-        video,
-        args.out,
-        overrides,
-        install_space(),
-        args.timeout,
-        args.storage,
-        respawn_limit=RESPAWN_LIMIT if args.respawn else 0,
-        raw_images=args.raw_images,
-        single_process=args.single_process,
-        executor=args.executor,
-    )
-    try:
-        summary = report(run.bag, args.out, render=not args.no_video, run=run)
-    except RenderingInterruptedError:
-        print(f"\nrendering interrupted; {args.out}/summary.json and tracks.txt are written")
-        return 130
+    return graph
+
+
+def _print_outcome(
+    run: RunResult, summary: run_report.Summary, video: VideoInput, args: argparse.Namespace
+) -> None:
+    """The run's summary, replay and camera latency, and what was written to args.out."""
     print(f"\nRun summary ({redacted(str(video))}):\n{run_report.format_summary(summary)}")
     if run.replay:
         replay = run.replay
@@ -999,6 +1051,11 @@ def main(argv: list[str] | None = None) -> int:
         "" if args.no_video or not summary.frames else ", annotated.mp4, contact_sheet.png"
     )
     print(f"\nWrote {args.out}/: {products}")
+
+
+def _exit_code(run: RunResult, summary: run_report.Summary) -> int:
+    """run_demo's exit code (0, 1 for an incomplete run or no frames, 130 when interrupted),
+    the nodes' warnings and the run's problems said on stderr."""
     if run.node_warnings:
         print("\nThe nodes warned (logs/):\n  " + "\n  ".join(run.node_warnings), file=sys.stderr)
     if not run.complete:

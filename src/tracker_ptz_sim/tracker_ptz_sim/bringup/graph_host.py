@@ -66,7 +66,8 @@ def node_class(node: NodeSpec) -> Callable[..., SuiteNode]:
         module, name = NODE_CLASSES[(node.package, node.executable)].split(":")
     except KeyError:
         raise StartupError(f"graph_host cannot run {node.package}/{node.executable}") from None
-    return getattr(importlib.import_module(module), name)
+    cls: Callable[..., SuiteNode] = getattr(importlib.import_module(module), name)
+    return cls
 
 
 def start_graph(group: NodeGroup, graph: Graph, overrides: dict[str, dict]) -> None:

@@ -133,7 +133,8 @@ def load_description(path: Path) -> LaunchDescription:
             raise ValueError(f"{path} is not a Python launch file")
         module = importlib.util.module_from_spec(spec)
         spec.loader.exec_module(module)
-        return module.generate_launch_description()
+        description: LaunchDescription = module.generate_launch_description()
+        return description
     finally:
         for name, module_before in saved.items():
             if module_before is None:
@@ -226,33 +227,50 @@ def supervise(commands: list[tuple[Node, list[str]]], environment: dict[str, str
     codes: dict[int, int] = {}
     while len(codes) < len(running):
         now = time.monotonic()
-        if stop_signals.requested() and stopping_since is None:
-            stopping_since = now
-            for entry in running:
-                if entry.process.poll() is None:
-                    entry.process.send_signal(signal.SIGINT)
-        if stopping_since is not None and now - stopping_since > STOP_WAIT_S:
-            for entry in running:
-                if entry.process.poll() is None:
-                    entry.process.terminate()
+        stopping_since = _stop_when_requested(running, stopping_since, now)
         for index, entry in enumerate(running):
             if index in codes:
                 continue
-            code = entry.process.poll()
-            if code is None:
-                continue
-            if stopping_since is None and _respawns(entry):
-                if entry.restart_at is None:
-                    entry.restart_at = now + entry.node.respawn_delay
-                elif now >= entry.restart_at:
-                    entry.process = subprocess.Popen(entry.command, env=env)
-                    entry.restarts, entry.restart_at = entry.restarts + 1, None
-                continue
-            codes[index] = code
+            code = _exit_code(entry, stopping_since is None, now, env)
+            if code is not None:
+                codes[index] = code
         time.sleep(0.05)
     stopped = stopping_since is not None
     fine = all(code == 0 or (stopped and code in (-signal.SIGINT, 130)) for code in codes.values())
     return 0 if fine else 1
+
+
+def _stop_when_requested(
+    running: list[Running], stopping_since: float | None, now: float
+) -> float | None:
+    """When the stop (since `stopping_since`, None: not yet) is requested now, SIGINT to every
+    command still running; STOP_WAIT_S after it, SIGTERM. Since when the run is stopping."""
+    if stop_signals.requested() and stopping_since is None:
+        stopping_since = now
+        for entry in running:
+            if entry.process.poll() is None:
+                entry.process.send_signal(signal.SIGINT)
+    if stopping_since is not None and now - stopping_since > STOP_WAIT_S:
+        for entry in running:
+            if entry.process.poll() is None:
+                entry.process.terminate()
+    return stopping_since
+
+
+def _exit_code(entry: Running, may_respawn: bool, now: float, env: dict[str, str]) -> int | None:
+    """The command's exit code once it has ended for good; None while it runs, or when it
+    ended and respawns (with `may_respawn`): restarted `respawn_delay` s after it ended."""
+    code = entry.process.poll()
+    if code is None:
+        return None
+    if may_respawn and _respawns(entry):
+        if entry.restart_at is None:
+            entry.restart_at = now + entry.node.respawn_delay
+        elif now >= entry.restart_at:
+            entry.process = subprocess.Popen(entry.command, env=env)
+            entry.restarts, entry.restart_at = entry.restarts + 1, None
+        return None
+    return code
 
 
 def _respawns(entry: Running) -> bool:

@@ -55,11 +55,20 @@ def _detector_node() -> Sequence[ParamSpec]:
 
 
 def _fusion_own() -> Sequence[ParamSpec]:
-    """The person_motion detector's parameters that neither ssim nor person has."""
+    """The person_motion detector's own parameters, and those of ssim_background and person it
+    gives other defaults."""
     from tracker_detect.detectors import DETECTORS
 
-    others = {s.name for name in ("ssim", "person") for s in DETECTORS.get(name).parameters}
-    return [s for s in DETECTORS.get("person_motion").parameters if s.name not in others]
+    parts = {
+        s.name: s.default
+        for name in ("ssim_background", "person")
+        for s in DETECTORS.get(name).parameters
+    }
+    return [
+        s
+        for s in DETECTORS.get("person_motion").parameters
+        if s.name not in parts or parts[s.name] != s.default
+    ]
 
 
 def _tracker_node() -> Sequence[ParamSpec]:

@@ -56,7 +56,7 @@ class Scenario:
 
     @property
     def targets(self) -> int:
-        return self.positions.shape[1]
+        return int(self.positions.shape[1])
 
     def truth(self) -> list[Points]:
         return [

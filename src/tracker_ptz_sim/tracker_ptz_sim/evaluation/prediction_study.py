@@ -48,7 +48,8 @@ def _hand_jitter(rng: np.random.Generator, sigma: float = 1.5) -> np.ndarray:
 
 
 def _on_path(angle: np.ndarray, radius: np.ndarray) -> np.ndarray:
-    return CENTRE + np.stack([radius * np.cos(angle), radius * np.sin(angle)], axis=1)
+    points: np.ndarray = CENTRE + np.stack([radius * np.cos(angle), radius * np.sin(angle)], axis=1)
+    return points
 
 
 def concentric_circles(rng: np.random.Generator) -> np.ndarray:
@@ -62,7 +63,8 @@ def concentric_circles(rng: np.random.Generator) -> np.ndarray:
     speed = 2 * math.pi / lap * (1.0 + 0.2 * np.sin(2 * math.pi * t / 3.7 + phase))
     angle = rng.uniform(0, 2 * math.pi) + np.cumsum(speed) / FPS
     radius = np.interp(t, [0.0, 4.0, 5.0, t[-1]], [160.0, 160.0, 100.0, 100.0])
-    return _on_path(angle, radius) + _hand_jitter(rng)
+    track: np.ndarray = _on_path(angle, radius) + _hand_jitter(rng)
+    return track
 
 
 def stop_and_go(rng: np.random.Generator) -> np.ndarray:
@@ -73,7 +75,8 @@ def stop_and_go(rng: np.random.Generator) -> np.ndarray:
     for start in (3.5, 6.5 + rng.uniform(0.0, 1.0)):
         moving[(t >= start) & (t < start + 1.0)] = 0.0
     angle = rng.uniform(0, 2 * math.pi) + np.cumsum(moving) * 2 * math.pi / 2.5 / FPS
-    return _on_path(angle, np.full(FRAMES, 150.0)) + _hand_jitter(rng)
+    track: np.ndarray = _on_path(angle, np.full(FRAMES, 150.0)) + _hand_jitter(rng)
+    return track
 
 
 def speed_changes(rng: np.random.Generator) -> np.ndarray:
@@ -81,7 +84,8 @@ def speed_changes(rng: np.random.Generator) -> np.ndarray:
     segments = rng.uniform(0.4, 2.0, size=FRAMES // 30 + 1)
     laps = np.repeat(segments, 30)[:FRAMES]
     angle = rng.uniform(0, 2 * math.pi) + np.cumsum(laps) * 2 * math.pi / 2.5 / FPS
-    return _on_path(angle, np.full(FRAMES, 150.0)) + _hand_jitter(rng)
+    track: np.ndarray = _on_path(angle, np.full(FRAMES, 150.0)) + _hand_jitter(rng)
+    return track
 
 
 def figure_eight(rng: np.random.Generator) -> np.ndarray:
@@ -89,7 +93,8 @@ def figure_eight(rng: np.random.Generator) -> np.ndarray:
     t = np.arange(FRAMES) / FPS
     a = rng.uniform(0, 2 * math.pi) + 2 * math.pi * t / 4.0
     path = np.stack([150.0 * np.sin(a), 75.0 * np.sin(2 * a)], axis=1)
-    return CENTRE + path + _hand_jitter(rng)
+    track: np.ndarray = CENTRE + path + _hand_jitter(rng)
+    return track
 
 
 BALL_RADIUS = 16  # px: a small ball at arm's length from a webcam
@@ -102,7 +107,8 @@ def desk(rng: np.random.Generator) -> np.ndarray:
     grey = rng.integers(60, 190, (height // 16, width // 16, 1))
     tint = rng.integers(-10, 11, (height // 16, width // 16, 3))
     small = np.clip(grey + tint, 0, 255).astype(np.uint8)
-    return cv2.resize(small, IMAGE_SIZE, interpolation=cv2.INTER_LINEAR)
+    background: np.ndarray = cv2.resize(small, IMAGE_SIZE, interpolation=cv2.INTER_LINEAR)
+    return background
 
 
 def render_ball(background: np.ndarray, centre: np.ndarray, rng: np.random.Generator) -> np.ndarray:

@@ -208,16 +208,9 @@ def render_video(
 
     def draw(stamp: int) -> None:
         nonlocal writer, drawn
-        canvas = annotate_scene(decode_image(waiting.pop(stamp)), frames.get(stamp))
-        camera = cameras.pop(stamp, None)
-        view = None if camera is None else decode_image(camera)
-        canvas = side_by_side(canvas, annotate_view(view, canvas.shape[0]))
+        canvas = _annotated_frame(waiting.pop(stamp), cameras.pop(stamp, None), frames.get(stamp))
         if writer is None:
-            size = (canvas.shape[1], canvas.shape[0])
-            fourcc = cv2.VideoWriter_fourcc(*"mp4v")  # type: ignore[attr-defined]  # not in stubs
-            writer = cv2.VideoWriter(str(path), fourcc, fps, size)
-            if not writer.isOpened():
-                raise OSError(f"OpenCV cannot write {path}")
+            writer = _open_writer(path, fps, canvas)
         writer.write(canvas)
         drawn += 1
         if progress:
@@ -231,19 +224,49 @@ def render_video(
             elif stamp != last_scene:
                 waiting[stamp] = msg
                 last_scene = stamp
-            while waiting:
-                oldest = next(iter(waiting))
-                if oldest not in cameras and len(waiting) <= PAIRING_WINDOW:
-                    break
-                draw(oldest)
-            while len(cameras) > 4 * PAIRING_WINDOW:  # camera images whose scene never came
-                del cameras[next(iter(cameras))]
+            while (ready := _next_to_draw(waiting, cameras)) is not None:
+                draw(ready)
+            _drop_unpaired(cameras)
         for stamp in list(waiting):
             draw(stamp)
     finally:
         if writer is not None:
             writer.release()
     return drawn
+
+
+def _annotated_frame(scene: Any, camera: Any | None, record: FrameRecord | None) -> np.ndarray:
+    """One frame of the annotated video: the annotated scene image, the camera's view (its image
+    message, None when it never came) beside it."""
+    canvas = annotate_scene(decode_image(scene), record)
+    view = None if camera is None else decode_image(camera)
+    return side_by_side(canvas, annotate_view(view, canvas.shape[0]))
+
+
+def _open_writer(path: Path, fps: float, canvas: np.ndarray) -> cv2.VideoWriter:
+    """An MP4 writer of frames the size of `canvas`; OSError when OpenCV cannot write `path`."""
+    size = (canvas.shape[1], canvas.shape[0])
+    fourcc = cv2.VideoWriter_fourcc(*"mp4v")  # type: ignore[attr-defined]  # not in stubs
+    writer = cv2.VideoWriter(str(path), fourcc, fps, size)
+    if not writer.isOpened():
+        raise OSError(f"OpenCV cannot write {path}")
+    return writer
+
+
+def _next_to_draw(waiting: dict[int, Any], cameras: dict[int, Any]) -> int | None:
+    """The oldest waiting scene frame's stamp once its camera image is read or PAIRING_WINDOW
+    later scene frames are; None while it (or nothing) waits."""
+    if not waiting:
+        return None
+    oldest = next(iter(waiting))
+    ready = oldest in cameras or len(waiting) > PAIRING_WINDOW
+    return oldest if ready else None
+
+
+def _drop_unpaired(cameras: dict[int, Any]) -> None:
+    """Forget the oldest camera images beyond 4 x PAIRING_WINDOW: their scene never came."""
+    while len(cameras) > 4 * PAIRING_WINDOW:
+        del cameras[next(iter(cameras))]
 
 
 UNCLASSIFIED_COLOUR = (200, 200, 200)  # BGR: blobs and tracks labelled motion (not followed)

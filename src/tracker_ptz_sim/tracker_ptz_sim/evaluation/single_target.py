@@ -96,7 +96,8 @@ def pooled(scores: list[SingleTargetScores]) -> SingleTargetScores:
         return SingleTargetScores(0, 0.0, 0.0, 0.0, 0)
 
     def weighted(name: str) -> float:
-        return sum(getattr(s, name) * s.frames for s in scores) / frames
+        mean: float = sum(getattr(s, name) * s.frames for s in scores) / frames
+        return mean
 
     return SingleTargetScores(
         frames,

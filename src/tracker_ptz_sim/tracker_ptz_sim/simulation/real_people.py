@@ -137,7 +137,8 @@ def _fill_holes(mask: np.ndarray) -> np.ndarray:
     flood = padded.copy()
     cv2.floodFill(flood, None, (0, 0), 1)
     holes = (flood == 0)[1:-1, 1:-1]
-    return mask | holes.astype(np.uint8)
+    filled: np.ndarray = mask | holes.astype(np.uint8)
+    return filled
 
 
 def _middle_part(mask: np.ndarray, cx: float, cy: float, height: float) -> np.ndarray:

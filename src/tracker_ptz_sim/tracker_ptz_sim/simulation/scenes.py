@@ -611,4 +611,5 @@ def scene_video(directory: str | Path) -> Path:
     """The video (or PNG folder) of a scene written by :func:`write_scene`."""
     root = Path(directory)
     meta = json.loads((root / META_NAME).read_text())
-    return root / meta["video"]
+    video: Path = root / meta["video"]
+    return video

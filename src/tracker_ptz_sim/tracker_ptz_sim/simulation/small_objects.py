@@ -173,7 +173,8 @@ class SmallMover:
 
     @property
     def present(self) -> np.ndarray:
-        return ~np.isnan(self.centre[:, 0])
+        present: np.ndarray = ~np.isnan(self.centre[:, 0])
+        return present
 
 
 @dataclass
@@ -455,7 +456,8 @@ def _generated_ground(rng: np.random.Generator, width: int, height: int) -> np.n
     yy, xx = np.mgrid[0:height, 0:width].astype(np.float32)
     r2 = ((xx - width / 2) / width) ** 2 + ((yy - height / 2) / height) ** 2
     light = (1.0 - 0.3 * r2)[:, :, None]
-    return np.clip(np.rint(canvas * light), 0, 255).astype(np.uint8)
+    lit: np.ndarray = np.clip(np.rint(canvas * light), 0, 255).astype(np.uint8)
+    return lit
 
 
 @dataclass(frozen=True, eq=False)
@@ -587,7 +589,8 @@ def _curve(rng: np.random.Generator, start: np.ndarray, end: np.ndarray) -> np.n
     bend = rng.uniform(-0.2, 0.2) * float(np.hypot(*chord))
     t = np.linspace(0, 1, 60)[:, None]
     middle = start + chord / 2 + bend * normal
-    return (1 - t) ** 2 * start + 2 * (1 - t) * t * middle + t**2 * end
+    curve: np.ndarray = (1 - t) ** 2 * start + 2 * (1 - t) * t * middle + t**2 * end
+    return curve
 
 
 def _stroke(mask: np.ndarray, points: np.ndarray, thick: float, tip: float) -> None:
@@ -861,10 +864,12 @@ def _ground_near(background: np.ndarray, path: np.ndarray) -> np.ndarray:
     H, W = background.shape[:2]
     points = path[~np.isnan(path[:, 0]), :2]
     if not len(points):
-        return np.median(background.reshape(-1, 3), axis=0).astype(np.float32)
+        everywhere: np.ndarray = np.median(background.reshape(-1, 3), axis=0).astype(np.float32)
+        return everywhere
     x, y = np.clip(points[len(points) // 2], 0, (W - 1, H - 1)).astype(int)
     patch = background[max(0, y - 20) : y + 21, max(0, x - 20) : x + 21]
-    return np.median(patch.reshape(-1, 3), axis=0).astype(np.float32)
+    nearby: np.ndarray = np.median(patch.reshape(-1, 3), axis=0).astype(np.float32)
+    return nearby
 
 
 def _movers(

@@ -44,7 +44,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from functools import partial
 from pathlib import Path
-from typing import ClassVar, Protocol
+from typing import ClassVar, Protocol, cast
 
 import cv2
 import numpy as np
@@ -386,7 +386,10 @@ class _Unit:
 
 def _bezier(p0: np.ndarray, p1: np.ndarray, p2: np.ndarray, p3: np.ndarray) -> np.ndarray:
     t = np.linspace(0.0, 1.0, 241)[:, None]
-    return (1 - t) ** 3 * p0 + 3 * (1 - t) ** 2 * t * p1 + 3 * (1 - t) * t**2 * p2 + t**3 * p3
+    curve: np.ndarray = (
+        (1 - t) ** 3 * p0 + 3 * (1 - t) ** 2 * t * p1 + 3 * (1 - t) * t**2 * p2 + t**3 * p3
+    )
+    return curve
 
 
 def _outside(ground: _Ground, point: np.ndarray, direction: np.ndarray, extra: float) -> np.ndarray:
@@ -404,7 +407,8 @@ def _outside(ground: _Ground, point: np.ndarray, direction: np.ndarray, extra: f
     first_out = int(np.argmax(out)) if out.any() else len(steps)
     if first_out == len(steps) or over[: first_out + 1].any():
         return np.full(2, np.nan)
-    return steps[first_out] + extra * unit
+    beyond: np.ndarray = steps[first_out] + extra * unit
+    return beyond
 
 
 def _border_point(rng: np.random.Generator, ground: _Ground, side: str) -> np.ndarray:
@@ -421,7 +425,8 @@ def _outward(ground: _Ground, point: np.ndarray, side: str) -> np.ndarray:
     g = ground.to_ground(point)
     if side == "bottom":  # towards the camera, keeping the image column
         nearer = ground.to_ground(point + np.array([0.0, 1.0]))
-        return nearer - g
+        towards: np.ndarray = nearer - g
+        return towards
     return np.array([-1.0 if side == "left" else 1.0, 0.0])
 
 
@@ -662,7 +667,8 @@ class _Look:
 
 def _pick(rng: np.random.Generator, palette: np.ndarray, jitter: float = 10.0) -> np.ndarray:
     colour = palette[int(rng.integers(len(palette)))] + rng.normal(0, jitter, 3)
-    return np.clip(colour, 8, 245).astype(np.float32)
+    picked: np.ndarray = np.clip(colour, 8, 245).astype(np.float32)
+    return picked
 
 
 def _random_look(rng: np.random.Generator, stature: float, near_background: np.ndarray) -> _Look:
@@ -934,7 +940,8 @@ class _Tape:
         lift = (
             0.06 + 0.14 * self.wind[n] * bell + 0.05 * np.sin(2 * math.pi * 2 * s - self.ripple[n])
         )
-        return base + np.hstack([np.zeros_like(s), lift * bell * scale])
+        points: np.ndarray = base + np.hstack([np.zeros_like(s), lift * bell * scale])
+        return points
 
     def draw(self, canvas: np.ndarray, label: np.ndarray, n: int, dx: int, dy: int) -> None:
         line = self._line(n) + (dx, dy)
@@ -1328,7 +1335,7 @@ def _pavement(rng: np.random.Generator, x_m: np.ndarray, z_m: np.ndarray) -> np.
     gx = np.minimum(xs - ix, 1 - (xs - ix)) * tile
     gz = np.minimum(z_m / tile - iz, 1 - (z_m / tile - iz)) * tile
     grout = (gx < 0.012) | (gz < 0.012)
-    out = base * (1.0 + 0.05 * value)[..., None]
+    out: np.ndarray = base * (1.0 + 0.05 * value)[..., None]
     out[grout] *= 0.72
     return out
 
@@ -1477,7 +1484,8 @@ def _procedural_background(rng: np.random.Generator, ground: _Ground, margin: in
     yy, xx = np.mgrid[0:He, 0:We].astype(np.float32)
     r2 = ((xx - We / 2) / We) ** 2 + ((yy - He / 2) / He) ** 2
     light = (1.0 - 0.35 * r2 + 0.06 * (xx / We - 0.5))[..., None]
-    return np.clip(np.rint(image * light), 0, 255).astype(np.uint8)
+    lit: np.ndarray = np.clip(np.rint(image * light), 0, 255).astype(np.uint8)
+    return lit
 
 
 # --- people over time ----------------------------------------------------------------------------
@@ -1519,7 +1527,10 @@ def _background_near(background: np.ndarray, foot: np.ndarray, h: float, margin:
     x1 = int(np.clip(foot[0] + 0.3 * h + margin, x0 + 1, W))
     y0 = int(np.clip(foot[1] - h + margin, 0, H - 1))
     y1 = int(np.clip(foot[1] + margin, y0 + 1, H))
-    return np.median(background[y0:y1, x0:x1].reshape(-1, 3), axis=0).astype(np.float32)
+    median: np.ndarray = np.median(background[y0:y1, x0:x1].reshape(-1, 3), axis=0).astype(
+        np.float32
+    )
+    return median
 
 
 def _person(
@@ -1721,12 +1732,13 @@ def _sensor(
     light = image.astype(np.float32) * gain
     if config.noise_sigma > 0:
         light += rng.standard_normal(light.shape, dtype=np.float32) * np.float32(config.noise_sigma)
-    out = np.clip(np.rint(light), 0, 255).astype(np.uint8)
+    out: np.ndarray = np.clip(np.rint(light), 0, 255).astype(np.uint8)
     if config.jpeg_quality > 0:
         ok, data = cv2.imencode(".jpg", out, [cv2.IMWRITE_JPEG_QUALITY, config.jpeg_quality])
         if not ok:
             raise RuntimeError("JPEG encoding failed")
-        out = cv2.imdecode(data, cv2.IMREAD_COLOR)
+        # imdecode of what imencode just wrote: a decoded image (the stubs allow None)
+        out = cast(np.ndarray, cv2.imdecode(data, cv2.IMREAD_COLOR))
     return out
 
 

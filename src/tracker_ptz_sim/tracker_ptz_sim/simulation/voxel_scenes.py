@@ -484,7 +484,8 @@ def _targets(
 
 def _norms(v: FloatArray) -> FloatArray:
     """(n, 1) lengths of the rows of ``v``."""
-    return np.linalg.norm(v, axis=1, keepdims=True)
+    norms: FloatArray = np.linalg.norm(v, axis=1, keepdims=True)
+    return norms
 
 
 def _units(v: FloatArray) -> FloatArray:
@@ -504,7 +505,8 @@ def _repulsion(pos: FloatArray, partner: npt.NDArray[np.intp]) -> FloatArray:
     magnitude = np.where(
         near, _REPULSION_ACC * (1.0 - d / _REPULSION_RANGE_M) / np.maximum(d, 1e-6), 0.0
     )
-    return (magnitude[..., None] * diff).sum(axis=1)
+    acceleration: FloatArray = (magnitude[..., None] * diff).sum(axis=1)
+    return acceleration
 
 
 def _guidance(
@@ -702,7 +704,8 @@ def _placement(
     if np.any(lo > hi):
         return None
     if target is None:
-        return rng.uniform(lo, hi)
+        uniform: FloatArray = rng.uniform(lo, hi)
+        return uniform
     return np.clip(target + rng.normal(0.0, 0.5, 2), lo, hi)
 
 
@@ -722,7 +725,10 @@ def _contact_script(a: _Shape, b: _Shape, fps: float, rng: np.random.Generator) 
             normal = np.stack([-np.sin(theta), np.cos(theta)], axis=1)
             apart = np.maximum(0.0, np.maximum(t0 - t, t - t1))  # s outside the touching window
             offset = half + splay * (np.sqrt(apart**2 + 0.3**2) - 0.3)  # C1 at the window's ends
-            return _arc(t, speed, turn, heading) + (sign * side * offset)[:, None] * normal
+            points: FloatArray = (
+                _arc(t, speed, turn, heading) + (sign * side * offset)[:, None] * normal
+            )
+            return points
 
         return path
 
