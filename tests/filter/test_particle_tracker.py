@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from tracker_filter.observation import Detections, Need, Observation
-from tracker_filter.particle_tracker import COAST_NOISE, ColourParticleTracker, build
+from tracker_filter.particle_tracker import COAST_NOISE, ColourParticleTracker
 from tracker_filter.trackers import TRACKERS
 from tracker_filter.tracking import TrackStatus
 from tracker_msgs_py.geometry import Rect
@@ -46,7 +46,7 @@ def scene_frames(count: int, stop_after: int = 1000):
 
 def tracker(**overrides) -> ColourParticleTracker:
     values = TRACKERS.get("colour_particles").defaults() | {"particles": 300} | overrides
-    return build(values)
+    return TRACKERS.get("colour_particles").build(values)
 
 
 def iou(a: np.ndarray, b: np.ndarray) -> float:

@@ -34,7 +34,7 @@ filter draws from its own generator, seeded by (`seed`, track id): a replay give
 from __future__ import annotations
 
 from collections import deque
-from collections.abc import Mapping
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -59,7 +59,7 @@ from tracker_filter.object_scale import ExpectedHeight, HeightByRow, height_rati
 from tracker_filter.observation import Detections, Need, Observation
 from tracker_filter.tracking import TrackBook, TrackSet
 from tracker_msgs_py.geometry import Rect, iou_matrix
-from tracker_msgs_py.params import ParamSpec
+from tracker_msgs_py.params import check_config, param
 from tracker_msgs_py.registry import Method
 
 LAYOUT = StateLayout.from_names("x y vx vy w h")
@@ -88,43 +88,27 @@ class ColourParticleTracker:
 
     layout = LAYOUT
 
-    def __init__(
-        self,
-        config: ParticleFilterConfig,
-        appearance: str = "rgb",
-        bins: int = 16,
-        background_weighting: bool = True,
-        contrast: float = 0.0,
-        min_similarity: float = 0.3,
-        new_track_iou: float = 0.3,
-        confirm_hits: int = 3,
-        confirm_travel: float = 12.0,
-        max_misses: int = 5,
-        max_unsupported: float = 8.0,
-        confirm_min_height: float = 0.0,
-        confirm_height_ratio: float = 0.0,
-        seed: int = 0,
-        first_id: int = 1,
-    ) -> None:
-        self.config, self.appearance, self.bins = config, appearance, bins
+    def __init__(self, settings: ColourParticlesConfig, first_id: int = 1) -> None:
+        config = settings.filter_config()
+        self.config, self.appearance, self.bins = config, settings.appearance, settings.bins
         mask = {Need.MASK} if config.foreground.enabled else set()
         self.needs = frozenset({Need.IMAGE, Need.WINDOW} | mask)
-        self.background_weighting, self.min_similarity = background_weighting, min_similarity
-        self.contrast = contrast
-        self.new_track_iou, self.max_misses = new_track_iou, max_misses
-        self.max_unsupported = max_unsupported
+        self.background_weighting = settings.background_weighting
+        self.min_similarity, self.contrast = settings.min_similarity, settings.contrast
+        self.new_track_iou, self.max_misses = settings.new_track_iou, settings.max_misses
+        self.max_unsupported = settings.max_unsupported
         self.confirmation = MofNConfirmation(
-            confirm_hits,
-            confirm_hits,
-            min_travel=confirm_travel,
-            min_height=confirm_min_height,
-            height_ratio=confirm_height_ratio,
+            settings.confirm_hits,
+            settings.confirm_hits,
+            min_travel=settings.confirm_travel,
+            min_height=settings.confirm_min_height,
+            height_ratio=settings.confirm_height_ratio,
         )
         # the height rule's line serves the height prior too; without the rule it has its own
         self.ground = self.confirmation.scale
         if self.ground is None and config.height_spread > 0:
             self.ground = HeightByRow(0.0)
-        self.random_seed = seed
+        self.random_seed = settings.seed
         self.book = TrackBook(first_id)
         self.filters: list[ColourParticleFilter] = []
         # per target: the start box and the last boxes of detections that overlapped it
@@ -342,224 +326,245 @@ NOISE_SCALE = 16.0
 #: the cloud's randomness while a target is hidden, x what it is while seen: that noise spreads
 #: it over passers-by in a second of coasting; 0.1 is too little to find the target again
 COAST_NOISE = 0.25
-PARAMETERS: tuple[ParamSpec, ...] = (
-    ParamSpec("particles", _C.particles, "particles per target (thesis: 750)", 1, 100000),
-    ParamSpec("bins", 16, "histogram bins per channel, K (thesis: 16)", 2, 64),
-    ParamSpec("appearance", "rgb", "what a particle's box is compared by", choices=APPEARANCES),
-    ParamSpec(
-        "background_weighting",
+
+
+@dataclass(frozen=True)
+class ColourParticlesConfig:
+    """The `colour_particles` method's parameters; its filters' `ParticleFilterConfig` follows."""
+
+    particles: int = param(
+        _C.particles,
+        "particles per target (thesis: 750)",
+        min=1,
+        max=100000,
+    )
+    bins: int = param(
+        16,
+        "histogram bins per channel, K (thesis: 16)",
+        min=2,
+        max=64,
+    )
+    appearance: str = param(
+        "rgb",
+        "what a particle's box is compared by",
+        choices=APPEARANCES,
+    )
+    background_weighting: bool = param(
         True,
         "reference weighted by the start box's surroundings (Comaniciu; not the thesis's)",
-    ),
-    ParamSpec(
-        "contrast",
+    )
+    contrast: float = param(
         1.0,
         "scale cue: a box's score x (1 - contrast x its surrounding ring's match)^2 (0: off; "
         "not the thesis's)",
-        0.0,
-        1.0,
-    ),
-    ParamSpec(
-        "foreground_power",
+        min=0.0,
+        max=1.0,
+    )
+    foreground_power: float = param(
         FOREGROUND_POWER,
-        "scale cue: a particle's weight x (how well its box bounds the detector's motion mask)"
-        "^power (0: off; not the thesis's; the tracker then subscribes to the mask)",
-        0.0,
-        1000.0,
-    ),
-    ParamSpec(
-        "foreground_fit",
+        "scale cue: a particle's weight x (how well its box bounds the detector's motion "
+        "mask)^power (0: off; not the thesis's; the tracker then subscribes to the mask)",
+        min=0.0,
+        max=1000.0,
+    )
+    foreground_fit: float = param(
         FOREGROUND_FIT,
-        "share of the box of the motion mask's blobs a target's estimate holds in its reported "
-        "box (0: off; not the thesis's; needs foreground_power > 0)",
-        0.0,
-        1.0,
-    ),
-    ParamSpec(
-        "size_noise",
+        "share of the box of the motion mask's blobs a target's estimate holds in its "
+        "reported box (0: off; not the thesis's; needs foreground_power > 0)",
+        min=0.0,
+        max=1.0,
+    )
+    size_noise: float = param(
         SIZE_NOISE,
-        "relative std of a particle's width and height per frame while the foreground cue holds "
-        "it (not the thesis's)",
-        0.0,
-        1.0,
-    ),
-    ParamSpec(
-        "height_spread",
+        "relative std of a particle's width and height per frame while the foreground cue "
+        "holds it (not the thesis's)",
+        min=0.0,
+        max=1.0,
+    )
+    height_spread: float = param(
         HEIGHT_SPREAD,
         "height prior: a particle's weight x exp(-(ln(box height / the target's height where "
-        "it stands) / spread)^2 / 2), from the ground line learned from confirmed targets (0: "
-        "off; not the thesis's)",
-        0.0,
-        10.0,
-    ),
-    ParamSpec(
-        "aspect_spread",
+        "it stands) / spread)^2 / 2), from the ground line learned from confirmed targets (0:"
+        " off; not the thesis's)",
+        min=0.0,
+        max=10.0,
+    )
+    aspect_spread: float = param(
         ASPECT_SPREAD,
-        "aspect prior, with the height prior: a particle's weight also x exp(-(max(ln(box width / "
-        "height / a person's usual width / height), 0) / spread)^2 / 2), that aspect learned "
-        "from confirmed targets, and the same below a quarter of it (0: off; not the thesis's)",
-        0.0,
-        10.0,
-    ),
-    ParamSpec(
-        "noise_scale",
+        "aspect prior, with the height prior: a particle's weight also x exp(-(max(ln(box "
+        "width / height / a person's usual width / height), 0) / spread)^2 / 2), that aspect "
+        "learned from confirmed targets, and the same below a quarter of it (0: off; not the "
+        "thesis's)",
+        min=0.0,
+        max=10.0,
+    )
+    noise_scale: float = param(
         NOISE_SCALE,
         "x the thesis's noise std per component (1: its 0.5 px, 0.25 px/frame...)",
-        0.0,
-        1000.0,
-    ),
-    ParamSpec(
-        "coast_noise",
+        min=0.0,
+        max=1000.0,
+    )
+    coast_noise: float = param(
         COAST_NOISE,
         "while a target is hidden, its particles' noise and velocity spread x this (not the "
         "thesis's)",
-        0.0,
-        1.0,
-    ),
-    ParamSpec(
-        "settle_frames",
+        min=0.0,
+        max=1.0,
+    )
+    settle_frames: int = param(
         0,
         "frames after a target's start in which it is never taken as hidden: the match level "
-        "is still the start frame's own score and the cloud is catching up (0: from the first; "
-        "not the thesis's)",
-        0,
-        1000,
-    ),
-    ParamSpec(
-        "coast_perspective",
+        "is still the start frame's own score and the cloud is catching up (0: from the "
+        "first; not the thesis's)",
+        min=0,
+        max=1000,
+    )
+    coast_perspective: bool = param(
         True,
-        "with the height prior: a hidden target's boxes grow or shrink with the ground line as "
-        "they coast (not the thesis's)",
-    ),
-    ParamSpec(
-        "height_before_line",
+        "with the height prior: a hidden target's boxes grow or shrink with the ground line "
+        "as they coast (not the thesis's)",
+    )
+    height_before_line: bool = param(
         False,
         "with the height prior: until a target's expected height is known (a ground line "
         "learned and 3 of its boxes measured), its start height is expected wherever its box "
         "stands (not the thesis's)",
-    ),
-    ParamSpec(
-        "upper_share",
+    )
+    upper_share: float = param(
         0.0,
         "share of a target's box whose top part follows it on a frame that would take it as "
-        "hidden, while that part, in the motion mask, matches a reference of its own (someone "
-        "behind a low board; 0: off; not the thesis's)",
-        0.0,
-        0.99,
-    ),
-    ParamSpec(
-        "probes",
+        "hidden, while that part, in the motion mask, matches a reference of its own (someone"
+        " behind a low board; 0: off; not the thesis's)",
+        min=0.0,
+        max=0.99,
+    )
+    probes: int = param(
         0,
         "particles added on each hidden frame where the motion mask holds a box of the "
         "target's size near the coasting cloud (0: off; not the thesis's)",
-        0,
-        100000,
-    ),
-    ParamSpec(
-        "probe_reach",
+        min=0,
+        max=100000,
+    )
+    probe_reach: float = param(
         1.0,
         "x the target's height: how far from the coasting cloud's centre probes are placed",
-        0.01,
-        100.0,
-    ),
-    ParamSpec(
-        "reappear_in_mask",
+        min=0.01,
+        max=100.0,
+    )
+    reappear_in_mask: bool = param(
         False,
         "a hidden target is back only in a box the motion mask holds (not the thesis's)",
-    ),
-    ParamSpec(
-        "correction",
+    )
+    correction: str = param(
         _C.correction.value,
         "weight correction (Ext 1)",
         choices=tuple(c.value for c in WeightCorrection),
-    ),
-    ParamSpec("adaptive_noise", _C.adaptive_noise, "Ext 2: noise moves with the match"),
-    ParamSpec(
-        "occlusion_ratio",
+    )
+    adaptive_noise: bool = param(
+        _C.adaptive_noise,
+        "Ext 2: noise moves with the match",
+    )
+    occlusion_ratio: float = param(
         OCCLUSION_RATIO,
         "best particle below this x its usual score: hidden, the particles coast (0: off)",
-        0.0,
-        0.99,
-    ),
-    ParamSpec(
-        "resampling",
+        min=0.0,
+        max=0.99,
+    )
+    resampling: str = param(
         _C.resampling.value,
         "how particles are drawn by weight",
         choices=tuple(r.value for r in Resampling),
-    ),
-    ParamSpec("min_similarity", 0.3, "an estimate matching less is a miss", 0.0, 1.0),
-    ParamSpec("new_track_iou", 0.3, "a detection overlapping a target less starts one", 0.0, 1.0),
-    ParamSpec("confirm_hits", 3, "detections on a new target before it is confirmed", 1, 1000),
-    ParamSpec(
-        "confirm_travel", 12.0, "px those detections must have moved to confirm it", 0.0, 1e4
-    ),
-    ParamSpec("max_misses", 5, "consecutive misses after which a target is lost", 0, 10000),
-    ParamSpec(
-        "max_unsupported",
+    )
+    min_similarity: float = param(
+        0.3,
+        "an estimate matching less is a miss",
+        min=0.0,
+        max=1.0,
+    )
+    new_track_iou: float = param(
+        0.3,
+        "a detection overlapping a target less starts one",
+        min=0.0,
+        max=1.0,
+    )
+    confirm_hits: int = param(
+        3,
+        "detections on a new target before it is confirmed",
+        min=1,
+        max=1000,
+    )
+    confirm_travel: float = param(
+        12.0,
+        "px those detections must have moved to confirm it",
+        min=0.0,
+        max=10000.0,
+    )
+    max_misses: int = param(
+        5,
+        "consecutive misses after which a target is lost",
+        min=0,
+        max=10000,
+    )
+    max_unsupported: float = param(
         8.0,
         "s without an overlapping detection after which it is lost",
+        min=0.0,
+        max=1000000.0,
+    )
+    confirm_min_height: float = param(
         0.0,
-        1e6,
-    ),
-    ParamSpec(
-        "confirm_min_height", 0.0, "px a target's box needs to be confirmed (0: any)", 0.0, 1e4
-    ),
-    ParamSpec(
-        "confirm_height_ratio",
+        "px a target's box needs to be confirmed (0: any)",
+        min=0.0,
+        max=10000.0,
+    )
+    confirm_height_ratio: float = param(
         0.0,
         "x the height confirmed targets have had where it stands, needed to confirm (0: off)",
-        0.0,
-        1.0,
-    ),
-    ParamSpec("seed", 0, "random seed (a replay gives the same tracks)", 0, 2**31 - 1),
-)
-
-
-def build(values: Mapping[str, Any], first_id: int = 1) -> ColourParticleTracker:
-    config = ParticleFilterConfig(
-        particles=values["particles"],
-        sigma=tuple(values["noise_scale"] * s for s in RECOMMENDED_SIGMA),
-        correction=WeightCorrection(values["correction"]),
-        adaptive_noise=values["adaptive_noise"],
-        resampling=Resampling(values["resampling"]),
-        occlusion_ratio=values["occlusion_ratio"],
-        size_noise=values["size_noise"],
-        foreground=ForegroundCue(power=values["foreground_power"], fit=values["foreground_fit"]),
-        height_spread=values["height_spread"],
-        aspect_spread=values["aspect_spread"],
-        coast_noise=values["coast_noise"],
-        probes=values["probes"],
-        probe_reach=values["probe_reach"],
-        reappear_in_mask=values["reappear_in_mask"],
-        settle_frames=values["settle_frames"],
-        coast_perspective=values["coast_perspective"],
-        height_before_line=values["height_before_line"],
-        upper_share=values["upper_share"],
+        min=0.0,
+        max=1.0,
     )
-    return ColourParticleTracker(
-        config,
-        appearance=values["appearance"],
-        bins=values["bins"],
-        background_weighting=values["background_weighting"],
-        contrast=values["contrast"],
-        min_similarity=values["min_similarity"],
-        new_track_iou=values["new_track_iou"],
-        confirm_hits=values["confirm_hits"],
-        confirm_travel=values["confirm_travel"],
-        max_misses=values["max_misses"],
-        max_unsupported=values["max_unsupported"],
-        confirm_min_height=values["confirm_min_height"],
-        confirm_height_ratio=values["confirm_height_ratio"],
-        seed=values["seed"],
-        first_id=first_id,
+    seed: int = param(
+        0,
+        "random seed (a replay gives the same tracks)",
+        min=0,
+        max=2147483647,
     )
 
+    def __post_init__(self) -> None:
+        check_config(self)
 
-METHOD: Method[Any] = Method(
+    def problems(self) -> list[str]:
+        return []
+
+    def filter_config(self) -> ParticleFilterConfig:
+        """Every target's filter settings."""
+        return ParticleFilterConfig(
+            particles=self.particles,
+            sigma=tuple(self.noise_scale * s for s in RECOMMENDED_SIGMA),
+            correction=WeightCorrection(self.correction),
+            adaptive_noise=self.adaptive_noise,
+            resampling=Resampling(self.resampling),
+            occlusion_ratio=self.occlusion_ratio,
+            size_noise=self.size_noise,
+            foreground=ForegroundCue(power=self.foreground_power, fit=self.foreground_fit),
+            height_spread=self.height_spread,
+            aspect_spread=self.aspect_spread,
+            coast_noise=self.coast_noise,
+            probes=self.probes,
+            probe_reach=self.probe_reach,
+            reappear_in_mask=self.reappear_in_mask,
+            settle_frames=self.settle_frames,
+            coast_perspective=self.coast_perspective,
+            height_before_line=self.height_before_line,
+            upper_share=self.upper_share,
+        )
+
+
+METHOD: Method[Any] = Method.of(
     name="colour_particles",
     description="one colour-histogram particle filter per target (seed 003), started from "
     "detections or a drawn rectangle",
-    build=build,
-    parameters=PARAMETERS,
+    config=ColourParticlesConfig,
+    make=ColourParticleTracker,
     warm_up=colour_histograms.warm_up,
 )
