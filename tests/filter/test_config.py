@@ -25,7 +25,7 @@ def test_seed_preset_is_the_single_target_configuration():
     assert (tracker.confirmation.hits, tracker.confirmation.window) == (1, 1)
     assert tracker.deleter.max_misses == 4
     assert config.filter.gains.as_tuple() == pytest.approx((0.6, 0.2702), abs=1e-4)
-    assert config.selection_policy == SelectionPolicy.LARGEST_BLOB
+    assert config.build_selector().policy == SelectionPolicy.LARGEST_BLOB
     kalman = TrackerConfig.preset("seed000_kalman").filter
     q = kalman.model.process_noise(0.12, seed_process_noise())
     assert (kalman.initial_state_covariance() == q).all()

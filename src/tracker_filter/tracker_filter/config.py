@@ -35,9 +35,14 @@ from tracker_filter.management import (
 )
 from tracker_filter.models import seed001_nominal_model
 from tracker_filter.robust_kalman import LambdaRule, seed001_uncertainty
-from tracker_filter.selection import AUTOMATIC_POLICIES, SelectionPolicy, TargetSelector
-from tracker_msgs_py.labels import ANY_LABEL, PERSON
-from tracker_msgs_py.params import ParamSpec
+from tracker_filter.selection import (
+    SELECTION_DEFAULTS,
+    SELECTION_PARAMETERS,
+    SelectionConfig,
+    TargetSelector,
+)
+from tracker_msgs_py.labels import ANY_LABEL
+from tracker_msgs_py.params import ParamSpec, config_from_params
 
 SEED_CYCLE = 3.0 / 25.0  # s between processed frames in seed 000 (every 3rd frame at 25 fps)
 SEED_DT = 1.1  # the prototype's dt per processed frame (digest section 3)
@@ -79,7 +84,6 @@ _MULTI: dict[str, Any] = {
     "robust_e_f": _SEED001_UNCERTAINTY.E_f.ravel().tolist(),
     "robust_e_g": _SEED001_UNCERTAINTY.E_g.ravel().tolist(),
     "gate_probability": 0.99,
-    "track_labels": [PERSON],
     "measurements": "all",
     "max_tracks": 100,
     "confirm_hits": 3,
@@ -94,12 +98,7 @@ _MULTI: dict[str, Any] = {
     "split_merged": 0.0,
     "recover_overlap": 0.0,
     "box_tolerance": 0.0,
-    "selection_policy": "longest_lived",
-    "min_lock_time": 2.0,
-    "switch_margin": 0.2,
-    "lead_time": SEED_CYCLE,
-    "target_max_misses": 10000,
-    "reacquire_time": 0.0,
+    **SELECTION_DEFAULTS,  # lead_time: seed 000's cycle, SEED_CYCLE
 }
 
 
@@ -237,63 +236,8 @@ TRACKING_PARAMETERS: tuple[ParamSpec, ...] = (
     ),
 )
 
-SELECTION_PARAMETERS: tuple[ParamSpec, ...] = (
-    _spec("selection_policy", "automatic target selection", choices=tuple(AUTOMATIC_POLICIES)),
-    _spec("min_lock_time", "s, shortest time on a target before switching to another", 0.0, 3600.0),
-    _spec(
-        "switch_margin",
-        "relative score advantage needed to switch targets (1000: keep the target until lost)",
-        0.0,
-        1e6,
-    ),
-    _spec("lead_time", "s, horizon of the target's predicted position", 0.0, 10.0),
-    _spec(
-        "target_max_misses",
-        "frames a target may coast (no detection) before the camera stops following it",
-        0,
-        10000,
-    ),
-    _spec(
-        "reacquire_time",
-        "s, after losing the target wait this long for the same person (their track again, or a "
-        "new track where they were heading) before selecting another (0: at once)",
-        0.0,
-        60.0,
-    ),
-    ParamSpec(
-        "track_labels",
-        _MULTI["track_labels"],
-        "labels of the tracks the camera may follow automatically: person (the person model), "
-        "motion (an unclassified blob), any (every label)",
-        validator=lambda v: (
-            None if v and all(v) else "track_labels must name a label (any: every label)"
-        ),
-    ),
-)
-
-#: The target selection's defaults, whatever the tracker.
-SELECTION_DEFAULTS: dict[str, Any] = {spec.name: spec.default for spec in SELECTION_PARAMETERS}
-
 #: Every parameter of the gated-Hungarian tracker and the target selection.
 PARAMETERS: tuple[ParamSpec, ...] = TRACKING_PARAMETERS + SELECTION_PARAMETERS
-
-#: Parameters that take effect without rebuilding the tracker (the others clear its tracks).
-LIVE_PARAMETERS = frozenset({spec.name for spec in SELECTION_PARAMETERS})
-
-
-def selector_settings(
-    params: Mapping[str, Any],
-) -> tuple[SelectionPolicy, float, float, int, float, tuple[str, ...]]:
-    """`TargetSelector`'s arguments (and `configure`'s) from the selection parameters."""
-    return (
-        AUTOMATIC_POLICIES[params["selection_policy"]],
-        params["min_lock_time"],
-        params["switch_margin"],
-        params["target_max_misses"],
-        params["reacquire_time"],
-        tuple(params["track_labels"]),
-    )
-
 
 _SEED000 = _MULTI | {
     "filter": "alpha_beta",
@@ -341,13 +285,7 @@ class TrackerConfig:
     split_merged: float
     recover_overlap: float
     box_tolerance: float
-    selection_policy: SelectionPolicy
-    min_lock_time: float
-    switch_margin: float
-    lead_time: float
-    target_max_misses: int
-    reacquire_time: float
-    track_labels: tuple[str, ...]
+    selection: SelectionConfig
 
     @classmethod
     def from_params(cls, params: Mapping[str, Any]) -> TrackerConfig:
@@ -386,13 +324,7 @@ class TrackerConfig:
             split_merged=params["split_merged"],
             recover_overlap=params["recover_overlap"],
             box_tolerance=params["box_tolerance"],
-            selection_policy=AUTOMATIC_POLICIES[params["selection_policy"]],
-            min_lock_time=params["min_lock_time"],
-            switch_margin=params["switch_margin"],
-            lead_time=params["lead_time"],
-            target_max_misses=params["target_max_misses"],
-            reacquire_time=params["reacquire_time"],
-            track_labels=tuple(params["track_labels"]),
+            selection=config_from_params(SelectionConfig, params),
         )
 
     @classmethod
@@ -431,11 +363,4 @@ class TrackerConfig:
         )
 
     def build_selector(self) -> TargetSelector:
-        return TargetSelector(
-            self.selection_policy,
-            self.min_lock_time,
-            self.switch_margin,
-            self.target_max_misses,
-            self.reacquire_time,
-            self.track_labels,
-        )
+        return self.selection.selector()

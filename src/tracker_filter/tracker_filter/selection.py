@@ -32,12 +32,14 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from enum import IntEnum
+from typing import Any
 
 import numpy as np
 
 from tracker_filter.tracking import TrackSet, TrackStatus
 from tracker_msgs_py.geometry import Rect
-from tracker_msgs_py.labels import ANY_LABEL, wanted
+from tracker_msgs_py.labels import ANY_LABEL, PERSON, wanted
+from tracker_msgs_py.params import check_config, param, specs_of
 
 
 class SelectionPolicy(IntEnum):
@@ -59,6 +61,83 @@ AUTOMATIC_POLICIES = {
     "nearest_centre": SelectionPolicy.NEAREST_CENTRE,
     "farthest_travelled": SelectionPolicy.FARTHEST_TRAVELLED,
 }
+
+
+def _labels_problem(labels: object) -> str | None:
+    if isinstance(labels, list | tuple) and labels and all(labels):
+        return None
+    return "track_labels must name a label (any: every label)"
+
+
+@dataclass(frozen=True)
+class SelectionConfig:
+    """The automatic target selection's parameters, whatever the tracker (the tracker node's and
+    the in-process pipeline's); a tracker's preset may give them other defaults."""
+
+    selection_policy: str = param(
+        "longest_lived", "automatic target selection", choices=tuple(AUTOMATIC_POLICIES)
+    )
+    min_lock_time: float = param(
+        2.0, "shortest time on a target before switching to another", min=0.0, max=3600.0, unit="s"
+    )
+    switch_margin: float = param(
+        0.2,
+        "relative score advantage needed to switch targets (1000: keep the target until lost)",
+        min=0.0,
+        max=1e6,
+    )
+    lead_time: float = param(
+        0.12, "horizon of the target's predicted position", min=0.0, max=10.0, unit="s"
+    )
+    target_max_misses: int = param(
+        10000,
+        "frames a target may coast (no detection) before the camera stops following it",
+        min=0,
+        max=10000,
+    )
+    reacquire_time: float = param(
+        0.0,
+        "after losing the target wait this long for the same person (their track again, or a "
+        "new track where they were heading) before selecting another (0: at once)",
+        min=0.0,
+        max=60.0,
+        unit="s",
+    )
+    track_labels: tuple[str, ...] = param(
+        [PERSON],
+        "labels of the tracks the camera may follow automatically: person (the person model), "
+        "motion (an unclassified blob), any (every label)",
+        validator=_labels_problem,
+    )
+
+    def __post_init__(self) -> None:
+        check_config(self)
+
+    def problems(self) -> list[str]:
+        return []
+
+    def selector(self) -> TargetSelector:
+        """A new target selector with these settings."""
+        return TargetSelector(*self._arguments())
+
+    def apply_to(self, selector: TargetSelector) -> None:
+        """These settings on a running selector (it keeps its target)."""
+        selector.configure(*self._arguments())
+
+    def _arguments(self) -> tuple[SelectionPolicy, float, float, int, float, tuple[str, ...]]:
+        return (
+            AUTOMATIC_POLICIES[self.selection_policy],
+            self.min_lock_time,
+            self.switch_margin,
+            self.target_max_misses,
+            self.reacquire_time,
+            tuple(self.track_labels),
+        )
+
+
+#: The selection's parameters and their defaults.
+SELECTION_PARAMETERS = specs_of(SelectionConfig)
+SELECTION_DEFAULTS: dict[str, Any] = {spec.name: spec.default for spec in SELECTION_PARAMETERS}
 
 
 @dataclass(frozen=True)

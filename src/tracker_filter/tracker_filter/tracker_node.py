@@ -23,10 +23,14 @@ from sensor_msgs.msg import Image
 from std_msgs.msg import Header
 from vision_msgs.msg import Detection2DArray
 
-from tracker_filter.config import SELECTION_DEFAULTS, SELECTION_PARAMETERS, selector_settings
 from tracker_filter.models import extrapolate_positions
 from tracker_filter.observation import Detections, Need, Observation
-from tracker_filter.selection import SelectionPolicy, TargetSelector
+from tracker_filter.selection import (
+    SELECTION_DEFAULTS,
+    SELECTION_PARAMETERS,
+    SelectionConfig,
+    SelectionPolicy,
+)
 from tracker_filter.trackers import PLUGIN_GROUP, TRACKERS
 from tracker_filter.tracking import Tracker, TrackSet
 from tracker_filter.zones import Zones, parse_polygons
@@ -49,7 +53,7 @@ from tracker_msgs_py.codec import (
 )
 from tracker_msgs_py.node_main import SuiteNode, run_node
 from tracker_msgs_py.pairing import Frame, FrameAssembler
-from tracker_msgs_py.params import ParameterError, ParamSpec, declare_parameters
+from tracker_msgs_py.params import ParameterError, ParamSpec, config_from_params, declare_parameters
 from tracker_msgs_py.registry import Method
 from tracker_msgs_py.stamps import Order, StampOrder
 from tracker_msgs_py.vision import tracks_to_vision
@@ -259,7 +263,7 @@ class TrackerNode(SuiteNode):
         self._tracker: Tracker = self._build_tracker(first_id=1)
         if self._method.warm_up is not None:
             self._method.warm_up()
-        self._selector = TargetSelector(*selector_settings(self._params))
+        self._selector = config_from_params(SelectionConfig, self._params).selector()
         self._epoch_ns: int | None = None  # stamp of the first frame: keeps float seconds exact
         self._view_centre: tuple[float, float] | None = None
         self._last_frame: tuple[int, int | None] = (0, None)  # tracks, followed track id
@@ -330,7 +334,7 @@ class TrackerNode(SuiteNode):
         return round(float(self._params["max_input_gap"]) * NS_PER_S)
 
     def _on_parameters(self, changed: dict[str, Any]) -> None:
-        self._selector.configure(*selector_settings(self._params))
+        config_from_params(SelectionConfig, self._params).apply_to(self._selector)
         self._order.max_gap_ns = self._max_gap_ns()
         if {"ignore_zones", "required_zones"} & set(changed):
             self._zones = zones_of(self._params)

@@ -14,10 +14,11 @@ from collections.abc import Mapping
 from typing import Any
 
 from tracker_filter.byte_tracker import METHOD as BYTE
-from tracker_filter.config import PRESETS, SELECTION_DEFAULTS, TRACKING_PARAMETERS, TrackerConfig
+from tracker_filter.config import PRESETS, TRACKING_PARAMETERS, TrackerConfig
 from tracker_filter.gmphd_tracker import METHOD as GM_PHD
 from tracker_filter.occupancy_tracker import METHOD as OCCUPANCY_PARTICLES
 from tracker_filter.particle_tracker import METHOD as COLOUR_PARTICLES
+from tracker_filter.selection import SELECTION_DEFAULTS
 from tracker_filter.tracking import Tracker
 from tracker_msgs_py.registry import Method, Registry
 

@@ -35,10 +35,9 @@ from tracker_detect.seeding import (
     SeedingConfig,
     initial_region,
 )
-from tracker_filter.config import SELECTION_DEFAULTS, selector_settings
 from tracker_filter.models import extrapolate_positions
 from tracker_filter.observation import Detections, Need, Observation
-from tracker_filter.selection import TargetSelector
+from tracker_filter.selection import SELECTION_DEFAULTS, SelectionConfig
 from tracker_filter.trackers import TRACKERS
 from tracker_filter.tracking import Tracker, TrackSet, TrackStatus
 from tracker_msgs_py.codec import NS_PER_S
@@ -74,7 +73,7 @@ class StageSettings:
     detector_values: dict[str, Any]
     tracker_method: str
     tracker_values: dict[str, Any]
-    selection: dict[str, Any]  # the tracker's selection parameters (config.SELECTION_PARAMETERS)
+    selection: dict[str, Any]  # the tracker's selection parameters (selection.SelectionConfig)
     seeding: SeedingConfig | None = None  # a seeded detector's hand-over policy and guidance
     initial_region: Rect | None = None
 
@@ -195,9 +194,9 @@ class TrackingStage:
         self.tracker: Tracker = TRACKERS.get(settings.tracker_method).build(
             settings.tracker_values, 1
         )
-        selection = settings.selection
-        self.selector = TargetSelector(*selector_settings(selection))
-        self.lead_time = float(selection["lead_time"])
+        selection = config_from_params(SelectionConfig, settings.selection)
+        self.selector = selection.selector()
+        self.lead_time = selection.lead_time
         self._epoch_ns: int | None = None
 
     def step(self, stamp_ns: int, view: np.ndarray, detection: Detection, window: Rect) -> Tracked:
