@@ -2,11 +2,13 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
 from tracker_filter.gmphd import Estimates
-from tracker_filter.gmphd_tracker import METHOD
+from tracker_filter.gmphd_tracker import METHOD, GmPhdTracker, GmPhdTrackerConfig
 from tracker_filter.observation import Detections, Observation
 from tracker_filter.phd_labels import LabelledStates, assign, inside_merged_blob, labelling_costs
 from tracker_filter.phd_occlusion import OcclusionConfig, OcclusionMonitor
@@ -208,6 +210,25 @@ def test_birth_sites_start_tracks_sooner():
 
 def test_birth_sites_must_be_pairs():
     assert METHOD.problems(METHOD.defaults() | {"birth_sites": [1.0, 2.0, 3.0]})
+
+
+def test_the_method_config_makes_the_filter_occlusion_and_birth_configs():
+    config = replace(
+        GmPhdTrackerConfig(),
+        persistence_floor=0.8,
+        birth_sites=(1.0, 2.0, 3.0, 4.0),
+        birth_site_weight=0.2,
+    )
+    tracker = GmPhdTracker(config, first_id=5)
+    assert tracker.config.area == 640.0 * 480.0 and tracker.window_area  # area 0: the window's
+    assert tracker.monitor.config.floor == 0.8 and tracker.next_id == 5
+    assert tracker.filter.static_birth.means[:, :2].tolist() == [[1.0, 2.0], [3.0, 4.0]]
+    assert tracker.filter.static_birth.weights.tolist() == [0.2, 0.2]
+    fixed = GmPhdTracker(replace(config, area=1e6, birth_site_weight=0.0))
+    assert fixed.config.area == 1e6 and not fixed.window_area
+    assert not len(fixed.filter.static_birth.weights)
+    with pytest.raises(ValueError, match="merge_threshold must be > 0"):
+        GmPhdTrackerConfig(merge_threshold=0.0)  # in its range, but the filter's U must be > 0
 
 
 def hide_beside_a_target(extra_hits: int) -> tuple[bool, bool]:

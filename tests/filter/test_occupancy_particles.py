@@ -16,7 +16,7 @@ from tracker_filter.occupancy_particles import (
     jitter_widths,
     surface_weight,
 )
-from tracker_filter.occupancy_tracker import METHOD
+from tracker_filter.occupancy_tracker import METHOD, OccupancyTracker, OccupancyTrackerConfig
 from tracker_filter.tracking import TrackStatus
 from tracker_msgs_py.geometry import Rect, iou_matrix
 
@@ -181,6 +181,17 @@ def test_on_masks_two_walkers_passing_each_other_keep_their_tracks_and_boxes(see
                 matched += k >= 5
     assert ids_seen == {0: {1}, 1: {2}}
     assert matched >= 0.9 * 2 * 20
+
+
+def test_the_method_config_makes_the_filters_and_the_blob_rules():
+    config = OccupancyTrackerConfig(surface_radius=2, propagation="ranking", min_area=100.0, seed=4)
+    tracker = OccupancyTracker(config, first_id=3)
+    assert tracker.config.radius == (2, 2, 0) and tracker.config.seed == 4
+    assert tracker.config.propagation.value == "ranking" and not tracker.config.initiation
+    assert tracker.rules.min_area == 100.0 and tracker.rules.max_misses == config.max_misses
+    assert tracker.next_id == 3
+    with pytest.raises(ValueError, match="particles"):
+        OccupancyTrackerConfig(particles=0)
 
 
 def step_one_blob(tracker, k: int, box: tuple[float, float, float, float], window: Rect):

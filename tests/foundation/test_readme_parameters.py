@@ -96,10 +96,11 @@ def test_each_field_is_the_parameter_everywhere(method):
 
 
 #: the README tables a method's parameters are in, when not its own "role/method" table alone (a
-#: later table's row wins): the first detector's are the node's; person_motion's table has only
+#: later table's row wins): the first detector's and tracker's are the node's; person_motion's has only
 #: what it does not share with its parts
 TABLES_OF = {
     "ssim": ["detector"],
+    "gated_hungarian": ["tracker"],
     "person_motion": ["detector/ssim_background", "detector/person", "detector/person_motion"],
 }
 

@@ -24,4 +24,4 @@ DETECTORS: Registry[Detector] = Registry("detector")
 PLUGIN_GROUP = "tracker_suite.detectors"
 
 for _method in (SSIM, SSIM_BACKGROUND, CAMSHIFT, MOG2, PERSON, PERSON_MOTION):
-    DETECTORS.register(_method)  # type: ignore[arg-type]
+    DETECTORS.register(_method)

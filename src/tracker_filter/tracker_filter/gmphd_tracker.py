@@ -34,7 +34,6 @@ frame without it still updates every track.
 
 from __future__ import annotations
 
-from collections.abc import Mapping
 from dataclasses import dataclass, replace
 from typing import Any
 
@@ -54,7 +53,7 @@ from tracker_filter.phd_labels import (
 )
 from tracker_filter.phd_occlusion import OcclusionConfig, OcclusionMonitor
 from tracker_filter.tracking import TrackBook, TrackSet
-from tracker_msgs_py.params import ParamSpec
+from tracker_msgs_py.params import check_config, param
 from tracker_msgs_py.registry import Method
 
 LAYOUT = StateLayout.from_names("x y vx vy")
@@ -78,19 +77,6 @@ class BirthSites:
         variances = [self.position_std**2] * 2 + [self.speed_std**2] * 2
         covariances = np.broadcast_to(np.diag(variances), (count, 4, 4))
         return Mixture.of(np.full(count, self.weight), means, covariances)
-
-    @classmethod
-    def from_values(cls, values: Mapping[str, Any]) -> BirthSites | None:
-        """The sites the parameters describe, None when birth_site_weight is 0."""
-        if values["birth_site_weight"] <= 0:
-            return None
-        points = np.asarray(values["birth_sites"], dtype=float).reshape(-1, 2)
-        return cls(
-            points,
-            values["birth_site_weight"],
-            values["birth_site_position_std"],
-            values["birth_site_speed_std"],
-        )
 
 
 def _pairs(value: Any) -> str | None:
@@ -141,41 +127,194 @@ def _dead_reckoning(state: np.ndarray, gap: float) -> tuple[np.ndarray, float]:
     return state[:2] + gap * state[2:], float(spread**2)
 
 
+_F = GmPhdConfig()
+_O = OcclusionConfig()
+DEFAULT_AREA = 640.0 * 480.0  # px^2, the clutter's area with `area` 0 until a window tells it
+
+
+@dataclass(frozen=True)
+class GmPhdTrackerConfig:
+    """Parameters of the `gm_phd` method: the filter's (`filter_config`), the occlusion
+    monitor's (`occlusion`), the static birth sites (`static_births`) and the labelling's."""
+
+    survival: float = param(_F.survival, "p_S, survival probability per frame", min=0.01, max=1.0)
+    detection: float = param(_F.detection, "p_D, detection probability", min=0.01, max=1.0)
+    clutter_rate: float = param(5.0, "lambda_c, false detections per frame", min=0.0, max=1e6)
+    area: float = param(
+        0.0,
+        "area the clutter spreads over (0: the camera window's area)",
+        min=0.0,
+        max=1e12,
+        unit="px^2",
+    )
+    process_noise: float = param(
+        150.0, "sigma_v, acceleration noise", min=1e-3, max=1e6, unit="px/s^2"
+    )
+    measurement_noise: float = param(3.0, "sigma_r, centroid noise", min=1e-3, max=1e4, unit="px")
+    prune_threshold: float = param(
+        _F.prune_threshold, "T, components lighter are dropped", min=0.0, max=1.0
+    )
+    merge_threshold: float = param(
+        _F.merge_threshold, "U, squared Mahalanobis merge distance", min=0.0, max=1e4
+    )
+    max_components: int = param(500, "J_max, Gaussians kept at most", min=1, max=100000)
+    extract_threshold: float = param(
+        _F.extract_threshold, "a Gaussian heavier is a target", min=0.01, max=1.0
+    )
+    continue_threshold: float = param(
+        0.2,
+        "a Gaussian heavier continues an existing track (hysteresis: a track survives the low "
+        "weight one missed detection leaves)",
+        min=0.0,
+        max=1.0,
+    )
+    birth_weight: float = param(
+        _F.birth_weight, "weight of the births one detection makes", min=0.0, max=1.0
+    )
+    max_birth_speed: float = param(
+        400.0, "speed between the two detections of a birth", min=1e-3, max=1e6, unit="px/s"
+    )
+    birth_gate: float = param(
+        _F.birth_gate, "a detection explained this well by targets births none", min=0.01, max=1.0
+    )
+    spawn_weight: float = param(
+        _F.spawn_weight, "spawned Gaussians per target (0: none)", min=0.0, max=1.0
+    )
+    occlusion_handling: bool = param(_O.enabled, "seed 004's occlusion regions and persistence")
+    persistence_floor: float = param(_O.floor, "P_d^occl never below this", min=0.01, max=1.0)
+    mean_occlusion: float = param(
+        _O.mean_occlusion, "frames an occlusion lasts until one is seen", min=1.0, max=1e4
+    )
+    object_size: float = param(
+        _O.object_size, "occlusion radius without sized boxes", min=0.0, max=1e4, unit="px"
+    )
+    border_margin: float = param(
+        _O.border_margin,
+        "deaths this near the view's edge are exits",
+        min=0.0,
+        max=1e4,
+        unit="px",
+    )
+    birth_sites: tuple[float, ...] = param(
+        [0.0, 0.0],
+        "static birth mixture: where targets appear, as [x1, y1, x2, y2, ...] "
+        "(used when birth_site_weight > 0)",
+        unit="scene px",
+        validator=_pairs,
+    )
+    birth_site_weight: float = param(
+        0.0, "weight of each birth site's Gaussian (0: none)", min=0.0, max=1.0
+    )
+    birth_site_position_std: float = param(
+        10.0, "position std of a birth site", min=0.01, max=1e5, unit="px"
+    )
+    birth_site_speed_std: float = param(
+        100.0, "speed std of a birth site's targets", min=0.0, max=1e6, unit="px/s"
+    )
+    label_gate: float = param(
+        16.0, "squared Mahalanobis distance a label reaches", min=0.1, max=1e6
+    )
+    impulse: float = param(
+        0.5, "cost factor of candidates ahead of an occluded track", min=0.0, max=1.0
+    )
+    stitch_frames: int = param(
+        5,
+        "frames after an occlusion or a confirmed track's loss during which its label goes to "
+        "the track that fits its kept speed and heading (0: never)",
+        min=0,
+        max=1000,
+    )
+    bridge_missed: bool = param(
+        True,
+        "a confirmed track missed for one frame (away from occlusions and the view's borders) "
+        "keeps its Gaussian's weight for that frame: missed-detection term 1, not 1 - p_D "
+        "(not the thesis's)",
+    )
+    velocity_history: int = param(
+        10,
+        "hits a track's kept speed and heading (the line it is dead-reckoned by) are fitted over: "
+        "longer is steadier on straight paths and lags a target that turns",
+        min=LINE_HITS,
+        max=1000,
+    )
+    confirm_hits: int = param(2, "hits before a track is confirmed", min=1, max=1000)
+    max_misses: int = param(
+        3, "frames without its own state after which a track is lost", min=0, max=1000
+    )
+
+    def __post_init__(self) -> None:
+        check_config(self)
+
+    def problems(self) -> list[str]:
+        """What the filter and the occlusion monitor reject of the configs these fields make: the
+        fields' ranges already hold all of it but merge_threshold > 0 (U = 0 is in its range)."""
+        return self.filter_config().problems() + self.occlusion().problems()
+
+    @property
+    def window_area(self) -> bool:
+        """Whether the clutter spreads over the camera window (`area` 0)."""
+        return float(self.area) <= 0
+
+    def filter_config(self) -> GmPhdConfig:
+        area = float(self.area)
+        return GmPhdConfig(
+            survival=self.survival,
+            detection=self.detection,
+            clutter_rate=self.clutter_rate,
+            area=area if area > 0 else DEFAULT_AREA,
+            process_noise=self.process_noise,
+            measurement_noise=self.measurement_noise,
+            prune_threshold=self.prune_threshold,
+            merge_threshold=self.merge_threshold,
+            max_components=self.max_components,
+            extract_threshold=self.extract_threshold,
+            birth_weight=self.birth_weight,
+            max_birth_speed=self.max_birth_speed,
+            birth_gate=self.birth_gate,
+            spawn_weight=self.spawn_weight,
+        )
+
+    def occlusion(self) -> OcclusionConfig:
+        return OcclusionConfig(
+            enabled=self.occlusion_handling,
+            floor=self.persistence_floor,
+            mean_occlusion=self.mean_occlusion,
+            object_size=self.object_size,
+            border_margin=self.border_margin,
+        )
+
+    def static_births(self) -> BirthSites | None:
+        """The birth sites the fields describe, None when birth_site_weight is 0."""
+        if self.birth_site_weight <= 0:
+            return None
+        points = np.asarray(self.birth_sites, dtype=float).reshape(-1, 2)
+        return BirthSites(
+            points, self.birth_site_weight, self.birth_site_position_std, self.birth_site_speed_std
+        )
+
+
 class GmPhdTracker:
     """GM-PHD with seed 004's occlusion handling and labelling, as a `tracking.Tracker`."""
 
     needs = frozenset({Need.WINDOW})
     layout = LAYOUT
 
-    def __init__(
-        self,
-        filter_config: GmPhdConfig,
-        occlusion: OcclusionConfig,
-        label_gate: float = 16.0,
-        impulse: float = 0.5,
-        confirm_hits: int = 2,
-        max_misses: int = 3,
-        window_area: bool = False,
-        continue_threshold: float = 0.2,
-        birth_sites: BirthSites | None = None,
-        first_id: int = 1,
-        stitch_frames: int = 5,
-        bridge_missed: bool = True,
-        velocity_history: int = 10,
-    ) -> None:
+    def __init__(self, config: GmPhdTrackerConfig, first_id: int = 1) -> None:
+        filter_config = config.filter_config()
+        birth_sites = config.static_births()
         self.config = filter_config
         self.filter = GmPhdFilter(
             filter_config, birth_sites.mixture() if birth_sites is not None else None
         )
-        self.monitor = OcclusionMonitor(occlusion)
-        self.label_gate, self.impulse = label_gate, impulse
-        self.confirm_hits, self.max_misses = confirm_hits, max_misses
-        self.window_area = window_area
-        self.continue_threshold = continue_threshold
-        self.stitch_frames = stitch_frames
-        self.bridge_missed = bridge_missed
+        self.monitor = OcclusionMonitor(config.occlusion())
+        self.label_gate, self.impulse = config.label_gate, config.impulse
+        self.confirm_hits, self.max_misses = config.confirm_hits, config.max_misses
+        self.window_area = config.window_area
+        self.continue_threshold = config.continue_threshold
+        self.stitch_frames = config.stitch_frames
+        self.bridge_missed = config.bridge_missed
         # hits (time, position) the mean velocity is fitted to
-        self.velocity_history = velocity_history
+        self.velocity_history = config.velocity_history
         self.book = TrackBook(first_id)
         self._clear()
 
@@ -725,150 +864,11 @@ class GmPhdTracker:
             setattr(self, name, getattr(self, name)[keep])
 
 
-_F = GmPhdConfig()
-_O = OcclusionConfig()
-PARAMETERS: tuple[ParamSpec, ...] = (
-    ParamSpec("survival", _F.survival, "p_S, survival probability per frame", 0.01, 1.0),
-    ParamSpec("detection", _F.detection, "p_D, detection probability", 0.01, 1.0),
-    ParamSpec("clutter_rate", 5.0, "lambda_c, false detections per frame", 0.0, 1e6),
-    ParamSpec(
-        "area", 0.0, "px^2 the clutter spreads over (0: the camera window's area)", 0.0, 1e12
-    ),
-    ParamSpec("process_noise", 150.0, "sigma_v, acceleration noise [px/s^2]", 1e-3, 1e6),
-    ParamSpec("measurement_noise", 3.0, "sigma_r, centroid noise [px]", 1e-3, 1e4),
-    ParamSpec("prune_threshold", _F.prune_threshold, "T, components lighter are dropped", 0.0, 1.0),
-    ParamSpec(
-        "merge_threshold", _F.merge_threshold, "U, squared Mahalanobis merge distance", 0.0, 1e4
-    ),
-    ParamSpec("max_components", 500, "J_max, Gaussians kept at most", 1, 100000),
-    ParamSpec(
-        "extract_threshold", _F.extract_threshold, "a Gaussian heavier is a target", 0.01, 1.0
-    ),
-    ParamSpec(
-        "continue_threshold",
-        0.2,
-        "a Gaussian heavier continues an existing track (hysteresis: a track survives the low "
-        "weight one missed detection leaves)",
-        0.0,
-        1.0,
-    ),
-    ParamSpec(
-        "birth_weight", _F.birth_weight, "weight of the births one detection makes", 0.0, 1.0
-    ),
-    ParamSpec("max_birth_speed", 400.0, "px/s between the two detections of a birth", 1e-3, 1e6),
-    ParamSpec(
-        "birth_gate",
-        _F.birth_gate,
-        "a detection explained this well by targets births none",
-        0.01,
-        1.0,
-    ),  # fmt: skip
-    ParamSpec("spawn_weight", _F.spawn_weight, "spawned Gaussians per target (0: none)", 0.0, 1.0),
-    ParamSpec("occlusion_handling", _O.enabled, "seed 004's occlusion regions and persistence"),
-    ParamSpec("persistence_floor", _O.floor, "P_d^occl never below this", 0.01, 1.0),
-    ParamSpec(
-        "mean_occlusion", _O.mean_occlusion, "frames an occlusion lasts until one is seen", 1.0, 1e4
-    ),
-    ParamSpec("object_size", _O.object_size, "px, occlusion radius without sized boxes", 0.0, 1e4),
-    ParamSpec(
-        "border_margin",
-        _O.border_margin,
-        "px, deaths this near the view's edge are exits",
-        0.0,
-        1e4,
-    ),  # fmt: skip
-    ParamSpec(
-        "birth_sites",
-        [0.0, 0.0],
-        "static birth mixture: where targets appear, as [x1, y1, x2, y2, ...] [scene px] "
-        "(used when birth_site_weight > 0)",
-        validator=_pairs,
-    ),
-    ParamSpec("birth_site_weight", 0.0, "weight of each birth site's Gaussian (0: none)", 0.0, 1.0),
-    ParamSpec("birth_site_position_std", 10.0, "position std of a birth site [px]", 0.01, 1e5),
-    ParamSpec(
-        "birth_site_speed_std", 100.0, "speed std of a birth site's targets [px/s]", 0.0, 1e6
-    ),
-    ParamSpec("label_gate", 16.0, "squared Mahalanobis distance a label reaches", 0.1, 1e6),
-    ParamSpec("impulse", 0.5, "cost factor of candidates ahead of an occluded track", 0.0, 1.0),
-    ParamSpec(
-        "stitch_frames",
-        5,
-        "frames after an occlusion or a confirmed track's loss during which its label goes to "
-        "the track that fits its kept speed and heading (0: never)",
-        0,
-        1000,
-    ),
-    ParamSpec(
-        "bridge_missed",
-        True,
-        "a confirmed track missed for one frame (away from occlusions and the view's borders) "
-        "keeps its Gaussian's weight for that frame: missed-detection term 1, not 1 - p_D "
-        "(not the thesis's)",
-    ),
-    ParamSpec(
-        "velocity_history",
-        10,
-        "hits a track's kept speed and heading (the line it is dead-reckoned by) are fitted over: "
-        "longer is steadier on straight paths and lags a target that turns",
-        LINE_HITS,
-        1000,
-    ),
-    ParamSpec("confirm_hits", 2, "hits before a track is confirmed", 1, 1000),
-    ParamSpec("max_misses", 3, "frames without its own state after which a track is lost", 0, 1000),
-)
-
-
-def build(values: Mapping[str, Any], first_id: int = 1) -> GmPhdTracker:
-    area = float(values["area"])
-    filter_config = GmPhdConfig(
-        survival=values["survival"],
-        detection=values["detection"],
-        clutter_rate=values["clutter_rate"],
-        area=area if area > 0 else 640.0 * 480.0,
-        process_noise=values["process_noise"],
-        measurement_noise=values["measurement_noise"],
-        prune_threshold=values["prune_threshold"],
-        merge_threshold=values["merge_threshold"],
-        max_components=values["max_components"],
-        extract_threshold=values["extract_threshold"],
-        birth_weight=values["birth_weight"],
-        max_birth_speed=values["max_birth_speed"],
-        birth_gate=values["birth_gate"],
-        spawn_weight=values["spawn_weight"],
-    )
-    occlusion = OcclusionConfig(
-        enabled=values["occlusion_handling"],
-        floor=values["persistence_floor"],
-        mean_occlusion=values["mean_occlusion"],
-        object_size=values["object_size"],
-        border_margin=values["border_margin"],
-    )
-    problems = filter_config.problems() + occlusion.problems()
-    if problems:
-        raise ValueError("gm_phd: " + "; ".join(problems))
-    return GmPhdTracker(
-        filter_config,
-        occlusion,
-        label_gate=values["label_gate"],
-        impulse=values["impulse"],
-        confirm_hits=values["confirm_hits"],
-        max_misses=values["max_misses"],
-        window_area=area <= 0,
-        continue_threshold=values["continue_threshold"],
-        birth_sites=BirthSites.from_values(values),
-        first_id=first_id,
-        stitch_frames=values["stitch_frames"],
-        bridge_missed=values["bridge_missed"],
-        velocity_history=values["velocity_history"],
-    )
-
-
-METHOD: Method[Any] = Method(
+METHOD: Method[Any] = Method.of(
     name="gm_phd",
     description="Gaussian-mixture PHD filter (Vo & Ma) with occlusion regions, persistence and "
     "Hungarian labelling (seed 004)",
-    build=build,
-    parameters=PARAMETERS,
+    config=GmPhdTrackerConfig,
+    make=GmPhdTracker,
     warm_up=gmphd.warm_up,
 )

@@ -30,7 +30,6 @@ position and the box's size; no velocity (the filters have no motion model).
 
 from __future__ import annotations
 
-from collections.abc import Mapping
 from dataclasses import dataclass, replace
 from typing import Any
 
@@ -49,7 +48,7 @@ from tracker_filter.occupancy_particles import (
 )
 from tracker_filter.tracking import TrackBook, TrackSet
 from tracker_msgs_py.geometry import Rect
-from tracker_msgs_py.params import ParamSpec
+from tracker_msgs_py.params import check_config, param
 from tracker_msgs_py.registry import Method
 
 LAYOUT = StateLayout.from_names("x y w h")
@@ -68,6 +67,138 @@ class BlobRules:
     confirm_travel: float = 12.0  # px
     confirm_straightness: float = 0.7  # net distance / path: tape flutters in place
     straightness_step: float = 6.0  # px between the path's waypoints
+
+
+_R = BlobRules()
+
+
+@dataclass(frozen=True)
+class OccupancyTrackerConfig:
+    """Parameters of the `occupancy_particles` method: the filters' (`filter_config`) and the
+    blob rules (`blob_rules`)."""
+
+    particles: int = param(
+        300, "particles per person (the thesis: 300 used, 50-1000)", min=1, max=100000
+    )
+    surface_radius: int = param(
+        3,
+        "likelihood neighbourhood half-size (1: the thesis's 3 x 3)",
+        min=1,
+        max=20,
+        unit="camera px",
+    )
+    foreground_factor: bool = param(
+        False, "likelihood x the foreground share n1 / size of C (the thesis evaluated f = 1)"
+    )
+    blocking: bool = param(True, "no particle inside another filter's ellipse")
+    block_box_factor: float = param(
+        0.75, "blocking ellipse semi-axes, x the other filter's box", min=0.0, max=10.0
+    )
+    propagation: str = param(
+        Propagation.NORMAL.value,
+        "a taken pixel: nearest free one, or the nearest free foreground one",
+        choices=tuple(p.value for p in Propagation),
+    )
+    jitter: str = param(
+        Jitter.NORMAL.value,
+        "resampling jitter: view size / sqrt(N), or the thesis's expanded rule",
+        choices=tuple(j.value for j in Jitter),
+    )
+    jitter_box_factor: float = param(
+        0.75,
+        "resampling jitter, x the filter's box (0: the jitter rule alone; the thesis's room-wide "
+        "jitter is about 1.5 people wide)",
+        min=0.0,
+        max=10.0,
+    )
+    opening: int = param(5, "vertical opening of the mask, rows (1: off)", min=1, max=100)
+    min_area: float = param(
+        _R.min_area, "area a detector blob needs to start a filter", min=0.0, max=1e7, unit="px^2"
+    )
+    min_height: float = param(
+        _R.min_height, "height a detector blob needs to start one", min=0.0, max=1e5, unit="px"
+    )
+    box_margin: float = param(
+        _R.box_margin,
+        "x a blob's size: how far outside its box a filter owns it",
+        min=0.0,
+        max=10.0,
+    )
+    size_gate: float = param(
+        _R.size_gate,
+        "a blob smaller than this share of a filter's last box does not measure it",
+        min=0.0,
+        max=1.0,
+    )
+    max_misses: int = param(
+        _R.max_misses, "frames without a blob after which a filter is deleted", min=1, max=10000
+    )
+    starve_weight: float = param(
+        0.01, "mean surface weight below which a frame starves", min=0.0, max=1.0
+    )
+    starve_frames: int = param(
+        10, "starved frames after which a filter is deleted", min=1, max=10000
+    )
+    confirm_hits: int = param(
+        _R.confirm_hits, "hits before a filter is a confirmed track", min=1, max=1000
+    )
+    confirm_travel: float = param(
+        _R.confirm_travel, "distance those hits must have moved", min=0.0, max=1e4, unit="px"
+    )
+    confirm_straightness: float = param(
+        _R.confirm_straightness,
+        "... and that directly (net / path; tape flutters)",
+        min=0.0,
+        max=1.0,
+    )
+    straightness_step: float = param(
+        _R.straightness_step,
+        "distance between the waypoints of that path",
+        min=0.0,
+        max=1e3,
+        unit="px",
+    )
+    seed: int = param(0, "random seed (a replay gives the same tracks)", min=0, max=2**31 - 1)
+
+    def __post_init__(self) -> None:
+        check_config(self)
+
+    def problems(self) -> list[str]:
+        """Why this config is unusable beyond its fields' own ranges (empty when it is fine)."""
+        return []
+
+    def filter_config(self) -> OccupancyFilterConfig:
+        radius = self.surface_radius
+        return OccupancyFilterConfig(
+            particles=self.particles,
+            radius=(radius, radius, 0),
+            foreground_factor=self.foreground_factor,
+            blocking=self.blocking,
+            block_shape=BlockShape.ELLIPSOID,  # an ellipse: in an image "up" is also "farther"
+            block_axes=(15.0, 40.0, 1.0),  # px, until a filter has a box
+            block_box_factor=self.block_box_factor,
+            propagation=Propagation(self.propagation),
+            jitter=Jitter(self.jitter),
+            vertical_jitter_factor=1.0,
+            jitter_box_factor=self.jitter_box_factor,
+            opening=self.opening,
+            starve_weight=self.starve_weight,
+            starve_frames=self.starve_frames,
+            seed=self.seed,
+        )
+
+    def blob_rules(self) -> BlobRules:
+        return BlobRules(
+            min_area=self.min_area,
+            min_height=self.min_height,
+            box_margin=self.box_margin,
+            size_gate=self.size_gate,
+            max_misses=self.max_misses,
+            confirm_hits=self.confirm_hits,
+            confirm_travel=self.confirm_travel,
+            confirm_straightness=self.confirm_straightness,
+            straightness_step=self.straightness_step,
+        )
 
 
 BOX_VARIANCE = 4.0  # px^2 reported for w and h (a component's box, not an estimate)
@@ -91,13 +222,9 @@ class OccupancyTracker:
     needs = frozenset({Need.MASK, Need.WINDOW})
     layout = LAYOUT
 
-    def __init__(
-        self,
-        config: OccupancyFilterConfig,
-        rules: BlobRules,
-        first_id: int = 1,
-    ) -> None:
-        self.config, self.rules = replace(config, initiation=False), rules
+    def __init__(self, config: OccupancyTrackerConfig, first_id: int = 1) -> None:
+        rules = config.blob_rules()
+        self.config, self.rules = replace(config.filter_config(), initiation=False), rules
         self.book = TrackBook(first_id, path_step=rules.straightness_step)
         self.filters = OccupancyParticleFilters(self.config, first_id=first_id)
 
@@ -277,108 +404,11 @@ def _owners(
     return result
 
 
-PARAMETERS: tuple[ParamSpec, ...] = (
-    ParamSpec("particles", 300, "particles per person (the thesis: 300 used, 50-1000)", 1, 100000),
-    ParamSpec(
-        "surface_radius",
-        3,
-        "likelihood neighbourhood half-size, camera px (1: the thesis's 3 x 3)",
-        1,
-        20,
-    ),
-    ParamSpec(
-        "foreground_factor",
-        False,
-        "likelihood x the foreground share n1 / size of C (the thesis evaluated f = 1)",
-    ),
-    ParamSpec("blocking", True, "no particle inside another filter's ellipse"),
-    ParamSpec(
-        "block_box_factor", 0.75, "blocking ellipse semi-axes, x the other filter's box", 0.0, 10.0
-    ),
-    ParamSpec(
-        "propagation",
-        Propagation.NORMAL.value,
-        "a taken pixel: nearest free one, or the nearest free foreground one",
-        choices=tuple(p.value for p in Propagation),
-    ),
-    ParamSpec(
-        "jitter",
-        Jitter.NORMAL.value,
-        "resampling jitter: view size / sqrt(N), or the thesis's expanded rule",
-        choices=tuple(j.value for j in Jitter),
-    ),
-    ParamSpec(
-        "jitter_box_factor",
-        0.75,
-        "resampling jitter, x the filter's box (0: the jitter rule alone; the thesis's room-wide "
-        "jitter is about 1.5 people wide)",
-        0.0,
-        10.0,
-    ),
-    ParamSpec("opening", 5, "vertical opening of the mask, rows (1: off)", 1, 100),
-    ParamSpec("min_area", 400.0, "px^2 a detector blob needs to start a filter", 0.0, 1e7),
-    ParamSpec("min_height", 40.0, "px a detector blob needs to be tall to start one", 0.0, 1e5),
-    ParamSpec(
-        "box_margin", 0.25, "x a blob's size: how far outside its box a filter owns it", 0.0, 10.0
-    ),
-    ParamSpec(
-        "size_gate",
-        0.25,
-        "a blob smaller than this share of a filter's last box does not measure it",
-        0.0,
-        1.0,
-    ),
-    ParamSpec("max_misses", 10, "frames without a blob after which a filter is deleted", 1, 10000),
-    ParamSpec("starve_weight", 0.01, "mean surface weight below which a frame starves", 0.0, 1.0),
-    ParamSpec("starve_frames", 10, "starved frames after which a filter is deleted", 1, 10000),
-    ParamSpec("confirm_hits", 3, "hits before a filter is a confirmed track", 1, 1000),
-    ParamSpec("confirm_travel", 12.0, "px those hits must have moved", 0.0, 1e4),
-    ParamSpec(
-        "confirm_straightness", 0.7, "... and that directly (net / path; tape flutters)", 0.0, 1.0
-    ),
-    ParamSpec("straightness_step", 6.0, "px between the waypoints of that path", 0.0, 1e3),
-    ParamSpec("seed", 0, "random seed (a replay gives the same tracks)", 0, 2**31 - 1),
-)
-
-
-def build(values: Mapping[str, Any], first_id: int = 1) -> OccupancyTracker:
-    radius = values["surface_radius"]
-    config = OccupancyFilterConfig(
-        particles=values["particles"],
-        radius=(radius, radius, 0),
-        foreground_factor=values["foreground_factor"],
-        blocking=values["blocking"],
-        block_shape=BlockShape.ELLIPSOID,  # an ellipse: in an image "up" is also "farther"
-        block_axes=(15.0, 40.0, 1.0),  # px, until a filter has a box
-        block_box_factor=values["block_box_factor"],
-        propagation=Propagation(values["propagation"]),
-        jitter=Jitter(values["jitter"]),
-        vertical_jitter_factor=1.0,
-        jitter_box_factor=values["jitter_box_factor"],
-        opening=values["opening"],
-        starve_weight=values["starve_weight"],
-        starve_frames=values["starve_frames"],
-        seed=values["seed"],
-    )
-    rules = BlobRules(
-        min_area=values["min_area"],
-        min_height=values["min_height"],
-        box_margin=values["box_margin"],
-        size_gate=values["size_gate"],
-        max_misses=values["max_misses"],
-        confirm_hits=values["confirm_hits"],
-        confirm_travel=values["confirm_travel"],
-        confirm_straightness=values["confirm_straightness"],
-        straightness_step=values["straightness_step"],
-    )
-    return OccupancyTracker(config, rules, first_id)
-
-
 def warm_up() -> None:
     """Step a throwaway tracker through two blobs that cross (every kernel of the step runs:
     snapping, likelihood, blocking, resampling, the split of a shared blob), so numba compiles
     them, or loads them from its cache, now rather than on a replay's first frames."""
-    tracker = build(METHOD.defaults() | {"particles": 20, "opening": 3}, 1)
+    tracker = OccupancyTracker(OccupancyTrackerConfig(particles=20, opening=3))
     window = Rect(0.0, 0.0, 120.0, 80.0)
     for k in range(10):
         mask = np.zeros((80, 120), np.uint8)
@@ -391,11 +421,11 @@ def warm_up() -> None:
         tracker.step(Observation(0.1 * k, found, mask=mask, window=window))
 
 
-METHOD: Method[Any] = Method(
+METHOD: Method[Any] = Method.of(
     name="occupancy_particles",
     description="one particle filter per person on the motion mask, surface likelihood and "
     "blocking (seed 002)",
-    build=build,
-    parameters=PARAMETERS,
+    config=OccupancyTrackerConfig,
+    make=OccupancyTracker,
     warm_up=warm_up,
 )

@@ -22,18 +22,19 @@ from typing import Any, Generic, TypeVar
 from tracker_msgs_py.params import ParamSpec, config_from_params, specs_of
 
 T = TypeVar("T")
+T_co = TypeVar("T_co", covariant=True)  # a Method of a subtype serves a role of its supertype
 C = TypeVar("C")
 
 
 @dataclass(frozen=True)
-class Method(Generic[T]):
+class Method(Generic[T_co]):
     """One registered method. `build(values)` gets every parameter of the method by name (plus
     whatever the role adds, e.g. a tracker's first id) and raises ValueError for a bad combination.
     """
 
     name: str
     description: str
-    build: Callable[..., T]
+    build: Callable[..., T_co]
     parameters: tuple[ParamSpec, ...] = ()
     presets: Mapping[str, Mapping[str, Any]] = field(default_factory=dict)
     #: compiles the method's kernels (numba) ahead of its first frame; a node calls it before it
@@ -48,14 +49,14 @@ class Method(Generic[T]):
         name: str,
         description: str,
         config: type[C],
-        make: Callable[..., T],
+        make: Callable[..., T_co],
         presets: Mapping[str, Mapping[str, Any]] | None = None,
         warm_up: Callable[[], None] | None = None,
-    ) -> Method[T]:
+    ) -> Method[T_co]:
         """The method whose parameters are the `param` fields of `config`, built by
         `make(config_instance, **role_arguments)` (a tracker's first id, ...)."""
 
-        def build(values: Mapping[str, Any], *role_arguments: Any, **named: Any) -> T:
+        def build(values: Mapping[str, Any], *role_arguments: Any, **named: Any) -> T_co:
             return make(config_from_params(config, values), *role_arguments, **named)
 
         return cls(name, description, build, specs_of(config), presets or {}, warm_up, config)
