@@ -46,7 +46,6 @@ from tracker_detect.image_pose_pairing import (
 )
 from tracker_detect.registration import CameraIntrinsics
 from tracker_detect.seeding import (
-    SEEDING_PARAMETERS,
     Guidance,
     Offer,
     OfferResult,
@@ -77,81 +76,91 @@ from tracker_msgs_py.codec import (
 )
 from tracker_msgs_py.geometry import Rect
 from tracker_msgs_py.node_main import Health, StartupError, SuiteNode, run_node
-from tracker_msgs_py.params import ParamSpec, config_from_params, declare_parameters
+from tracker_msgs_py.params import (
+    ParamSpec,
+    config_from_params,
+    declare_parameters,
+    param,
+    params_of,
+    specs_of,
+)
 from tracker_msgs_py.stamps import Order, StampOrder
 from tracker_msgs_py.vision import detections_to_vision
 
-NODE_PARAMETERS = [
-    ParamSpec(
-        "pose_source",
+
+@dataclass(frozen=True)
+class DetectorNodeConfig:
+    """The detector node's own parameters, beside its method's."""
+
+    pose_source: str = param(
         "ptz_state",
         "camera pose: ptz_state (simulator window), joint_states (+ camera_info: real "
         "pan-tilt unit), none (static camera), estimate (unknown: dead reckoning from the "
         "estimated shifts)",
         choices=POSE_SOURCES,
         read_only=True,
-    ),
-    ParamSpec(
-        "image_transport",
+    )
+    image_transport: str = param(
         "raw",
         "raw: sensor_msgs/Image on camera/image_raw; compressed: sensor_msgs/CompressedImage "
         "(jpeg, png) on camera/image_raw/compressed, as image_transport and the Axis driver "
         "publish it",
         choices=("raw", "compressed"),
         read_only=True,
-    ),
-    ParamSpec(
-        "image_projection",
+    )
+    image_projection: str = param(
         "linear",
         "the images: linear (a window of the scene resampled linearly: the simulator's suite "
         "interface) or pinhole (a real camera's: resampled onto the scene's equiangular grid "
         "before detection, so a panning camera's background registers)",
         choices=PROJECTIONS,
-    ),
-    ParamSpec("pose_buffer_size", 64, "poses (and images waiting for one) kept", 2, 10000),
-    ParamSpec(
-        "pose_max_gap", 0.5, "interpolate a pose between two at most this far apart [s]", 0.0, 60.0
-    ),
-    ParamSpec(
-        "joint_names",
+    )
+    pose_buffer_size: int = param(64, "poses (and images waiting for one) kept", min=2, max=10000)
+    pose_max_gap: float = param(
+        0.5, "interpolate a pose between two at most this far apart", min=0.0, max=60.0, unit="s"
+    )
+    joint_names: tuple[str, ...] = param(
         ["pan_joint", "tilt_joint"],
         "pan and tilt joints of JointState",
         validator=lambda v: None if len(v) == 2 else "joint_names needs two names",
-    ),
-    ParamSpec(
-        "scene_width", 0, "joint_states: scene width [px] (0 = the camera image's)", 0, 1_000_000
-    ),
-    ParamSpec(
-        "scene_height", 0, "joint_states: scene height [px] (0 = the camera image's)", 0, 1_000_000
-    ),
-    ParamSpec(
-        "scene_focal_length",
+    )
+    scene_width: int = param(
+        0, "joint_states: scene width (0 = the camera image's)", min=0, max=1_000_000, unit="px"
+    )
+    scene_height: int = param(
+        0, "joint_states: scene height (0 = the camera image's)", min=0, max=1_000_000, unit="px"
+    )
+    scene_focal_length: float = param(
         0.0,
         "joint_states: scene px per radian (0 = the camera's fx)",
-        0.0,
-        1e9,
-    ),
-    ParamSpec("scene_frame_id", "scene", "frame_id of the detections"),
-    ParamSpec(
-        "reliable_images", False, "reliable QoS for images (lockstep replays)", read_only=True
-    ),
-    *SEEDING_PARAMETERS,
-    ParamSpec(
-        "lockstep_targets",
+        min=0.0,
+        max=1e9,
+    )
+    scene_frame_id: str = param("scene", "frame_id of the detections")
+    reliable_images: bool = param(
+        False, "reliable QoS for images (lockstep replays)", read_only=True
+    )
+    seeding: SeedingConfig = params_of(SeedingConfig)
+    lockstep_targets: bool = param(
         False,
         "seeded detectors in a lockstep replay: each image waits for the hand-over target of its "
         "stamp (with `handover`) and for `target`'s answer to the image before (with "
         "`guide_from_target`), so a replay gives the same result every time",
         read_only=True,
-    ),
-    ParamSpec(
-        "target_timeout",
+    )
+    target_timeout: float = param(
         1.0,
-        "lockstep_targets: an image waits at most this long for the targets [s]",
-        0.01,
-        60.0,
-    ),
-]
+        "lockstep_targets: an image waits at most this long for the targets",
+        min=0.01,
+        max=60.0,
+        unit="s",
+    )
+
+    def problems(self) -> list[str]:
+        return []
+
+
+NODE_PARAMETERS = specs_of(DetectorNodeConfig)
 
 RECENT_FRAMES = 16  # images kept for a hand-over naming an image by its stamp
 
@@ -189,18 +198,19 @@ class DetectorNode(SuiteNode):
             on_change=self._on_change,
             check_all=self._check,
         )
+        self.settings = config_from_params(DetectorNodeConfig, self.params)
         self.detector: Detector = self._build(self._method_values(self.params))
         self.counters = Counters()
         self.pairing = ImagePosePairing(
-            self.params["pose_source"],
-            self.params["pose_buffer_size"],
+            self.settings.pose_source,
+            self.settings.pose_buffer_size,
             self._max_gap_ns(),
             self._scene_settings(),
-            self.params["image_projection"],
+            self.settings.image_projection,
         )
         self.image_order = StampOrder()
         self.last_frame: CameraFrame | None = None
-        reliable = self.params["reliable_images"]
+        reliable = self.settings.reliable_images
         self.detections_pub = self.create_publisher(BlobArray, "detections", result_qos())
         # the same detections for consumers of vision_msgs, beside wherever detections is remapped
         self.vision_pub = self.create_publisher(
@@ -209,7 +219,7 @@ class DetectorNode(SuiteNode):
         # private (~/: /detector/motion_mask for a node of the default name), one per detector
         self.mask_pub = self.create_publisher(Image, "~/motion_mask", image_qos(reliable))
         self.ssim_pub = self.create_publisher(Image, "~/ssim_map", image_qos(reliable))
-        if self.params["image_transport"] == "compressed":  # image_transport's topic name
+        if self.settings.image_transport == "compressed":  # image_transport's topic name
             self.create_subscription(
                 CompressedImage,
                 "camera/image_raw/compressed",
@@ -218,8 +228,8 @@ class DetectorNode(SuiteNode):
             )
         else:
             self.create_subscription(Image, "camera/image_raw", self._on_image, image_qos(reliable))
-        pose_qos = image_qos(reliable, depth=self.params["pose_buffer_size"])
-        source = self.params["pose_source"]
+        pose_qos = image_qos(reliable, depth=self.settings.pose_buffer_size)
+        source = self.settings.pose_source
         if source == "ptz_state":
             self.create_subscription(PtzState, "ptz/state", self._on_ptz_state, pose_qos)
         elif source == "joint_states":
@@ -239,11 +249,11 @@ class DetectorNode(SuiteNode):
             )
             self.create_subscription(Target, "target", self._on_target, 10)
             self.create_subscription(Target, "handover_target", self._on_handover_target, 10)
-            if self.params["lockstep_targets"]:
+            if self.settings.lockstep_targets:
                 self.gate = TargetGate(
-                    self.params["handover"],
-                    self.params["guide_from_target"],
-                    self.params["target_timeout"],
+                    self.settings.seeding.handover,
+                    self.settings.seeding.guide_from_target,
+                    self.settings.target_timeout,
                 )
                 self.create_steady_timer(0.05, self._expire_held_images)
         self.get_logger().info(f"detector ready: method {self.method.name}, pose {source}")
@@ -263,9 +273,10 @@ class DetectorNode(SuiteNode):
     def _check(self, values: dict[str, Any]) -> str | None:
         try:
             detector = self._build(self._method_values(values))
+            settings = config_from_params(DetectorNodeConfig, values)
         except ValueError as error:
             return str(error)
-        if values["pose_source"] == "estimate" and not detector.estimates_ego_motion:
+        if settings.pose_source == "estimate" and not detector.estimates_ego_motion:
             return (
                 f"pose_source 'estimate' needs a detector that estimates the camera's motion "
                 f"({self.method.name} with these parameters does not; for ssim: compensation "
@@ -274,12 +285,12 @@ class DetectorNode(SuiteNode):
         return None
 
     def _max_gap_ns(self) -> int:
-        return round(float(self.params["pose_max_gap"]) * NS_PER_S)
+        return round(float(self.settings.pose_max_gap) * NS_PER_S)
 
     def _scene_settings(self) -> SceneSettings:
-        params = self.params
+        settings = self.settings
         return SceneSettings(
-            params["scene_width"], params["scene_height"], params["scene_focal_length"]
+            settings.scene_width, settings.scene_height, settings.scene_focal_length
         )
 
     @property
@@ -292,6 +303,7 @@ class DetectorNode(SuiteNode):
         return self.pairing.camera
 
     def _on_change(self, changed: dict[str, Any]) -> None:
+        self.settings = config_from_params(DetectorNodeConfig, self.params)
         if any(spec.name in changed for spec in self.method.parameters):
             values = self._method_values(self.params)
             if self.method.config is not None:  # keeps the history it can
@@ -299,18 +311,18 @@ class DetectorNode(SuiteNode):
             else:  # a plug-in without a config dataclass: a new detector
                 self.detector = self._build(values)
         self.pairing.configure(
-            self.params["pose_buffer_size"],
+            self.settings.pose_buffer_size,
             self._max_gap_ns(),
             self._scene_settings(),
-            self.params["image_projection"],
+            self.settings.image_projection,
         )
         if self.session is not None and isinstance(self.detector, SeededDetector):
             self.session.detector = self.detector  # rebuilt when it cannot reconfigure
             self.session.config = self._seeding_config()
         if self.gate is not None:
-            self.gate.wait_handover = self.params["handover"]
-            self.gate.wait_guide = self.params["guide_from_target"]
-            self.gate.timeout = self.params["target_timeout"]
+            self.gate.wait_handover = self.settings.seeding.handover
+            self.gate.wait_guide = self.settings.seeding.guide_from_target
+            self.gate.timeout = self.settings.target_timeout
 
     def diagnostic_state(self) -> tuple[str, dict[str, str]]:
         if self.pairing.waiting_for_camera_info:
@@ -319,7 +331,7 @@ class DetectorNode(SuiteNode):
             state = f"{len(self.pairing)} image(s) waiting for their pose"
         else:
             state = "detecting"
-        return state, {"method": self.method.name, "pose source": self.params["pose_source"]}
+        return state, {"method": self.method.name, "pose source": self.settings.pose_source}
 
     def diagnostic_health(self) -> tuple[Health, str]:
         if self.pairing.waiting_for_camera_info:
@@ -400,12 +412,12 @@ class DetectorNode(SuiteNode):
 
     def _on_joint_state(self, msg: JointState) -> None:
         names = list(msg.name)
-        wanted = self.params["joint_names"]
+        wanted = self.settings.joint_names
         positions = joint_values(names, msg.position, wanted)
         if positions is None:
             self.problems.report(
                 "JointState without the pan/tilt joints",
-                f"ignored a JointState without positions for {wanted} (names {names})",
+                f"ignored a JointState without positions for {list(wanted)} (names {names})",
             )
             return
         pan, tilt = positions
@@ -460,7 +472,7 @@ class DetectorNode(SuiteNode):
             self.problems.report(
                 "targets late",
                 f"processed the image stamped {held.stamp_ns} ns without waiting longer for the "
-                f"targets (lockstep_targets; {self.params['target_timeout']} s): is the tracker "
+                f"targets (lockstep_targets; {self.settings.target_timeout} s): is the tracker "
                 "running?",
             )
         self._detect_now(held.item, held.handover)
@@ -511,10 +523,10 @@ class DetectorNode(SuiteNode):
     # --- seeded detectors: start, hand-over, guidance (seeding.SeededSession) ------------------
 
     def _seeding_config(self) -> SeedingConfig:
-        return config_from_params(SeedingConfig, self.params)
+        return self.settings.seeding
 
     def _initial_region(self) -> Rect | None:
-        return initial_region(self.params["initial_region"])
+        return initial_region(self.settings.seeding.initial_region)
 
     def _seeded_step(
         self, session: SeededSession, frame: CameraFrame, offer: Offer | None
@@ -551,7 +563,7 @@ class DetectorNode(SuiteNode):
                 self._release(held)
 
     def _on_handover_target(self, msg: Target) -> None:
-        if not self.params["handover"] or self.session is None:
+        if not self.settings.seeding.handover or self.session is None:
             return
         offer = self._offer(msg)
         if self.gate is not None:  # offered with the image of its stamp when that is processed
@@ -604,7 +616,7 @@ class DetectorNode(SuiteNode):
     def _blob_array(self, detection: Detection, image_header: Header) -> BlobArray:
         msg = BlobArray()
         msg.header.stamp = image_header.stamp
-        msg.header.frame_id = self.params["scene_frame_id"]
+        msg.header.frame_id = self.settings.scene_frame_id
         msg.blobs = [_blob_msg(b) for b in detection.blobs]
         msg.target_present = detection.target_present
         msg.compared_area = float(detection.compared_area)
@@ -614,7 +626,7 @@ class DetectorNode(SuiteNode):
     def _publish_empty(self, image_header: Header) -> None:
         msg = BlobArray()
         msg.header.stamp = image_header.stamp
-        msg.header.frame_id = self.params["scene_frame_id"]
+        msg.header.frame_id = self.settings.scene_frame_id
         self._publish_detections(msg)
 
     def _publish_detections(self, msg: BlobArray) -> None:

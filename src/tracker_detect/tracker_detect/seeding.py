@@ -26,7 +26,7 @@ from dataclasses import dataclass, replace
 
 from tracker_detect.detector import Blob, CameraFrame, Detection, SeededDetector
 from tracker_msgs_py.geometry import Rect
-from tracker_msgs_py.params import ParamSpec
+from tracker_msgs_py.params import ParamSpec, param, specs_of
 
 NS_PER_S = 1_000_000_000
 SAME_OBJECT_IOU = 0.3  # an offered box overlapping the detector's own this much is the same object
@@ -63,73 +63,55 @@ class Guidance:
 
 @dataclass(frozen=True)
 class SeedingConfig:
-    handover: bool = True
-    handover_min_hits: int = 5
-    handover_passthrough: bool = False
-    handover_follow_source: bool = True
-    guide_from_target: bool = True
-    guide_max_age: float = 0.5  # s
+    """How a seeded detector (camshift) is started, handed over and guided: the detector node's
+    parameters beside the method's."""
 
-    def problems(self) -> list[str]:
-        """What is wrong with these values (empty when usable)."""
-        checks = {
-            "handover_min_hits must be >= 1": self.handover_min_hits >= 1,
-            "guide_max_age must be >= 0": self.guide_max_age >= 0,
-        }
-        return [message for message, ok in checks.items() if not ok]
-
-
-_DEFAULTS = SeedingConfig()
-
-#: The seeding's node parameters (the detector node declares them beside the method's).
-SEEDING_PARAMETERS: tuple[ParamSpec, ...] = (
-    ParamSpec(
-        "initial_region",
+    initial_region: tuple[float, ...] = param(
         [0.0, 0.0, 0.0, 0.0],
-        "seeded detectors (camshift): x, y, w, h [scene px] to start on in the first image "
-        "(zero size: none)",
+        "seeded detectors (camshift): x, y, w, h to start on in the first image (zero size: none)",
+        unit="scene px",
         validator=lambda v: None if len(v) == 4 else "initial_region needs x, y, width, height",
-    ),
-    ParamSpec(
-        "handover",
-        _DEFAULTS.handover,
+    )
+    handover: bool = param(
+        True,
         "seeded detectors: offer the box of the locked target on `handover_target` that was "
         "measured in that image (e.g. the motion tracker's): taken when not tracking, or when "
         "the detector judges its own target wrong (camshift: rehandover_similarity)",
-    ),
-    ParamSpec(
-        "handover_passthrough",
-        _DEFAULTS.handover_passthrough,
+    )
+    handover_passthrough: bool = param(
+        False,
         "seeded detectors: while the detector finds nothing, report the measured hand-over box "
         "of the image (score 0), so the camera follows the other tracker's target until this "
         "detector takes over",
-    ),
-    ParamSpec(
-        "handover_follow_source",
-        _DEFAULTS.handover_follow_source,
+    )
+    handover_follow_source: bool = param(
+        True,
         "seeded detectors: while the track whose box started the detector is measured apart from "
         "the detector's box, start it there again (the detector drifted)",
-    ),
-    ParamSpec(
-        "handover_min_hits",
-        _DEFAULTS.handover_min_hits,
+    )
+    handover_min_hits: int = param(
+        5,
         "seeded detectors: hand over only a target measured in at least this many frames",
-        1,
-        100000,
-    ),
-    ParamSpec(
-        "guide_from_target",
-        _DEFAULTS.guide_from_target,
-        "seeded detectors: search each image where `target`'s track is predicted to be",
-    ),
-    ParamSpec(
-        "guide_max_age",
-        _DEFAULTS.guide_max_age,
-        "seeded detectors: use a `target` at most this old for the guidance [s]",
-        0.0,
-        10.0,
-    ),
-)
+        min=1,
+        max=100000,
+    )
+    guide_from_target: bool = param(
+        True, "seeded detectors: search each image where `target`'s track is predicted to be"
+    )
+    guide_max_age: float = param(
+        0.5,
+        "seeded detectors: use a `target` at most this old for the guidance",
+        min=0.0,
+        max=10.0,
+        unit="s",
+    )
+
+    def problems(self) -> list[str]:
+        return []
+
+
+#: The seeding's node parameters (the detector node declares them beside the method's).
+SEEDING_PARAMETERS: tuple[ParamSpec, ...] = specs_of(SeedingConfig)
 
 
 def initial_region(values: Sequence[float]) -> Rect | None:
