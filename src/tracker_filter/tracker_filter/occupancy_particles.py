@@ -524,27 +524,41 @@ def _snap_unique(  # pragma: no cover
         i, j, k = cells[p, 0], cells[p, 1], cells[p, 2]
         if i < 0 or j < 0 or k < 0 or i >= nx or j >= ny or k >= nz:
             continue  # outside the grid: no data, weight 0 (clipping would pile them on the walls)
-        if stamp[i, j, k] != mark:
-            chosen = -1
-        else:
-            chosen, free = -2, -2
-            for o in range(offsets.shape[0]):
-                a, b, c = i + offsets[o, 0], j + offsets[o, 1], k + offsets[o, 2]
-                if a < 0 or b < 0 or c < 0 or a >= nx or b >= ny or c >= nz:
-                    continue
-                if stamp[a, b, c] == mark:
-                    continue
-                if not ranking or dense[a, b, c]:
-                    chosen = o
-                    break
-                if free == -2:
-                    free = o
-            if chosen == -2:
-                chosen = free
-        if chosen >= 0:
-            i, j, k = i + offsets[chosen, 0], j + offsets[chosen, 1], k + offsets[chosen, 2]
+        if stamp[i, j, k] == mark:
+            chosen = _nearest_free(i, j, k, stamp, mark, offsets, dense, ranking)
+            if chosen >= 0:
+                i, j, k = i + offsets[chosen, 0], j + offsets[chosen, 1], k + offsets[chosen, 2]
         cells[p, 0], cells[p, 1], cells[p, 2] = i, j, k
         stamp[i, j, k] = mark
+
+
+@numba.njit(cache=True, nogil=True)
+def _nearest_free(  # pragma: no cover
+    i: int,
+    j: int,
+    k: int,
+    stamp: np.ndarray,
+    mark: int,
+    offsets: np.ndarray,
+    dense: np.ndarray,
+    ranking: bool,
+) -> int:
+    """Row of `offsets` to the nearest cell around (i, j, k), inside the grid, not yet stamped
+    with `mark`; with `ranking`, the nearest such cell that is dense, else the nearest at all.
+    -2: every neighbour is outside the grid or taken."""
+    nx, ny, nz = dense.shape
+    free = -2
+    for o in range(offsets.shape[0]):
+        a, b, c = i + offsets[o, 0], j + offsets[o, 1], k + offsets[o, 2]
+        if a < 0 or b < 0 or c < 0 or a >= nx or b >= ny or c >= nz:
+            continue
+        if stamp[a, b, c] == mark:
+            continue
+        if not ranking or dense[a, b, c]:
+            return o
+        if free == -2:
+            free = o
+    return free
 
 
 @numba.njit(cache=True, nogil=True)

@@ -349,6 +349,34 @@ def declare_parameters(
     by_name = {spec.name: spec for spec in specs}
     _widen_overrides(node, by_name)
     _widen_at_run_time(node, by_name)
+    values = _declare_start_up_values(node, specs, check_all)
+
+    def validate(params: list[Parameter]) -> SetParametersResult:
+        successful, reason = _change_verdict(params, values, by_name, check_all)
+        return SetParametersResult(successful=successful, reason=reason)
+
+    def apply(params: list[Parameter]) -> None:
+        changed = {
+            p.name: _as_python(p.value, by_name[p.name].default)
+            for p in params
+            if p.name in by_name
+        }
+        values.update(changed)
+        if changed and on_change:
+            on_change(changed)
+
+    node.add_on_set_parameters_callback(validate)
+    node.add_post_set_parameters_callback(apply)
+    return values
+
+
+def _declare_start_up_values(
+    node: Node,
+    specs: Sequence[ParamSpec],
+    check_all: Callable[[dict[str, Any]], str | None] | None,
+) -> dict[str, Any]:
+    """Declare each of `specs` on `node` and return the start-up values by name, each checked
+    by its spec and then all together by `check_all`. Raises ParameterError for a bad one."""
     values: dict[str, Any] = {}
     for spec in specs:
         try:
@@ -364,34 +392,30 @@ def declare_parameters(
         reason = check_all(dict(values))
         if reason:
             raise ParameterError(reason)
-
-    def validate(params: list[Parameter]) -> SetParametersResult:
-        proposed = dict(values)
-        for param in params:
-            spec = by_name.get(param.name)
-            if spec is None:
-                continue
-            value = _as_python(param.value, spec.default)
-            reason = spec.check(value)
-            if reason:
-                return SetParametersResult(successful=False, reason=reason)
-            proposed[param.name] = value
-        reason = check_all(proposed) if check_all else None
-        return SetParametersResult(successful=reason is None, reason=reason or "")
-
-    def apply(params: list[Parameter]) -> None:
-        changed = {
-            p.name: _as_python(p.value, by_name[p.name].default)
-            for p in params
-            if p.name in by_name
-        }
-        values.update(changed)
-        if changed and on_change:
-            on_change(changed)
-
-    node.add_on_set_parameters_callback(validate)
-    node.add_post_set_parameters_callback(apply)
     return values
+
+
+def _change_verdict(
+    params: list[Parameter],
+    values: Mapping[str, Any],
+    by_name: Mapping[str, ParamSpec],
+    check_all: Callable[[dict[str, Any]], str | None] | None,
+) -> tuple[bool, str]:
+    """Whether a runtime change of `params` to the current `values` may go ahead, and why not:
+    each parameter of `by_name` (others are not ours) is checked by its spec, then the values as
+    they would be after the change by `check_all`."""
+    proposed = dict(values)
+    for param in params:
+        spec = by_name.get(param.name)
+        if spec is None:
+            continue
+        value = _as_python(param.value, spec.default)
+        reason = spec.check(value)
+        if reason:
+            return False, reason
+        proposed[param.name] = value
+    verdict = check_all(proposed) if check_all else None
+    return verdict is None, verdict or ""
 
 
 def _widened(param: Parameter, by_name: Mapping[str, ParamSpec]) -> Parameter:

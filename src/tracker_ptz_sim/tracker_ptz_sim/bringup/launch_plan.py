@@ -201,25 +201,14 @@ def _topic_remappings(arguments: LaunchArguments) -> list[tuple[str, str]]:
 
 
 def _check(arguments: LaunchArguments) -> None:
-    if arguments.camera not in CAMERAS:
-        raise ValueError(f"camera must be one of {', '.join(CAMERAS)}, got '{arguments.camera}'")
-    if arguments.unit not in UNITS:
-        raise ValueError(f"unit must be one of {', '.join(UNITS)}, got '{arguments.unit}'")
+    _check_choice(arguments, "camera", CAMERAS)
+    _check_choice(arguments, "unit", UNITS)
     if arguments.unit != "generic" and arguments.camera != "live":
         raise ValueError(f"unit:={arguments.unit} drives a real unit: it needs camera:=live")
-    if arguments.tf not in TF_PUBLISHERS:
-        raise ValueError(f"tf must be one of {', '.join(TF_PUBLISHERS)}, got '{arguments.tf}'")
-    if arguments.clock not in CLOCKS:
-        raise ValueError(f"clock must be one of {', '.join(CLOCKS)}, got '{arguments.clock}'")
-    if arguments.controller_mode not in CONTROLLER_MODES:
-        raise ValueError(
-            f"controller_mode must be one of {', '.join(CONTROLLER_MODES)}, got "
-            f"'{arguments.controller_mode}'"
-        )
-    if arguments.use_sim_time not in SIM_TIMES:
-        raise ValueError(
-            f"use_sim_time must be one of {', '.join(SIM_TIMES)}, got '{arguments.use_sim_time}'"
-        )
+    _check_choice(arguments, "tf", TF_PUBLISHERS)
+    _check_choice(arguments, "clock", CLOCKS)
+    _check_choice(arguments, "controller_mode", CONTROLLER_MODES)
+    _check_choice(arguments, "use_sim_time", SIM_TIMES)
     pipelined(arguments.frames_in_flight)  # raises for a count out of range
     if arguments.params_file and not Path(arguments.params_file).is_file():
         raise ValueError(f"params_file: no such file '{arguments.params_file}'")
@@ -227,6 +216,13 @@ def _check(arguments: LaunchArguments) -> None:
         raise ValueError("camera:=sim replays a recording: give video:=/path/to/video")
     if arguments.use_sim_time == "true" and _clock(arguments) == "off":
         raise ValueError("use_sim_time:=true needs a clock: clock:=off (or camera:=live) has none")
+
+
+def _check_choice(arguments: LaunchArguments, name: str, choices: tuple[str, ...]) -> None:
+    """Raise unless the argument `name` is one of `choices`."""
+    value = getattr(arguments, name)
+    if value not in choices:
+        raise ValueError(f"{name} must be one of {', '.join(choices)}, got '{value}'")
 
 
 def _clock(arguments: LaunchArguments) -> str:

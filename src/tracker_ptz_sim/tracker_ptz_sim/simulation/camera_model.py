@@ -53,26 +53,30 @@ class PtzConfig:
     initial_tilt: float = 0.0  # rad
 
     def problems(self) -> list[str]:
-        found = []
-        if not 0.05 <= self.view_height_fraction <= 1.0:
-            found.append("view_height_fraction must be in [0.05, 1]")
-        if not 0.1 <= self.view_aspect <= 10.0:
-            found.append("view_aspect must be in [0.1, 10]")
-        if self.servo not in ("dynamic", "instant"):
-            found.append(f"servo must be dynamic or instant, got '{self.servo}'")
-        for name in ("max_speed", "max_acceleration", "view_fov"):
-            if not getattr(self, name) > 0:
-                found.append(f"{name} must be > 0")
-        for name in ("focal_length", "command_latency", "velocity_timeout"):
-            if not getattr(self, name) >= 0:
-                found.append(f"{name} must be >= 0")
-        if not 1 <= self.command_delay_frames <= MAX_COMMAND_DELAY_FRAMES:
-            found.append(f"command_delay_frames must be in [1, {MAX_COMMAND_DELAY_FRAMES}]")
-        if not self.max_zoom >= 1.0:
-            found.append("max_zoom must be >= 1")
-        if not 0.05 <= self.min_zoom <= 1.0:
-            found.append("min_zoom must be in [0.05, 1]")
-        return found
+        # (holds, why not) per rule, in the order the problems are reported
+        rules = [
+            (0.05 <= self.view_height_fraction <= 1.0, "view_height_fraction must be in [0.05, 1]"),
+            (0.1 <= self.view_aspect <= 10.0, "view_aspect must be in [0.1, 10]"),
+            (
+                self.servo in ("dynamic", "instant"),
+                f"servo must be dynamic or instant, got '{self.servo}'",
+            ),
+            *(
+                (getattr(self, name) > 0, f"{name} must be > 0")
+                for name in ("max_speed", "max_acceleration", "view_fov")
+            ),
+            *(
+                (getattr(self, name) >= 0, f"{name} must be >= 0")
+                for name in ("focal_length", "command_latency", "velocity_timeout")
+            ),
+            (
+                1 <= self.command_delay_frames <= MAX_COMMAND_DELAY_FRAMES,
+                f"command_delay_frames must be in [1, {MAX_COMMAND_DELAY_FRAMES}]",
+            ),
+            (self.max_zoom >= 1.0, "max_zoom must be >= 1"),
+            (0.05 <= self.min_zoom <= 1.0, "min_zoom must be in [0.05, 1]"),
+        ]
+        return [why for holds, why in rules if not holds]
 
 
 @dataclass(frozen=True)

@@ -326,17 +326,11 @@ class PtzCameraNode(SuiteNode):
                 f"ignored a JointState command with {zoom_joint} {zoom} ({ZOOM_RULE})",
             )
             return None
-
-        def pan_tilt(values: Any) -> tuple[float, ...]:
-            if len(values) != len(names):
-                return ()
-            return (float(values[names.index(pan_name)]), float(values[names.index(tilt_name)]))
-
-        def pick(pair: tuple[float, ...]) -> tuple[float, float] | None:
-            return (pair[0], pair[1]) if pair and all(map(math.isfinite, pair)) else None
-
-        given = (pan_tilt(msg.velocity), pan_tilt(msg.position))
-        rates, angles = pick(given[0]), pick(given[1])
+        given = (
+            _joint_pair(msg.velocity, names, pan_name, tilt_name),
+            _joint_pair(msg.position, names, pan_name, tilt_name),
+        )
+        rates, angles = _finite_pair(given[0]), _finite_pair(given[1])
         corrupt = [v for pair in given for v in pair if not (math.isnan(v) or usable_value(v))]
         if corrupt:  # NaN means "not commanded"; a value beyond any motion is a corrupt message
             self.problems.report(
@@ -526,6 +520,19 @@ ZOOM_RULE = f"a positive number up to {MAX_MESSAGE_VALUE:g}, or 0 or NaN to keep
 def _usable_zoom(zoom: float) -> bool:
     """A commanded zoom the camera can act on (ZOOM_RULE)."""
     return math.isnan(zoom) or (usable_value(zoom) and zoom >= 0)
+
+
+def _joint_pair(values: Any, names: list[str], pan_name: str, tilt_name: str) -> tuple[float, ...]:
+    """The (pan, tilt) values of a JointState array (its velocities or positions), by joint
+    name; () when the array does not give one value per name."""
+    if len(values) != len(names):
+        return ()
+    return (float(values[names.index(pan_name)]), float(values[names.index(tilt_name)]))
+
+
+def _finite_pair(pair: tuple[float, ...]) -> tuple[float, float] | None:
+    """`pair` as a (pan, tilt) command when it has both and both are finite, else None."""
+    return (pair[0], pair[1]) if pair and all(map(math.isfinite, pair)) else None
 
 
 def main(args: list[str] | None = None) -> int:

@@ -112,50 +112,78 @@ class SmallObjectsConfig:
 
     def problems(self) -> list[str]:
         """Why this scene cannot be rendered (empty: it can)."""
-        c = self
-        problems = clip_problems(c, min_side=64)
-        problems += negative_counts(c, ("crossings", "num_occluders"))
-        if not 1 <= c.num_objects <= MAX_OBJECTS:
-            problems.append(f"num_objects must be in [1, {MAX_OBJECTS}], got {c.num_objects}")
-        if 2 * c.crossings > c.num_objects:
-            problems.append(
-                f"crossings need two movers each: 2 * crossings ({2 * c.crossings}) must be <= "
-                f"num_objects ({c.num_objects})"
-            )
-        if c.num_occluders > MAX_OCCLUDERS:
-            problems.append(f"num_occluders must be <= {MAX_OCCLUDERS}, got {c.num_occluders}")
-        lo, hi = c.object_size_range
-        top = min(c.width, c.height) // 4
-        if not 6 <= lo <= hi <= top:
-            problems.append(
-                f"object_size_range must satisfy 6 <= min <= max <= {top} (a quarter of the "
-                f"shorter side), got {c.object_size_range}"
-            )
-        elif hi < 1.5 * lo:
-            problems.append(
-                "object_size_range must satisfy max >= 1.5 * min (a mover's box changes with its "
-                f"heading by up to that much), got {c.object_size_range}"
-            )
-        lo_v, hi_v = c.speed_range
-        if not (math.isfinite(lo_v) and math.isfinite(hi_v) and 0 <= lo_v <= hi_v <= 20):
-            problems.append(
-                f"speed_range must satisfy 0 <= min <= max <= 20 px/frame, got {c.speed_range}"
-            )
-        if not (math.isfinite(c.turn_sigma) and 0 <= c.turn_sigma <= 0.5):
-            problems.append(f"turn_sigma must be in [0, 0.5] rad/frame, got {c.turn_sigma}")
-        for name in ("late_fraction", "low_contrast", "min_visibility"):
-            value = getattr(c, name)
-            if not 0 <= value <= 1:
-                problems.append(f"{name} must be in [0, 1], got {value}")
-        for name in ("optical_blur", "noise_sigma", "illumination_period"):
-            value = getattr(c, name)
-            if not (math.isfinite(value) and value >= 0):
-                problems.append(f"{name} must be a finite number >= 0, got {value}")
-        if not 0 <= c.illumination_drift < 1.0:
-            problems.append(f"illumination_drift must be in [0, 1), got {c.illumination_drift}")
-        if not 0 <= c.jpeg_quality <= 100:
-            problems.append(f"jpeg_quality must be in [0, 100], got {c.jpeg_quality}")
+        problems = clip_problems(self, min_side=64)
+        problems += negative_counts(self, ("crossings", "num_occluders"))
+        problems += _count_problems(self)
+        problems += _size_problems(self)
+        problems += _motion_problems(self)
+        problems += _camera_problems(self)
         return problems
+
+
+def _count_problems(c: SmallObjectsConfig) -> list[str]:
+    """`SmallObjectsConfig.problems` of the numbers of movers, crossings and occluders."""
+    problems: list[str] = []
+    if not 1 <= c.num_objects <= MAX_OBJECTS:
+        problems.append(f"num_objects must be in [1, {MAX_OBJECTS}], got {c.num_objects}")
+    if 2 * c.crossings > c.num_objects:
+        problems.append(
+            f"crossings need two movers each: 2 * crossings ({2 * c.crossings}) must be <= "
+            f"num_objects ({c.num_objects})"
+        )
+    if c.num_occluders > MAX_OCCLUDERS:
+        problems.append(f"num_occluders must be <= {MAX_OCCLUDERS}, got {c.num_occluders}")
+    return problems
+
+
+def _size_problems(c: SmallObjectsConfig) -> list[str]:
+    """`SmallObjectsConfig.problems` of the movers' sizes."""
+    problems: list[str] = []
+    lo, hi = c.object_size_range
+    top = min(c.width, c.height) // 4
+    if not 6 <= lo <= hi <= top:
+        problems.append(
+            f"object_size_range must satisfy 6 <= min <= max <= {top} (a quarter of the "
+            f"shorter side), got {c.object_size_range}"
+        )
+    elif hi < 1.5 * lo:
+        problems.append(
+            "object_size_range must satisfy max >= 1.5 * min (a mover's box changes with its "
+            f"heading by up to that much), got {c.object_size_range}"
+        )
+    return problems
+
+
+def _motion_problems(c: SmallObjectsConfig) -> list[str]:
+    """`SmallObjectsConfig.problems` of the movers' speeds and turns, and of the shares (late
+    births, low contrast, the visibility that counts)."""
+    problems: list[str] = []
+    lo_v, hi_v = c.speed_range
+    if not (math.isfinite(lo_v) and math.isfinite(hi_v) and 0 <= lo_v <= hi_v <= 20):
+        problems.append(
+            f"speed_range must satisfy 0 <= min <= max <= 20 px/frame, got {c.speed_range}"
+        )
+    if not (math.isfinite(c.turn_sigma) and 0 <= c.turn_sigma <= 0.5):
+        problems.append(f"turn_sigma must be in [0, 0.5] rad/frame, got {c.turn_sigma}")
+    for name in ("late_fraction", "low_contrast", "min_visibility"):
+        value = getattr(c, name)
+        if not 0 <= value <= 1:
+            problems.append(f"{name} must be in [0, 1], got {value}")
+    return problems
+
+
+def _camera_problems(c: SmallObjectsConfig) -> list[str]:
+    """`SmallObjectsConfig.problems` of the camera effects (blur, noise, lighting, JPEG)."""
+    problems: list[str] = []
+    for name in ("optical_blur", "noise_sigma", "illumination_period"):
+        value = getattr(c, name)
+        if not (math.isfinite(value) and value >= 0):
+            problems.append(f"{name} must be a finite number >= 0, got {value}")
+    if not 0 <= c.illumination_drift < 1.0:
+        problems.append(f"illumination_drift must be in [0, 1), got {c.illumination_drift}")
+    if not 0 <= c.jpeg_quality <= 100:
+        problems.append(f"jpeg_quality must be in [0, 100], got {c.jpeg_quality}")
+    return problems
 
 
 @dataclass(frozen=True, eq=False)
