@@ -29,7 +29,8 @@ from tracker_msgs_py import stop_signals
 from tracker_ptz_sim.bringup.demo import install_space
 from tracker_ptz_sim.bringup.graph import load_graph
 from tracker_ptz_sim.bringup.processes import STACK_DUMP_WAIT_S, GraphProcesses
-from tracker_ptz_sim.simulation.scenes import SceneConfig, generate_scene, write_scene
+from tracker_ptz_sim.simulation.scene_files import write_scene
+from tracker_ptz_sim.simulation.scenes import SceneConfig, generate_scene
 
 CLEAN_EXIT_S = 2.0
 HANDLER_TIMEOUT_S = 10.0

@@ -33,7 +33,7 @@ from onvif_camera import OnvifCamera
 
 from tracker_detect.pinhole import pinhole_view
 from tracker_msgs_py.geometry import SceneGeometry
-from tracker_ptz_sim.simulation.scenes import load_scene
+from tracker_ptz_sim.simulation.scene_files import load_scene
 
 MOVES = {"ContinuousMove", "AbsoluteMove", "RelativeMove", "Stop", "GotoPreset"}
 

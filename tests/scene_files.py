@@ -8,7 +8,7 @@ from typing import Any
 
 import numpy as np
 
-from tracker_ptz_sim.simulation.scenes import ScenePaths, load_scene, write_scene
+from tracker_ptz_sim.simulation.scene_files import ScenePaths, load_scene, write_scene
 
 
 def assert_reloads_exactly(scene: Any, root: Path, generator: str) -> ScenePaths:

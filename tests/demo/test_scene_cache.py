@@ -10,7 +10,7 @@ import pytest
 
 from tracker_ptz_sim.bringup import benchmark
 from tracker_ptz_sim.simulation import street
-from tracker_ptz_sim.simulation.scenes import load_scene
+from tracker_ptz_sim.simulation.scene_files import load_scene
 
 TINY = street.StreetConfig(
     width=96, height=72, num_frames=2, person_height_far=20.0, person_height_near=40.0, walkers=1

@@ -8,7 +8,8 @@ import math
 import pytest
 
 from tracker_msgs_py.geometry import Rect
-from tracker_ptz_sim.evaluation.scoring import RunTrace, pan_tilt_scores, write_evaluation
+from tracker_ptz_sim.evaluation.run_files import write_evaluation
+from tracker_ptz_sim.evaluation.scoring import RunTrace, pan_tilt_scores
 
 FPS = 10.0
 

@@ -7,17 +7,13 @@ import numpy as np
 import pytest
 from scipy import ndimage
 
+from tracker_detect.blobs import components, fill_holes, find_blobs, largest_blob, presence_test
 from tracker_detect.motion import (
     SEED_KERNEL,
     DetectorConfig,
     MotionDetector,
     StaleFrameError,
-    components,
-    fill_holes,
-    find_blobs,
-    largest_blob,
     motion_mask,
-    presence_test,
     structuring_element,
 )
 from tracker_detect.registration import View

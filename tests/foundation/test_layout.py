@@ -102,3 +102,81 @@ def test_main_guard_comes_last() -> None:
         if guards and guards[-1] != len(body) - 1:
             late.append(f"{path.relative_to(SRC.parent)}: line {body[guards[-1]].lineno}")
     assert not late, f"statements after the __main__ guard: {late}"
+
+
+def module_name(path: Path) -> str:
+    """`src/<package>/<package>/a/b.py` -> `<package>.a.b`."""
+    parts = path.relative_to(SRC).with_suffix("").parts[1:]
+    return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+
+
+def import_graph() -> dict[str, set[str]]:
+    """Module -> the suite's modules it imports (module level or inside a function)."""
+    modules = {module_name(p): p for p in python_modules()}
+    graph: dict[str, set[str]] = {}
+    for name, path in modules.items():
+        graph[name] = {n for n in imported_modules(path) if n in modules and n != name}
+    return graph
+
+
+def reachable(graph: dict[str, set[str]], start: str) -> set[str]:
+    """Every module `start` imports, directly or through others."""
+    seen: set[str] = set()
+    todo = list(graph[start])
+    while todo:
+        node = todo.pop()
+        if node not in seen:
+            seen.add(node)
+            todo.extend(graph[node])
+    return seen
+
+
+def modules_in_cycles(graph: dict[str, set[str]]) -> list[str]:
+    """The modules that import themselves through others."""
+    return sorted(node for node in graph if node in reachable(graph, node))
+
+
+def test_no_import_cycles():
+    """Not even through an import inside a function: a cycle there is still one."""
+    assert modules_in_cycles(import_graph()) == []
+
+
+# Each plug-in family's modules; one family never imports another's (the shared pieces beside
+# them -- tracking, management, filters, selection, observation, ... -- are for every family).
+TRACKER_FAMILIES = {
+    "gated_hungarian": {"config", "association"},
+    "colour_particles": {"particle_tracker", "colour_particle", "foreground_cue"},
+    "gm_phd": {"gmphd_tracker", "gmphd", "phd_labels", "phd_occlusion"},
+    "occupancy_particles": {"occupancy_tracker", "occupancy_particles", "occupancy_grid"},
+    "byte": {"byte_tracker"},
+}
+DETECTOR_FAMILIES = {
+    "ssim": {"motion"},
+    "ssim_background": {"background", "mosaic"},
+    "camshift": {"camshift"},
+    "mog2": {"mog2"},
+    "person": {"person"},
+}
+#: methods made of others: person_motion is ssim_background's motion and person's model;
+#: ssim_background tells changing pixels from still ones with ssim's frame comparison
+COMPOSITES = {"fusion": {"ssim_background", "person"}, "background": {"ssim"}}
+
+
+@pytest.mark.parametrize(
+    ("package", "families"),
+    [("tracker_filter", TRACKER_FAMILIES), ("tracker_detect", DETECTOR_FAMILIES)],
+)
+def test_no_plug_in_imports_another_family(package, families):
+    family_of = {
+        f"{package}.{module}": family for family, members in families.items() for module in members
+    }
+    crossings = []
+    for module, imported in import_graph().items():
+        own = family_of.get(module)
+        allowed = COMPOSITES.get(module.rsplit(".", 1)[-1], set()) | {own}
+        for other in sorted(imported):
+            theirs = family_of.get(other)
+            checked = module in family_of or module.rsplit(".", 1)[-1] in COMPOSITES
+            if checked and theirs is not None and theirs not in allowed:
+                crossings.append(f"{module} -> {other}")
+    assert crossings == []

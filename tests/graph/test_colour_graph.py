@@ -20,7 +20,7 @@ PLAIN_HEALING = {"ssim_detector": {"stopped_heal_rate": 0.05}}  # = heal_rate: s
 def stopper(tmp_path_factory):
     """A walker in a blue jacket who stops for 4 s midway in view, over a generated street with
     fluttering tape, foliage and a flickering lamp."""
-    from tracker_ptz_sim.simulation.scenes import write_scene
+    from tracker_ptz_sim.simulation.scene_files import write_scene
     from tracker_ptz_sim.simulation.street import StreetConfig, generate_street
 
     root = tmp_path_factory.mktemp("stopper")

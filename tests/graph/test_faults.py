@@ -22,7 +22,8 @@ pytestmark = [pytest.mark.ros, pytest.mark.slow]
 @pytest.fixture(scope="module")
 def walker(tmp_path_factory):
     """One object walking for 120 frames (12 s at 10 fps) on a 480x360 scene."""
-    from tracker_ptz_sim.simulation.scenes import SceneConfig, generate_scene, write_scene
+    from tracker_ptz_sim.simulation.scene_files import write_scene
+    from tracker_ptz_sim.simulation.scenes import SceneConfig, generate_scene
 
     root = tmp_path_factory.mktemp("walker")
     config = SceneConfig(

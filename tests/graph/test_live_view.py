@@ -98,7 +98,8 @@ def test_run_demo_live_serves_the_running_graph(tmp_path):
 
     from ros_process import executable
 
-    from tracker_ptz_sim.simulation.scenes import SceneConfig, generate_scene, write_scene
+    from tracker_ptz_sim.simulation.scene_files import write_scene
+    from tracker_ptz_sim.simulation.scenes import SceneConfig, generate_scene
 
     scene = generate_scene(SceneConfig(width=640, height=480, num_frames=60, num_objects=1, seed=9))
     paths = write_scene(scene, tmp_path / "scene")

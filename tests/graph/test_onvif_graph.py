@@ -31,7 +31,8 @@ FOLLOWING = {"search": "none", "home": [WALKER_PAN, 0.0]}
 
 
 def _scene(root: Path):
-    from tracker_ptz_sim.simulation.scenes import SceneConfig, generate_scene, write_scene
+    from tracker_ptz_sim.simulation.scene_files import write_scene
+    from tracker_ptz_sim.simulation.scenes import SceneConfig, generate_scene
 
     return write_scene(generate_scene(SceneConfig(**ONE_WALKER)), root / "scene")
 

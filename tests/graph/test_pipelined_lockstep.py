@@ -18,7 +18,8 @@ def test_a_pipelined_replay_matches_the_in_process_graph_with_the_same_delay(tmp
     from tracker_ptz_sim.bringup.graph import load_graph
     from tracker_ptz_sim.evaluation import metrics, run_report, scoring
     from tracker_ptz_sim.evaluation.scoring import windows_and_targets
-    from tracker_ptz_sim.simulation.scenes import SceneConfig, generate_scene, write_scene
+    from tracker_ptz_sim.simulation.scene_files import write_scene
+    from tracker_ptz_sim.simulation.scenes import SceneConfig, generate_scene
 
     config = dict(ONE_WALKER, seed=5)  # a walker the first sweep finds with every delay
     scene = generate_scene(SceneConfig(**config))

@@ -13,7 +13,8 @@ pytestmark = [pytest.mark.ros, pytest.mark.slow]
 
 def test_one_process_tracks_exactly_as_separate_processes(tmp_path):
     from tracker_ptz_sim.evaluation import run_report, scoring
-    from tracker_ptz_sim.simulation.scenes import SceneConfig, generate_scene, write_scene
+    from tracker_ptz_sim.simulation.scene_files import write_scene
+    from tracker_ptz_sim.simulation.scenes import SceneConfig, generate_scene
 
     config = SceneConfig(
         width=640,

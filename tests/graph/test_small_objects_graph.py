@@ -21,7 +21,7 @@ MAX_OSPA_10 = 6.8  # px
 
 @pytest.fixture(scope="module")
 def small_scene(tmp_path_factory):
-    from tracker_ptz_sim.simulation.scenes import write_scene
+    from tracker_ptz_sim.simulation.scene_files import write_scene
     from tracker_ptz_sim.simulation.small_objects import SmallObjectsConfig, generate_small_objects
 
     root = tmp_path_factory.mktemp("small_objects")

@@ -20,7 +20,8 @@ FLIR_STYLE = [
 
 def _run(tmp_path_factory, name, *settings):
     from tracker_ptz_sim.evaluation import run_report
-    from tracker_ptz_sim.simulation.scenes import SceneConfig, generate_scene, write_scene
+    from tracker_ptz_sim.simulation.scene_files import write_scene
+    from tracker_ptz_sim.simulation.scenes import SceneConfig, generate_scene
 
     root = tmp_path_factory.mktemp(name)
     paths = write_scene(generate_scene(SceneConfig(**ONE_WALKER)), root / "scene")

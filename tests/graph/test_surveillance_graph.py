@@ -18,7 +18,8 @@ pytestmark = [pytest.mark.ros, pytest.mark.slow]
 
 
 def _scene(root, **config):
-    from tracker_ptz_sim.simulation.scenes import SceneConfig, generate_scene, write_scene
+    from tracker_ptz_sim.simulation.scene_files import write_scene
+    from tracker_ptz_sim.simulation.scenes import SceneConfig, generate_scene
 
     scene = generate_scene(SceneConfig(**config))
     return scene, write_scene(scene, root)
@@ -87,7 +88,7 @@ def test_the_camera_zooms_out_for_a_person_taller_than_its_view(tmp_path):
     from tracker_ptz_sim.bringup import pipeline
     from tracker_ptz_sim.bringup.graph import load_graph
     from tracker_ptz_sim.evaluation import run_report, scoring
-    from tracker_ptz_sim.simulation.scenes import write_scene
+    from tracker_ptz_sim.simulation.scene_files import write_scene
     from tracker_ptz_sim.simulation.street import StreetConfig, generate_street
 
     config = StreetConfig(

@@ -29,7 +29,8 @@ def can_make_network_namespaces() -> bool:
 
 @pytest.mark.skipif(not can_make_network_namespaces(), reason="needs root and ip netns")
 def test_the_graph_split_over_two_hosts_tracks_as_on_one(tmp_path):
-    from tracker_ptz_sim.simulation.scenes import SceneConfig, generate_scene, write_scene
+    from tracker_ptz_sim.simulation.scene_files import write_scene
+    from tracker_ptz_sim.simulation.scenes import SceneConfig, generate_scene
 
     config = SceneConfig(width=640, height=480, num_frames=60, num_objects=1, seed=9)
     paths = write_scene(generate_scene(config), tmp_path / "scene")

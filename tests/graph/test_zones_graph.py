@@ -20,7 +20,8 @@ FEET_IN_GATE = 13
 def _follow(tmp_path, *settings):
     from tracker_ptz_sim.evaluation import metrics, run_report
     from tracker_ptz_sim.evaluation.scoring import windows_and_targets
-    from tracker_ptz_sim.simulation.scenes import SceneConfig, generate_scene, write_scene
+    from tracker_ptz_sim.simulation.scene_files import write_scene
+    from tracker_ptz_sim.simulation.scenes import SceneConfig, generate_scene
 
     paths = write_scene(generate_scene(SceneConfig(**ONE_WALKER)), tmp_path / "scene")
     out = tmp_path / "run"

@@ -25,7 +25,8 @@ PLAN = {
 
 @pytest.fixture(scope="module")
 def scene(tmp_path_factory):
-    from tracker_ptz_sim.simulation.scenes import SceneConfig, generate_scene, write_scene
+    from tracker_ptz_sim.simulation.scene_files import write_scene
+    from tracker_ptz_sim.simulation.scenes import SceneConfig, generate_scene
 
     scene = generate_scene(
         SceneConfig(width=320, height=240, num_frames=FRAMES, num_objects=2, seed=3)

@@ -6,13 +6,8 @@ import numpy as np
 import pytest
 
 from tracker_ptz_sim.evaluation.metrics import load_mot
-from tracker_ptz_sim.simulation.scenes import (
-    SceneConfig,
-    generate_scene,
-    load_scene,
-    scene_video,
-    write_scene,
-)
+from tracker_ptz_sim.simulation.scene_files import load_scene, scene_video, write_scene
+from tracker_ptz_sim.simulation.scenes import SceneConfig, generate_scene
 
 
 def test_same_config_same_scene_other_seed_other_scene():

@@ -12,7 +12,7 @@ from scene_files import assert_reloads_exactly
 
 from tracker_ptz_sim.evaluation.metrics import load_mot
 from tracker_ptz_sim.simulation.scene_cli import main as make_scene
-from tracker_ptz_sim.simulation.scenes import load_scene
+from tracker_ptz_sim.simulation.scene_files import load_scene
 from tracker_ptz_sim.simulation.small_objects import (
     SmallObjectsConfig,
     SmallObjectsScene,

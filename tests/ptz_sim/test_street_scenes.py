@@ -13,7 +13,7 @@ from scene_files import assert_reloads_exactly
 
 from tracker_ptz_sim.evaluation.metrics import load_mot
 from tracker_ptz_sim.simulation.scene_cli import main as make_scene
-from tracker_ptz_sim.simulation.scenes import load_scene, write_scene
+from tracker_ptz_sim.simulation.scene_files import load_scene, write_scene
 from tracker_ptz_sim.simulation.street import (
     STREET_PRESETS,
     StreetConfig,

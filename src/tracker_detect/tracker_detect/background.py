@@ -50,18 +50,11 @@ from dataclasses import dataclass, field
 import cv2
 import numpy as np
 
-from tracker_detect import blob_params
-from tracker_detect.blob_params import odd_side
+from tracker_detect import blobs
+from tracker_detect.blobs import fill_holes, find_blobs, odd_side, presence_test
 from tracker_detect.detector import CameraFrame, Detection, UnusableViewError, checked_view
 from tracker_detect.mosaic import MosaicSample, SceneMosaic
-from tracker_detect.motion import (
-    DetectorConfig,
-    MotionDetector,
-    fill_holes,
-    find_blobs,
-    paste_map,
-    presence_test,
-)
+from tracker_detect.motion import DetectorConfig, MotionDetector, paste_map
 from tracker_detect.registration import View, phase_correlation_shift
 from tracker_detect.ssim import SsimParams, auto_downsample_factor, ssim_map
 from tracker_msgs_py.geometry import Rect
@@ -148,8 +141,8 @@ class BackgroundConfig:
     shrink_size: int = odd_side(
         3, "side of the elliptic erosion undoing the SSIM window's spread (1: none)", "shrink_size"
     )
-    connectivity: int = blob_params.connectivity(8)
-    min_blob_area: float = blob_params.min_blob_area(60.0)
+    connectivity: int = blobs.connectivity(8)
+    min_blob_area: float = blobs.min_blob_area(60.0)
     min_aspect: float = param(
         0.0,
         "drop blobs flatter than this height / width (0: keep all; people stand, tape lies)",
@@ -171,8 +164,8 @@ class BackgroundConfig:
         max=MAX_REGISTER_REACH,
         unit="px",
     )
-    presence_fraction: float = blob_params.presence_fraction(0.0008)
-    auto_downsample: bool = blob_params.auto_downsample(True)
+    presence_fraction: float = blobs.presence_fraction(0.0008)
+    auto_downsample: bool = blobs.auto_downsample(True)
     ssim: SsimParams = field(default_factory=SsimParams)
 
     def __post_init__(self) -> None:

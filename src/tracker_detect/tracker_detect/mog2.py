@@ -34,9 +34,9 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from tracker_detect import blob_params
+from tracker_detect import blobs
+from tracker_detect.blobs import find_blobs, presence_test
 from tracker_detect.detector import CameraFrame, Detection, checked_view
-from tracker_detect.motion import find_blobs, presence_test
 from tracker_detect.registration import View
 from tracker_msgs_py.params import check_config, param
 from tracker_msgs_py.registry import Method
@@ -92,7 +92,7 @@ class Mog2Config:
         max=51,
         unit="px",
     )
-    min_blob_area: float = blob_params.min_blob_area(50.0)  # a lone pixel dilates to 41 px
+    min_blob_area: float = blobs.min_blob_area(50.0)  # a lone pixel dilates to 41 px
     warmup_frames: int = param(
         5,
         "frames after a (re)start of the model that are learned, not compared (a new model's "
@@ -100,7 +100,7 @@ class Mog2Config:
         min=1,
         max=100000,
     )
-    presence_fraction: float = blob_params.presence_fraction(0.0)  # 0: any blob is a measurement
+    presence_fraction: float = blobs.presence_fraction(0.0)  # 0: any blob is a measurement
 
     def __post_init__(self) -> None:
         check_config(self)

@@ -20,11 +20,10 @@ from dataclasses import dataclass, field
 
 import cv2
 import numpy as np
-from scipy import ndimage
 
-from tracker_detect import blob_params
-from tracker_detect.blob_params import odd_side
-from tracker_detect.detector import Blob, CameraFrame, Detection, StaleFrameError
+from tracker_detect import blobs
+from tracker_detect.blobs import fill_holes, find_blobs, odd_side, presence_test
+from tracker_detect.detector import CameraFrame, Detection, StaleFrameError
 from tracker_detect.registration import (
     Alignment,
     PixelMap,
@@ -74,15 +73,6 @@ def structuring_element(shape: str = "seed", size: int = 7) -> np.ndarray:
     return cv2.getStructuringElement(shapes[shape], (size, size))
 
 
-def fill_holes(mask: np.ndarray) -> np.ndarray:
-    """Set the background regions not 4-connected to the border (MATLAB imfill(bw, 'holes'))."""
-    h, w = mask.shape
-    padded = cv2.copyMakeBorder(mask, 1, 1, 1, 1, cv2.BORDER_CONSTANT, value=0)
-    cv2.floodFill(padded, None, (0, 0), 1, flags=4)
-    # padded is now 1 on the mask and on the background reached from outside; 0 only in holes.
-    return cv2.bitwise_or(mask, 1 - padded[1 : h + 1, 1 : w + 1])
-
-
 def motion_mask(
     similarity: np.ndarray,
     threshold: float = 0.5,
@@ -110,74 +100,6 @@ def motion_mask(
     return mask
 
 
-@dataclass(frozen=True)
-class Components:
-    """The connected components of a mask: `labels` (H, W) int32, 0 the background and 1 ..
-    count - 1 the components, and each component's bounding (rows, columns) slices."""
-
-    count: int
-    labels: np.ndarray
-    slices: list[tuple[slice, slice]]
-
-    def box(self, label: int) -> tuple[int, int, int, int]:
-        """Component `label`'s tight box: x, y, width, height (px)."""
-        rows, columns = self.slices[label - 1]
-        return columns.start, rows.start, columns.stop - columns.start, rows.stop - rows.start
-
-
-def components(mask: np.ndarray, connectivity: int = 8) -> Components:
-    """`mask`'s (uint8, nonzero = foreground) connected components, labelled as
-    cv2.connectedComponentsWithStats labels them. Its statistics pass cost ten times the
-    labelling itself here (OpenCV 5.0: 0.2 of 0.22 ms on a 264 x 264 view); the boxes come from
-    one scan of the labels instead, and a component's own figures from its box alone."""
-    count, labels = cv2.connectedComponents(mask, connectivity=connectivity, ltype=cv2.CV_32S)
-    found = ndimage.find_objects(labels, count - 1) if count > 1 else []
-    # the labels are 1 .. count - 1 without a gap: no component lacks its slices
-    return Components(count, labels, [part for part in found if part is not None])
-
-
-def find_blobs(
-    mask: np.ndarray, similarity: np.ndarray, view: View, connectivity: int = 4
-) -> list[Blob]:
-    """Connected components of `mask`, largest first (blobs[0] is the seed's target)."""
-    parts = components(mask, connectivity)
-    blobs = []
-    for label, (rows, columns) in enumerate(parts.slices, start=1):
-        local = parts.labels[rows, columns]
-        ys, xs = np.nonzero(local == label)
-        n = len(xs)
-        # summed in the pixels' row-major order, as one bincount over the whole image would
-        ssim_sum = np.bincount(
-            local.ravel(), weights=similarity[rows, columns].ravel(), minlength=label + 1
-        )[label]
-        x, y, w, h = parts.box(label)
-        # the mean of the image coordinates, one division of exact sums as OpenCV's centroids
-        mean_x, mean_y = (int(xs.sum()) + n * x) / n, (int(ys.sum()) + n * y) / n
-        cx, cy = view.to_scene(mean_x + 0.5, mean_y + 0.5)
-        blobs.append(
-            Blob(
-                cx,
-                cy,
-                view.rect_to_scene(x, y, w, h),
-                n * view.scale_x * view.scale_y,
-                n,
-                float(ssim_sum / n),
-            )
-        )
-    blobs.sort(key=lambda b: (-b.pixel_count, b.centroid_y, b.centroid_x))
-    return blobs
-
-
-def largest_blob(blobs: Sequence[Blob]) -> Blob | None:
-    """The seed's target rule: the blob with the largest area."""
-    return max(blobs, key=lambda b: b.pixel_count, default=None)
-
-
-def presence_test(blob_pixels: int, compared_pixels: int, min_fraction: float = 0.0008) -> bool:
-    """The seed's presence test: total blob area >= min_fraction (0.08 %) of the compared area."""
-    return compared_pixels > 0 and blob_pixels > 0 and blob_pixels >= min_fraction * compared_pixels
-
-
 # --- the detector ------------------------------------------------------------------------------
 
 
@@ -202,9 +124,9 @@ class DetectorConfig:
     kernel_size: int = odd_side(
         7, "odd side of the element for shapes other than 'seed'", "kernel_size"
     )
-    connectivity: int = blob_params.connectivity(4)
-    presence_fraction: float = blob_params.presence_fraction(0.0008)  # 0.08 %: the seed's
-    min_blob_area: float = blob_params.min_blob_area(0.0)  # 0: keep all, the seed
+    connectivity: int = blobs.connectivity(4)
+    presence_fraction: float = blobs.presence_fraction(0.0008)  # 0.08 %: the seed's
+    min_blob_area: float = blobs.min_blob_area(0.0)  # 0: keep all, the seed
     compensation: str = param(
         "known",
         "ego-motion compensation: known (from the poses), ssim_search (seed's exhaustive "
@@ -225,7 +147,7 @@ class DetectorConfig:
     subpixel_alignment: bool = param(
         True, "resample fractional shifts bilinearly (else round them)"
     )
-    auto_downsample: bool = blob_params.auto_downsample(True)
+    auto_downsample: bool = blobs.auto_downsample(True)
     min_overlap_fraction: float = param(
         0.1,
         "compare only when the aligned images overlap at least this much",

@@ -14,7 +14,7 @@ declares parameters, converts messages and wires topics.
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import replace
+from dataclasses import dataclass, replace
 from functools import partial
 from typing import Any
 
@@ -53,7 +53,14 @@ from tracker_msgs_py.codec import (
 )
 from tracker_msgs_py.node_main import SuiteNode, run_node
 from tracker_msgs_py.pairing import Frame, FrameAssembler
-from tracker_msgs_py.params import ParameterError, ParamSpec, config_from_params, declare_parameters
+from tracker_msgs_py.params import (
+    ParameterError,
+    ParamSpec,
+    config_from_params,
+    declare_parameters,
+    param,
+    specs_of,
+)
 from tracker_msgs_py.registry import Method
 from tracker_msgs_py.stamps import Order, StampOrder
 from tracker_msgs_py.vision import tracks_to_vision
@@ -184,10 +191,47 @@ def _zones_problem(name: str) -> Callable[[Any], str | None]:
     return problem
 
 
-def zones_of(params: dict[str, Any]) -> Zones:
+@dataclass(frozen=True)
+class TrackerNodeConfig:
+    """The tracker node's own parameters, beside its method's and the target selection's."""
+
+    scene_frame_id: str = param("scene", "frame of the detections, tracks and target")
+    reliable_images: bool = param(
+        False, "reliable QoS for needed images (lockstep)", read_only=True
+    )
+    pairing_capacity: int = param(
+        30, "frames waiting for their needed inputs at most", min=1, max=1000
+    )
+    max_input_gap: float = param(
+        2.0,
+        "gap between two detection stamps beyond which the input is taken to have stopped (a "
+        "live camera that dropped out): the tracks are cleared, not predicted across the gap",
+        min=0.01,
+        max=86400.0,
+        unit="s",
+    )
+    ignore_zones: str = param(
+        "",
+        "scene polygons 'x1,y1,x2,y2,x3,y3; ...' where detections are ignored (their box's "
+        "bottom centre inside): a flag, a tree, a road ('' = none)",
+        unit="px",
+        validator=_zones_problem("ignore_zones"),
+    )
+    required_zones: str = param(
+        "",
+        "scene polygons as ignore_zones: the camera follows a track only once its box's "
+        "bottom centre has been in one (Frigate's required_zones; '' = any track)",
+        validator=_zones_problem("required_zones"),
+    )
+
+    def problems(self) -> list[str]:
+        return []
+
+
+def zones_of(settings: TrackerNodeConfig) -> Zones:
     return Zones(
-        parse_polygons(params["ignore_zones"], "ignore_zones"),
-        parse_polygons(params["required_zones"], "required_zones"),
+        parse_polygons(settings.ignore_zones, "ignore_zones"),
+        parse_polygons(settings.required_zones, "required_zones"),
     )
 
 
@@ -197,37 +241,7 @@ def parameter_specs(method: Method[Tracker], preset: str) -> list[ParamSpec]:
     defaults = {**SELECTION_DEFAULTS, **method.defaults(preset)}
     specs = [replace(spec, default=defaults[spec.name]) for spec in method.parameters]
     specs += [replace(spec, default=defaults[spec.name]) for spec in SELECTION_PARAMETERS]
-    specs += [
-        ParamSpec("scene_frame_id", "scene", "frame of the detections, tracks and target"),
-        ParamSpec(
-            "reliable_images", False, "reliable QoS for needed images (lockstep)", read_only=True
-        ),
-        ParamSpec(
-            "pairing_capacity", 30, "frames waiting for their needed inputs at most", 1, 1000
-        ),
-        ParamSpec(
-            "max_input_gap",
-            2.0,
-            "s between two detection stamps beyond which the input is taken to have stopped (a "
-            "live camera that dropped out): the tracks are cleared, not predicted across the gap",
-            0.01,
-            86400.0,
-        ),
-        ParamSpec(
-            "ignore_zones",
-            "",
-            "scene polygons 'x1,y1,x2,y2,x3,y3; ...' [px] where detections are ignored (their "
-            "box's bottom centre inside): a flag, a tree, a road ('' = none)",
-            validator=_zones_problem("ignore_zones"),
-        ),
-        ParamSpec(
-            "required_zones",
-            "",
-            "scene polygons as ignore_zones: the camera follows a track only once its box's "
-            "bottom centre has been in one (Frigate's required_zones; '' = any track)",
-            validator=_zones_problem("required_zones"),
-        ),
-    ]
+    specs += specs_of(TrackerNodeConfig)
     return specs
 
 
@@ -260,19 +274,21 @@ class TrackerNode(SuiteNode):
         self._params = declare_parameters(
             self, specs, on_change=self._on_parameters, check_all=self._check_parameters
         )
+        self.settings = config_from_params(TrackerNodeConfig, self._params)
+        self._selection = config_from_params(SelectionConfig, self._params)
         self._tracker: Tracker = self._build_tracker(first_id=1)
         if self._method.warm_up is not None:
             self._method.warm_up()
-        self._selector = config_from_params(SelectionConfig, self._params).selector()
+        self._selector = self._selection.selector()
         self._epoch_ns: int | None = None  # stamp of the first frame: keeps float seconds exact
         self._view_centre: tuple[float, float] | None = None
         self._last_frame: tuple[int, int | None] = (0, None)  # tracks, followed track id
         self._order = StampOrder(max_gap_ns=self._max_gap_ns())
-        self._zones = zones_of(self._params)
+        self._zones = zones_of(self.settings)
         self.ignored_in_zones = 0  # detections dropped in an ignore zone
         needs = self._tracker.needs
         self._frames = FrameAssembler(
-            frozenset(need.value for need in needs), self._params["pairing_capacity"]
+            frozenset(need.value for need in needs), self.settings.pairing_capacity
         )
 
         self._tracks_pub = self.create_publisher(TrackArray, "tracks", result_qos())
@@ -290,17 +306,18 @@ class TrackerNode(SuiteNode):
                     Image,
                     topic,
                     partial(self._on_image_part, need),
-                    image_qos(self._params["reliable_images"]),
+                    image_qos(self.settings.reliable_images),
                 )
         # private (~/): two trackers in one graph (the colour graph) must not serve one name
         self.create_service(SelectTarget, "~/select_target", self._on_select_target)
         self.create_service(ResetTracker, "~/reset_tracker", self._on_reset_tracker)
         needed = ", ".join(sorted(n.value for n in needs)) or "detections only"
+        kind = self._method_values(self._params).get("filter")  # the method's, if it has one
         self.get_logger().info(
             f"tracker ready: method {self._method.name}"
             + (f", preset {preset}" if preset else "")
-            + (f", filter {self._params['filter']}" if "filter" in self._params else "")
-            + f", selection {self._params['selection_policy']}; needs {needed}"
+            + (f", filter {kind}" if kind is not None else "")
+            + f", selection {self._selection.selection_policy}; needs {needed}"
             + self._zones.describe()
         )
 
@@ -331,13 +348,15 @@ class TrackerNode(SuiteNode):
         return None
 
     def _max_gap_ns(self) -> int:
-        return round(float(self._params["max_input_gap"]) * NS_PER_S)
+        return round(float(self.settings.max_input_gap) * NS_PER_S)
 
     def _on_parameters(self, changed: dict[str, Any]) -> None:
-        config_from_params(SelectionConfig, self._params).apply_to(self._selector)
+        self.settings = config_from_params(TrackerNodeConfig, self._params)
+        self._selection = config_from_params(SelectionConfig, self._params)
+        self._selection.apply_to(self._selector)
         self._order.max_gap_ns = self._max_gap_ns()
         if {"ignore_zones", "required_zones"} & set(changed):
-            self._zones = zones_of(self._params)
+            self._zones = zones_of(self.settings)
         rebuilt = set(changed) - LIVE_PARAMETERS
         if rebuilt:
             cleared = self._forget_tracks()
@@ -372,11 +391,11 @@ class TrackerNode(SuiteNode):
         self._track(self._frames.add_part(need.value, stamp_to_ns(msg.header.stamp), pixels))
 
     def _on_detections(self, msg: BlobArray) -> None:
-        if msg.header.frame_id and msg.header.frame_id != self._params["scene_frame_id"]:
+        if msg.header.frame_id and msg.header.frame_id != self.settings.scene_frame_id:
             self.problems.report(
                 "detections in another frame",
                 f"detections are in frame '{msg.header.frame_id}', expected "
-                f"'{self._params['scene_frame_id']}'; tracking them as scene pixels",
+                f"'{self.settings.scene_frame_id}'; tracking them as scene pixels",
             )
         stamp_ns = stamp_to_ns(msg.header.stamp)
         received = len(msg.blobs)
@@ -439,7 +458,7 @@ class TrackerNode(SuiteNode):
             )
             for cause, count in tracks.rejections.items():
                 self.problems.report(cause, f"dropped a detection: {cause}", count)
-            header = Header(stamp=msg.header.stamp, frame_id=self._params["scene_frame_id"])
+            header = Header(stamp=msg.header.stamp, frame_id=self.settings.scene_frame_id)
             self._publish(header, tracks)
 
     def _forget_tracks(self, reset_ids: bool = False) -> int:
@@ -472,7 +491,7 @@ class TrackerNode(SuiteNode):
         self._last_frame = (len(tracks), track_id)
         mode = selection.mode if selection is not None else self._selector.mode
         self._target_pub.publish(
-            target_to_msg(header, mode, tracks, track_id, self._params["lead_time"])
+            target_to_msg(header, mode, tracks, track_id, self._selection.lead_time)
         )
 
     def diagnostic_state(self) -> tuple[str, dict[str, str]]:

@@ -75,18 +75,18 @@ from tracker_msgs_py.package_files import package_data
 from tracker_msgs_py.ros_domain import private_domain_id
 from tracker_ptz_sim.bringup import pipeline
 from tracker_ptz_sim.bringup.graph import load_graph, node_parameters, unknown_override_nodes
-from tracker_ptz_sim.evaluation import error_classes, scoring
+from tracker_ptz_sim.evaluation import error_classes, run_files, scoring
 from tracker_ptz_sim.evaluation.centre_scores import OSPA_CUTOFFS, ospa_key
 from tracker_ptz_sim.simulation import ground_truth, real_people, small_objects, street
 from tracker_ptz_sim.simulation.frame_sources import video_frames
-from tracker_ptz_sim.simulation.scenes import (
+from tracker_ptz_sim.simulation.scene_files import (
     GT_PATH,
     META_NAME,
-    Scene,
     label_reader,
     load_scene,
     write_scene,
 )
+from tracker_ptz_sim.simulation.scenes import Scene
 
 
 def _tracker_settings(graph_name: str) -> tuple[str, ...]:
@@ -373,7 +373,7 @@ def run_graph(
 ) -> scoring.RunTrace:
     from tracker_ptz_sim.bringup import demo
     from tracker_ptz_sim.evaluation import run_report
-    from tracker_ptz_sim.simulation.scenes import scene_video
+    from tracker_ptz_sim.simulation.scene_files import scene_video
 
     with stop_signals.deferred():  # the runner stops the nodes and closes the bag itself
         result = demo.run_graph(
@@ -412,7 +412,7 @@ def benchmark_one(
     seconds = time.perf_counter() - started
     title = f"{scene_name}, {configuration}, {path}"
     gt = scene_dir / "gt" / "gt.txt"
-    scores = scoring.write_evaluation(trace, gt, run_dir, title, label_reader(scene_dir), centres)
+    scores = run_files.write_evaluation(trace, gt, run_dir, title, label_reader(scene_dir), centres)
     return RunScores(scene_name, configuration, path, scores["frames"], seconds, scores)
 
 

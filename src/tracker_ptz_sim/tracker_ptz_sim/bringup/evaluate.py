@@ -16,8 +16,8 @@ import argparse
 from pathlib import Path
 
 from tracker_ptz_sim.bringup.graph import GRAPHS, load_graph
-from tracker_ptz_sim.evaluation import run_report, scoring
-from tracker_ptz_sim.simulation.scenes import label_reader
+from tracker_ptz_sim.evaluation import run_files, run_report, scoring
+from tracker_ptz_sim.simulation.scene_files import label_reader
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -66,7 +66,7 @@ def main(argv: list[str] | None = None) -> int:
     )
     bag, run = args.bag, None
     if bag is None:
-        from tracker_ptz_sim.simulation.scenes import scene_video
+        from tracker_ptz_sim.simulation.scene_files import scene_video
 
         video = args.video or scene_video(args.scene)
         if args.mode:
@@ -82,7 +82,7 @@ def main(argv: list[str] | None = None) -> int:
     object_labels = label_reader(
         gt.parent.parent
     )  # a scene directory: <scene>/gt/gt.txt, <scene>/masks
-    result = scoring.write_evaluation(
+    result = run_files.write_evaluation(
         scoring.trace_from_frames(frames, labels), gt, args.out, label_of=object_labels
     )
     print(f"Evaluation against {gt}:\n{scoring.format_scores(result)}")

@@ -11,6 +11,7 @@ go out when its target arrives (the last result of a frame), drawn over that fra
 from __future__ import annotations
 
 from collections import OrderedDict
+from dataclasses import dataclass
 from typing import Any
 
 from sensor_msgs.msg import Image
@@ -26,22 +27,31 @@ from tracker_msgs_py.codec import (
     stamp_to_ns,
 )
 from tracker_msgs_py.node_main import StartupError, SuiteNode, run_node
-from tracker_msgs_py.params import ParamSpec, declare_parameters
+from tracker_msgs_py.params import config_from_params, declare_parameters, param, specs_of
 from tracker_ptz_sim.evaluation.live_view import Box, LiveView, ViewSettings
 
 FRAMES_KEPT = 32  # per-stamp results kept until their frame's target arrives
 
-PARAMS = [
-    ParamSpec(
-        "host", "127.0.0.1", "address to serve on (0.0.0.0: every interface)", read_only=True
-    ),
-    ParamSpec("port", 8765, "WebSocket port (0: any free port)", 0, 65535, read_only=True),
-    ParamSpec("jpeg_quality", 80, "JPEG quality of the images sent", 10, 100),
-    ParamSpec("scene_width", 640, "width the scene image is scaled to [px] (0: its own)", 0, 10000),
-    ParamSpec(
-        "reliable_images", False, "reliable QoS for images (lockstep replays)", read_only=True
-    ),
-]
+
+@dataclass(frozen=True)
+class LiveViewConfig:
+    """The live view node's parameters."""
+
+    host: str = param("127.0.0.1", "address to serve on (0.0.0.0: every interface)", read_only=True)
+    port: int = param(8765, "WebSocket port (0: any free port)", min=0, max=65535, read_only=True)
+    jpeg_quality: int = param(80, "JPEG quality of the images sent", min=10, max=100)
+    scene_width: int = param(
+        640, "width the scene image is scaled to (0: its own)", min=0, max=10000, unit="px"
+    )
+    reliable_images: bool = param(
+        False, "reliable QoS for images (lockstep replays)", read_only=True
+    )
+
+    def problems(self) -> list[str]:
+        return []
+
+
+PARAMS = specs_of(LiveViewConfig)
 
 
 class LiveViewNode(SuiteNode):
@@ -49,18 +59,19 @@ class LiveViewNode(SuiteNode):
         """node_options go to rclpy's Node (parameter_overrides, context...)."""
         super().__init__("live_view", **node_options)
         self.params = declare_parameters(self, PARAMS, on_change=self._on_change)
+        self.settings = config_from_params(LiveViewConfig, self.params)
         try:
-            self.view = LiveView(self._settings(), name=self.get_fully_qualified_name())
+            self.view = LiveView(self._view_settings(), name=self.get_fully_qualified_name())
         except Exception as error:  # the port is taken, the address is not ours...
             raise StartupError(
-                f"cannot serve on {self.params['host']}:{self.params['port']}: {error}"
+                f"cannot serve on {self.settings.host}:{self.settings.port}: {error}"
             ) from error
         self.windows: OrderedDict[int, Any] = OrderedDict()
         self.detections: OrderedDict[int, list[Box]] = OrderedDict()
         self.tracks: OrderedDict[int, list[Box]] = OrderedDict()
         self.camera_size: tuple[int, int] | None = None
         self.scene_size: tuple[int, int] | None = None
-        qos = image_qos(self.params["reliable_images"])
+        qos = image_qos(self.settings.reliable_images)
         self.create_subscription(Image, "camera/image_raw", self._on_camera, qos)
         self.create_subscription(Image, "scene/image_raw", self._on_scene, qos)
         results = result_qos(late_joiners=False)  # what is happening now, not the history
@@ -69,23 +80,24 @@ class LiveViewNode(SuiteNode):
         self.create_subscription(TrackArray, "tracks", self._on_tracks, results)
         self.create_subscription(Target, "target", self._on_target, results)
         self.get_logger().info(
-            f"live view on ws://{self.params['host']}:{self.view.port} (Foxglove: Open connection "
+            f"live view on ws://{self.settings.host}:{self.view.port} (Foxglove: Open connection "
             "-> Foxglove WebSocket)"
         )
 
-    def _settings(self) -> ViewSettings:
-        p = self.params
-        return ViewSettings(p["host"], p["port"], p["jpeg_quality"], p["scene_width"])
+    def _view_settings(self) -> ViewSettings:
+        s = self.settings
+        return ViewSettings(s.host, s.port, s.jpeg_quality, s.scene_width)
 
     def _on_change(self, changed: dict[str, Any]) -> None:
-        self.view.settings = self._settings()
+        self.settings = config_from_params(LiveViewConfig, self.params)
+        self.view.settings = self._view_settings()
 
     def destroy_node(self) -> None:
         self.view.close()
         super().destroy_node()
 
     def diagnostic_state(self) -> tuple[str, dict[str, str]]:
-        return "serving", {"url": f"ws://{self.params['host']}:{self.view.port}"}
+        return "serving", {"url": f"ws://{self.settings.host}:{self.view.port}"}
 
     # --- inputs -------------------------------------------------------------------------------
 

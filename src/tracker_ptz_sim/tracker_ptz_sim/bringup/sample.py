@@ -112,13 +112,8 @@ def _extract_clip(deb: Path, target: Path) -> None:
 
 def synthetic_fallback(directory: Path | None = None) -> Path:
     """A generated surveillance-like scene (people-sized objects walking in and out), cached."""
-    from tracker_ptz_sim.simulation.scenes import (
-        META_NAME,
-        SceneConfig,
-        generate_scene,
-        scene_video,
-        write_scene,
-    )
+    from tracker_ptz_sim.simulation.scene_files import META_NAME, scene_video, write_scene
+    from tracker_ptz_sim.simulation.scenes import SceneConfig, generate_scene
 
     root = (directory or cache_dir()) / "synthetic_demo_scene"
     if not (root / META_NAME).exists():

@@ -116,7 +116,8 @@ from tracker_ptz_sim.evaluation.single_target import (
     score_single_target,
 )
 from tracker_ptz_sim.simulation import street
-from tracker_ptz_sim.simulation.scenes import Scene, load_scene
+from tracker_ptz_sim.simulation.scene_files import load_scene
+from tracker_ptz_sim.simulation.scenes import Scene
 
 #: the thesis's plain hue histogram, without the suite's colour checks (the thesis has none:
 #: with them most people's selections are refused, as their hues do not stand out)

@@ -291,26 +291,6 @@ def _tracking_scores(truth: Boxes, hypotheses: Boxes, frames: list[int]) -> dict
     }
 
 
-def write_evaluation(
-    trace: RunTrace,
-    gt: Path,
-    out: Path,
-    title: str = "",
-    label_of: LabelImages | None = None,
-    centres: bool = False,
-) -> dict[str, Any]:
-    """Score a run (`score_trace`) and write tracks.txt, evaluation.json and plots.png into
-    `out`; the scores."""
-    from tracker_ptz_sim.evaluation.plots import plot_run  # matplotlib only when plotting
-
-    out.mkdir(parents=True, exist_ok=True)
-    trace.write_mot(out / "tracks.txt")
-    result = score_trace(trace, gt, label_of, centres)
-    write_json(result, out / "evaluation.json")
-    plot_run(trace, metrics.every_object(gt), out / "plots.png", title or str(gt))
-    return result
-
-
 def write_json(data: Any, path: Path) -> None:
     """JSON with NaN written as null (JSON has no NaN)."""
     path.write_text(json.dumps(_nan_to_none(data), indent=2) + "\n")

@@ -25,7 +25,8 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from tracker_ptz_sim.simulation.scenes import Scene, SceneConfig, generate_scene, write_scene
+from tracker_ptz_sim.simulation.scene_files import write_scene
+from tracker_ptz_sim.simulation.scenes import Scene, SceneConfig, generate_scene
 from tracker_ptz_sim.simulation.small_objects import SmallObjectsConfig, generate_small_objects
 from tracker_ptz_sim.simulation.street import (
     STREET_PRESETS,

@@ -32,8 +32,8 @@ movers or the frame border). A mover with no visible pixel (behind an occluder o
 keeps its full box, clipped to the frame, with visibility 0: where it is, for a tracker that
 coasts. Boxes less visible than ``min_visibility``, the hidden ones included, get ``conf`` 0
 (MOTChallenge's "ignore", as the street scenes' barely visible people: neither a miss nor a false
-positive). Write and read the scenes with :func:`~tracker_ptz_sim.simulation.scenes.write_scene` /
-:func:`~tracker_ptz_sim.simulation.scenes.load_scene` (``scene.json``'s generator is
+positive). Write and read the scenes with :func:`~tracker_ptz_sim.simulation.scene_files.write_scene` /
+:func:`~tracker_ptz_sim.simulation.scene_files.load_scene` (``scene.json``'s generator is
 "small_objects"). :func:`generate_small_objects` returns a :class:`SmallObjectsScene`, which also
 carries every mover's path (:class:`SmallMover`), the crossings and the occluders' mask.
 
@@ -55,20 +55,20 @@ import cv2
 import numpy as np
 
 from tracker_msgs_py.params import check_config
+from tracker_ptz_sim.simulation.camera_effects import (
+    LINE,
+    ONE,
+    SHIFT,
+    fit_background,
+    illumination_gain,
+    sensor_effects,
+    smooth_noise,
+)
 from tracker_ptz_sim.simulation.scenes import (
     GroundTruthBox,
     Scene,
     clip_problems,
     negative_counts,
-)
-from tracker_ptz_sim.simulation.street import (
-    LINE,
-    ONE,
-    SHIFT,
-    _given_background,
-    _illumination,
-    _noise,
-    _sensor,
 )
 
 MAX_OBJECTS = 200
@@ -447,9 +447,9 @@ def _generated_ground(rng: np.random.Generator, width: int, height: int) -> np.n
     (BGR uint8)."""
     shape = (height, width)
     base = _GROUNDS[int(rng.integers(len(_GROUNDS)))] + rng.normal(0, 6, 3).astype(np.float32)
-    patches = _noise(rng, shape, 0.06 * min(shape))[:, :, None]
-    mottle = _noise(rng, shape, 4.0)[:, :, None]
-    grain = _noise(rng, shape, 0.7, 3)
+    patches = smooth_noise(rng, shape, 0.06 * min(shape))[:, :, None]
+    mottle = smooth_noise(rng, shape, 4.0)[:, :, None]
+    grain = smooth_noise(rng, shape, 0.7, 3)
     image = base * (1.0 + 0.1 * patches + 0.06 * mottle) + 6.0 * grain
     canvas = np.clip(image, 0, 255).astype(np.uint8)
     for _ in range(int(rng.integers(3, 8))):  # cracks: dark random walks
@@ -524,7 +524,7 @@ def _leaf(rng: np.random.Generator, width: int, height: int, size: int) -> _Occl
     across = across - np.interp(along / length, s, bend)
     veins = np.abs(((along - 0.9 * np.abs(across)) / (0.09 * length)) % 1.0 - 0.5) < 0.06
     rib = np.abs(across) < max(1.0, 0.02 * length)
-    shade = 1.0 + 0.08 * _noise(rng, (height, width), 2.0) + 0.12 * (along / length)
+    shade = 1.0 + 0.08 * smooth_noise(rng, (height, width), 2.0) + 0.12 * (along / length)
     colour = green * shade[:, :, None]
     colour[veins] *= 1.12
     colour[rib] = 1.35 * green
@@ -577,7 +577,7 @@ def _post(rng: np.random.Generator, width: int, height: int, size: int) -> _Occl
         else np.full(3, rng.uniform(110, 150))
     )
     cylinder = 1.1 - 0.45 * np.clip(u - 0.3, -1.3, 1.0) ** 2
-    grain = _noise(rng, (height, width), 1.2) * (0.1 if wood else 0.03)
+    grain = smooth_noise(rng, (height, width), 1.2) * (0.1 if wood else 0.03)
     colour = base * (cylinder + grain)[:, :, None]
     return _Occluder("post", mask > 0, colour.astype(np.float32))
 
@@ -606,7 +606,7 @@ def _branch(rng: np.random.Generator, width: int, height: int, size: int) -> _Oc
     bark = np.array([rng.uniform(35, 55), rng.uniform(55, 75), rng.uniform(75, 100)])
     depth = _inside_depth(mask > 0)
     round_ = np.clip(depth / max(0.25 * thick, 1.0), 0, 1) ** 0.5
-    streaks = _noise(rng, (height, width), 1.0) * 0.12
+    streaks = smooth_noise(rng, (height, width), 1.0) * 0.12
     colour = bark * (0.65 + 0.45 * round_ + streaks)[:, :, None]
     return _Occluder("branch", mask > 0, colour.astype(np.float32))
 
@@ -997,7 +997,7 @@ def generate_small_objects(
     ground = (
         _generated_ground(background_rng, W, H)
         if background is None
-        else _given_background(background, W, H, 0)
+        else fit_background(background, W, H, 0)
     )
     occluders = _occluders(occluder_rng, config)
     world = ground.copy()
@@ -1016,7 +1016,9 @@ def generate_small_objects(
     for n in range(N):
         canvas = world.copy()
         boxes.append(_render(canvas, labels[n], n, order, free, config.min_visibility))
-        frames[n] = _sensor(canvas, _illumination(config, n, light_phases), sensor_rng, config)
+        frames[n] = sensor_effects(
+            canvas, illumination_gain(config, n, light_phases), sensor_rng, config
+        )
     crossings = [(2 * i + 1, 2 * i + 2, frame) for i, frame in enumerate(meets)]
     return SmallObjectsScene(
         frames,

@@ -28,8 +28,8 @@ anti-aliasing (lens blur only softens the *rendered* frame). Labels are uint16 t
 
 Coordinates and files are those of :mod:`~tracker_ptz_sim.simulation.scenes` (image px, origin at
 the top-left corner of the top-left pixel; camera jitter shifts the whole world); write and read
-street scenes with its :func:`~tracker_ptz_sim.simulation.scenes.write_scene` and
-:func:`~tracker_ptz_sim.simulation.scenes.load_scene`. :func:`generate_street` returns a
+street scenes with its :func:`~tracker_ptz_sim.simulation.scene_files.write_scene` and
+:func:`~tracker_ptz_sim.simulation.scene_files.load_scene`. :func:`generate_street` returns a
 :class:`StreetScene`, which also carries each person's path (:class:`StreetPerson`).
 
 The same :class:`StreetConfig` (and background) always gives bit-identical frames: every random
@@ -44,12 +44,21 @@ from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from functools import partial
 from pathlib import Path
-from typing import ClassVar, Protocol, cast
+from typing import ClassVar, Protocol
 
 import cv2
 import numpy as np
 
 from tracker_msgs_py.params import check_config
+from tracker_ptz_sim.simulation.camera_effects import (
+    LINE,
+    ONE,
+    SHIFT,
+    fit_background,
+    illumination_gain,
+    sensor_effects,
+    smooth_noise,
+)
 from tracker_ptz_sim.simulation.real_people import (
     SETS,
     CutoutLibrary,
@@ -67,9 +76,6 @@ from tracker_ptz_sim.simulation.scenes import (
 PEOPLE = ("drawn", *SETS)  # StreetConfig.people
 STATURE_M = 1.7  # the person height the perspective sizes refer to
 STEP_FRACTION = 0.4  # step length / stature
-SHIFT = 4  # fractional bits of the sub-pixel coordinates given to OpenCV's drawing functions
-ONE = 1 << SHIFT
-LINE = cv2.LINE_8  # no anti-aliasing: the label masks are exactly the drawn pixels
 
 
 @dataclass(frozen=True)
@@ -1052,18 +1058,6 @@ class _Board:
         _composite(canvas, label, self.look, mask, self.x + dx, self.y + dy, 0)
 
 
-def _noise(
-    rng: np.random.Generator, shape: tuple[int, int], sigma: float, channels: int = 1
-) -> np.ndarray:
-    """Smoothed Gaussian noise with unit spread, float32 (H, W) or (H, W, C)."""
-    size = (*shape, channels) if channels > 1 else shape
-    raw = rng.standard_normal(size).astype(np.float32)
-    smooth = (
-        cv2.GaussianBlur(raw, (0, 0), sigma, borderType=cv2.BORDER_REFLECT) if sigma > 0 else raw
-    )
-    return smooth / max(float(smooth.std()), 1e-6)
-
-
 def _ground_spot(rng: np.random.Generator, ground: _Ground, lo: float, hi: float) -> np.ndarray:
     """A random image point on the walkable ground, rows between fractions lo and hi of it."""
     return np.array(
@@ -1101,10 +1095,11 @@ def _make_foliage(rng: np.random.Generator, ground: _Ground, n: int) -> _Foliage
     shape = (h + 2 * m, w + 2 * m)
     yy, xx = np.mgrid[0 : shape[0], 0 : shape[1]].astype(np.float32)
     r = ((xx - shape[1] / 2) / (w / 2)) ** 2 + ((yy - shape[0] / 2) / (h / 2)) ** 2
-    field_ = 1.0 - 0.6 * r + 0.25 * _noise(rng, shape, max(1.0, px * 0.05))
+    field_ = 1.0 - 0.6 * r + 0.25 * smooth_noise(rng, shape, max(1.0, px * 0.05))
     base = np.array([rng.uniform(30, 60), rng.uniform(95, 140), rng.uniform(50, 90)], np.float32)
     leaves = (
-        _noise(rng, shape, 0.8, 3) * 0.5 + _noise(rng, shape, max(1.0, px * 0.04), 1)[:, :, None]
+        smooth_noise(rng, shape, 0.8, 3) * 0.5
+        + smooth_noise(rng, shape, max(1.0, px * 0.04), 1)[:, :, None]
     )
     texture = base * (1.0 + 0.28 * leaves)
     shifts = rng.integers(-2, 3, size=(n, 2, 2))
@@ -1128,7 +1123,7 @@ def _make_flicker(rng: np.random.Generator, ground: _Ground, n: int) -> _Flicker
     x = round(rng.uniform(0.02, 0.98) * W - w / 2)
     shading = (1.0 - 0.15 * np.linspace(0, 1, h))[:, None, None].astype(np.float32)
     tint = np.array([230, 215, 190] if rng.uniform() < 0.5 else [150, 215, 245], np.float32)
-    texture = 1.0 + 0.05 * _noise(rng, (h, w), 1.0)[:, :, None]
+    texture = 1.0 + 0.05 * smooth_noise(rng, (h, w), 1.0)[:, :, None]
     dim = np.array([55, 55, 60], np.float32) * shading * texture
     bright = tint * shading * texture
     on = np.cumsum(rng.uniform(size=n) < 0.15) % 2 == 1
@@ -1162,7 +1157,7 @@ def _make_car(rng: np.random.Generator, ground: _Ground, n: int, fps: float) -> 
     w, h = round(CAR_LENGTH_M * metre), round(CAR_HEIGHT_M * metre)
     body = np.array(CAR_COLOURS[int(rng.integers(len(CAR_COLOURS)))], np.float32)
     look = np.empty((h, w, 3), np.float32)
-    look[:] = body * (1.0 + 0.04 * _noise(rng, (h, w), 2.0))[:, :, None]
+    look[:] = body * (1.0 + 0.04 * smooth_noise(rng, (h, w), 2.0))[:, :, None]
     mask = np.zeros((h, w), np.uint8)
     roof = [(0.22 * w, 0.0), (0.72 * w, 0.0), (0.85 * w, 0.42 * h), (0.1 * w, 0.42 * h)]
     cv2.fillPoly(mask, [np.round(roof).astype(np.int32)], 1)
@@ -1226,7 +1221,7 @@ def _board_look(rng: np.random.Generator, shape: tuple[int, int]) -> np.ndarray:
         bh, bw = round(rng.uniform(0.15, 0.4) * ph), round(rng.uniform(0.3, 0.8) * pw)
         by, bx = int(rng.integers(0, max(1, ph - bh))), int(rng.integers(0, max(1, pw - bw)))
         poster[by : by + bh, bx : bx + bw] = rng.uniform(30, 220, 3)
-    return look * (1.0 + 0.03 * _noise(rng, (h, w), 1.0)[:, :, None])
+    return look * (1.0 + 0.03 * smooth_noise(rng, (h, w), 1.0)[:, :, None])
 
 
 def _boards(
@@ -1285,19 +1280,6 @@ def median_background(video_path: str | Path, max_frames: int = 200) -> np.ndarr
     for r in range(0, stack.shape[1], 32):  # in bands: np.median copies its input
         out[r : r + 32] = np.rint(np.median(stack[:, r : r + 32], axis=0)).astype(np.uint8)
     return out
-
-
-def _given_background(image: np.ndarray, width: int, height: int, margin: int) -> np.ndarray:
-    if image.ndim == 2:
-        image = cv2.cvtColor(image, cv2.COLOR_GRAY2BGR)
-    elif image.shape[2] == 4:
-        image = cv2.cvtColor(image, cv2.COLOR_BGRA2BGR)
-    image = np.ascontiguousarray(image[:, :, :3]).astype(np.uint8)
-    shrink = image.shape[1] > width
-    resized = cv2.resize(
-        image, (width, height), interpolation=cv2.INTER_AREA if shrink else cv2.INTER_LINEAR
-    )
-    return cv2.copyMakeBorder(resized, margin, margin, margin, margin, cv2.BORDER_REFLECT)
 
 
 @dataclass(frozen=True)
@@ -1373,8 +1355,8 @@ def _draw_ground(
         grass = (x_m < edge) if rng.uniform() < 0.5 else (x_m > -edge)
         green = np.array([55, 118, 78], np.float32) + rng.normal(0, 5, 3).astype(np.float32)
         colour[grass] = green
-    stains = _noise(rng, colour.shape[:2], 18.0 * canvas.ss)[..., None]
-    fine = _noise(rng, colour.shape[:2], 0.7, 3)
+    stains = smooth_noise(rng, colour.shape[:2], 18.0 * canvas.ss)[..., None]
+    fine = smooth_noise(rng, colour.shape[:2], 0.7, 3)
     canvas.image[below] = colour * (1.0 + 0.05 * stains) + 5.0 * fine
 
 
@@ -1389,7 +1371,9 @@ def _draw_facade(
     wall = _WALLS[int(rng.integers(len(_WALLS)))]
     shape = (int(above.sum()), canvas.image.shape[1])
     canvas.image[above] = wall * (
-        1.0 + 0.06 * _noise(rng, shape, 1.0, 3) + 0.04 * _noise(rng, shape, 8.0)[..., None]
+        1.0
+        + 0.06 * smooth_noise(rng, shape, 1.0, 3)
+        + 0.04 * smooth_noise(rng, shape, 8.0)[..., None]
     )
     px = float(ground.person_height(base_row)) / STATURE_M  # px per metre on the wall
     _openings(rng, canvas, ground.width, base_row, px)
@@ -1689,59 +1673,6 @@ def _visible_boxes(
 # --- rendering -----------------------------------------------------------------------------------
 
 
-class CameraEffects(Protocol):
-    """What :func:`_illumination` and :func:`_sensor` read of a scene config (the street's and the
-    small-object scenes' configs both have these fields)."""
-
-    @property
-    def width(self) -> int: ...
-    @property
-    def fps(self) -> float: ...
-    @property
-    def illumination_drift(self) -> float: ...
-    @property
-    def illumination_period(self) -> float: ...
-    @property
-    def optical_blur(self) -> float: ...
-    @property
-    def noise_sigma(self) -> float: ...
-    @property
-    def jpeg_quality(self) -> int: ...
-
-
-def _illumination(config: CameraEffects, n: int, phases: np.ndarray) -> np.ndarray:
-    """(1, W, 1) gain of frame n: a slow global drift and a slowly turning left-right slant."""
-    W = config.width
-    if config.illumination_drift == 0 or config.illumination_period == 0:
-        return np.ones((1, W, 1), np.float32)
-    t = n / config.fps
-    omega = 2 * math.pi / config.illumination_period
-    drift = config.illumination_drift
-    slant = 0.4 * drift * math.sin(0.7 * omega * t + phases[1])
-    ramp = np.linspace(-0.5, 0.5, W, dtype=np.float32)
-    gain = 1.0 + drift * math.sin(omega * t + phases[0]) + slant * ramp
-    return gain.astype(np.float32)[None, :, None]
-
-
-def _sensor(
-    image: np.ndarray, gain: np.ndarray, rng: np.random.Generator, config: CameraEffects
-) -> np.ndarray:
-    """Lens blur, lighting, sensor noise and JPEG compression of one rendered frame."""
-    if config.optical_blur > 0:
-        image = cv2.GaussianBlur(image, (0, 0), config.optical_blur)
-    light = image.astype(np.float32) * gain
-    if config.noise_sigma > 0:
-        light += rng.standard_normal(light.shape, dtype=np.float32) * np.float32(config.noise_sigma)
-    out: np.ndarray = np.clip(np.rint(light), 0, 255).astype(np.uint8)
-    if config.jpeg_quality > 0:
-        ok, data = cv2.imencode(".jpg", out, [cv2.IMWRITE_JPEG_QUALITY, config.jpeg_quality])
-        if not ok:
-            raise RuntimeError("JPEG encoding failed")
-        # imdecode of what imencode just wrote: a decoded image (the stubs allow None)
-        out = cast(np.ndarray, cv2.imdecode(data, cv2.IMREAD_COLOR))
-    return out
-
-
 def _render(
     canvas: np.ndarray,
     label: np.ndarray,
@@ -1779,7 +1710,7 @@ def generate_street(
     world = (
         _procedural_background(background_rng, ground, margin)
         if background is None
-        else _given_background(background, config.width, config.height, margin)
+        else fit_background(background, config.width, config.height, margin)
     )
     units = _layout(layout_rng, config, ground)
     people = _people(units, look_rng, config, ground, world, cutouts)
@@ -1799,7 +1730,9 @@ def generate_street(
         dx, dy = int(jitter[n, 0]), int(jitter[n, 1])
         canvas = world[margin - dy : margin - dy + H, margin - dx : margin - dx + W].copy()
         boxes.append(_render(canvas, labels[n], n, (dx, dy), people, distractors, config))
-        frames[n] = _sensor(canvas, _illumination(config, n, light_phases), sensor_rng, config)
+        frames[n] = sensor_effects(
+            canvas, illumination_gain(config, n, light_phases), sensor_rng, config
+        )
     scene = StreetScene(frames, float(config.fps), labels, boxes, jitter.astype(np.int64), config)
     scene.people = [p.info for p in people]
     return scene

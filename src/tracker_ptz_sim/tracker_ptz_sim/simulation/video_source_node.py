@@ -18,6 +18,7 @@ from __future__ import annotations
 import threading
 import time
 from collections import deque
+from dataclasses import dataclass
 from typing import Any
 
 from rclpy.duration import Duration
@@ -37,7 +38,7 @@ from tracker_msgs_py.codec import (
     stamp_to_ns,
 )
 from tracker_msgs_py.node_main import Health, StartupError, SuiteNode, run_node
-from tracker_msgs_py.params import ParamSpec, declare_parameters
+from tracker_msgs_py.params import config_from_params, declare_parameters, param, specs_of
 from tracker_ptz_sim.simulation.camera_model import MAX_COMMAND_DELAY_FRAMES
 from tracker_ptz_sim.simulation.frame_sources import Frame, FrameSource, SourceError
 from tracker_ptz_sim.simulation.live_stream import RTSP_TRANSPORTS, LiveStreamSource, open_input
@@ -48,106 +49,110 @@ STATUS_QOS = QoSProfile(
 )
 CLOCK_QOS = QoSProfile(depth=10, reliability=ReliabilityPolicy.BEST_EFFORT)
 
-PARAMS = [
-    ParamSpec(
-        "path",
+
+@dataclass(frozen=True)
+class VideoSourceConfig:
+    """The video source node's parameters."""
+
+    path: str = param(
         "",
         "video file, image folder or rosbag2 to replay, or a live stream: rtsp://, http(s):// "
         "(MJPEG), /dev/videoN",
         read_only=True,
-    ),
-    ParamSpec(
-        "rate", 1.0, "replay speed: 1 = real time, 0 = as fast as the graph allows", 0.0, 100.0
-    ),
-    ParamSpec(
-        "rtsp_transport",
+    )
+    rate: float = param(
+        1.0, "replay speed: 1 = real time, 0 = as fast as the graph allows", min=0.0, max=100.0
+    )
+    rtsp_transport: str = param(
         "tcp",
         "RTP over the RTSP connection (tcp: a lost camera is noticed at once, nothing dropped on "
         "the way), udp, or auto (FFmpeg's: UDP, then TCP)",
         choices=RTSP_TRANSPORTS,
         read_only=True,
-    ),
-    ParamSpec("loop", False, "start again at the end instead of exiting"),
-    ParamSpec("start_frame", 0, "first frame index to publish", 0, 2**31 - 1, read_only=True),
-    ParamSpec(
-        "end_frame",
+    )
+    loop: bool = param(False, "start again at the end instead of exiting")
+    start_frame: int = param(
+        0, "first frame index to publish", min=0, max=2**31 - 1, read_only=True
+    )
+    end_frame: int = param(
         -1,
         "stop before this frame index (-1 = the end)",
-        -1,
-        2**31 - 1,
+        min=-1,
+        max=2**31 - 1,
         read_only=True,
-    ),
-    ParamSpec(
-        "fps",
+    )
+    fps: float = param(
         0.0,
         "frame rate for the stamps of videos/folders (0 = the video's, folders 10)",
-        0.0,
-        1000.0,
+        min=0.0,
+        max=1000.0,
         read_only=True,
-    ),
-    ParamSpec(
-        "bag_topic",
+    )
+    bag_topic: str = param(
         "",
         "image topic of a rosbag2 ('' = the first Image/CompressedImage)",
         read_only=True,
-    ),
-    ParamSpec("encoding", "bgr8", "published encoding", choices=("bgr8", "mono8")),
-    ParamSpec("frame_id", "scene", "frame_id of the scene images"),
-    ParamSpec(
-        "focal_length", 0.0, "fx = fy of the scene CameraInfo [px] (0 = image width)", 0.0, 1e6
-    ),
-    ParamSpec(
-        "lockstep",
+    )
+    encoding: str = param("bgr8", "published encoding", choices=("bgr8", "mono8"))
+    frame_id: str = param("scene", "frame_id of the scene images")
+    focal_length: float = param(
+        0.0,
+        "fx = fy of the scene CameraInfo (0 = image width)",
+        min=0.0,
+        max=1e6,
+        unit="px",
+    )
+    lockstep: bool = param(
         False,
         "wait for an acknowledgement of each frame before the next",
         read_only=True,
-    ),
-    ParamSpec(
-        "frames_in_flight",
+    )
+    frames_in_flight: int = param(
         1,
         "lockstep: frames published ahead of the oldest one not yet acknowledged (1 = in "
         "series; ptz_camera's command_delay_frames must be at least this)",
-        1,
-        MAX_COMMAND_DELAY_FRAMES,
+        min=1,
+        max=MAX_COMMAND_DELAY_FRAMES,
         read_only=True,
-    ),
-    ParamSpec(
-        "ack_topic",
+    )
+    ack_topic: str = param(
         "ptz/command",
         "acknowledgements: tracker_msgs/PtzCommand stamped >= the frame",
         read_only=True,
-    ),
-    ParamSpec(
-        "recorder_topic",
+    )
+    recorder_topic: str = param(
         "",
         "lockstep: also wait until a recorder has received each frame (std_msgs/Header stamped "
         "with it, on this topic; empty: no recorder), so a recording misses none however loaded "
         "the machine",
         read_only=True,
-    ),
-    ParamSpec(
-        "lockstep_timeout",
+    )
+    lockstep_timeout: float = param(
         2.0,
-        "give up waiting for an acknowledgement after this [s]",
-        0.01,
-        3600.0,
-    ),
-    ParamSpec(
-        "wait_for_subscribers",
+        "give up waiting for an acknowledgement after this",
+        min=0.01,
+        max=3600.0,
+        unit="s",
+    )
+    wait_for_subscribers: int = param(
         1,
         "lockstep: wait for this many image subscribers first",
-        0,
-        100,
+        min=0,
+        max=100,
         read_only=True,
-    ),
-    ParamSpec("publish_clock", True, "publish /clock with the frame stamps", read_only=True),
-    ParamSpec(
-        "reliable_images",
+    )
+    publish_clock: bool = param(True, "publish /clock with the frame stamps", read_only=True)
+    reliable_images: bool = param(
         False,
         "reliable instead of sensor-data (best effort) image QoS",
         read_only=True,
-    ),
-]
+    )
+
+    def problems(self) -> list[str]:
+        return []
+
+
+PARAMS = specs_of(VideoSourceConfig)
 
 
 class VideoSourceNode(SuiteNode):
@@ -155,30 +160,31 @@ class VideoSourceNode(SuiteNode):
         """node_options go to rclpy's Node (parameter_overrides, context...)."""
         super().__init__("video_source", **node_options)
         self.params = declare_parameters(self, PARAMS, on_change=self._on_change)
+        self.settings = config_from_params(VideoSourceConfig, self.params)
         try:
             self.source = open_input(
-                self.params["path"],
-                self.params["fps"],
-                self.params["bag_topic"],
+                self.settings.path,
+                self.settings.fps,
+                self.settings.bag_topic,
                 self._on_stream,
-                self.params["rtsp_transport"],
+                self.settings.rtsp_transport,
             )
         except SourceError as error:
             raise StartupError(str(error)) from error
         self.add_waker(self.source.close)
         self.start, self.end = frame_range(
-            self.params["start_frame"], self.params["end_frame"], self.source
+            self.settings.start_frame, self.settings.end_frame, self.source
         )
         self.get_logger().info(f"replaying {self.source.describe()}")
         if self.source.note:
             self.get_logger().warning(self.source.note)
-        qos = image_qos(self.params["reliable_images"])
+        qos = image_qos(self.settings.reliable_images)
         self.image_pub = self.create_publisher(Image, "scene/image_raw", qos)
         self.info_pub = self.create_publisher(CameraInfo, "scene/camera_info", qos)
         self.status_pub = self.create_publisher(ReplayStatus, "replay/status", STATUS_QOS)
         self.clock_pub = (
             self.create_publisher(Clock, "/clock", CLOCK_QOS)
-            if self.params["publish_clock"]
+            if self.settings.publish_clock
             else None
         )
         self.answered_ns = -1  # the newest frame acknowledged on ack_topic
@@ -187,18 +193,18 @@ class VideoSourceNode(SuiteNode):
         self.in_flight: deque[int] = deque()  # lockstep: stamps published, not yet acknowledged
         self.ack_event = threading.Event()
         self.pace_event = threading.Event()
-        self.pacer = Pacer(self.params["rate"])
+        self.pacer = Pacer(self.settings.rate)
         self.ack_sub = (
             self.create_subscription(
-                PtzCommand, self.params["ack_topic"], self._on_ack, command_qos()
+                PtzCommand, self.settings.ack_topic, self._on_ack, command_qos()
             )
-            if self.params["lockstep"]
+            if self.settings.lockstep
             else None
         )
         self.recorder_sub = None
-        if self.params["lockstep"] and self.params["recorder_topic"]:
+        if self.settings.lockstep and self.settings.recorder_topic:
             self.recorder_sub = self.create_subscription(
-                Header, self.params["recorder_topic"], self._on_recorded, 10
+                Header, self.settings.recorder_topic, self._on_recorded, 10
             )
         self.status = ReplayStatus(source=self.source.label, state=ReplayStatus.STATE_PLAYING)
         self.add_waker(self.ack_event.set)
@@ -264,8 +270,9 @@ class VideoSourceNode(SuiteNode):
             self.ack_event.set()
 
     def _on_change(self, changed: dict[str, Any]) -> None:
+        self.settings = config_from_params(VideoSourceConfig, self.params)
         if "rate" in changed:
-            self.pacer.set_rate(changed["rate"], time.monotonic())
+            self.pacer.set_rate(self.settings.rate, time.monotonic())
             self.pace_event.set()  # a frame waiting on the old schedule is rescheduled
 
     # --- the replay worker ----------------------------------------------------------------------
@@ -284,7 +291,7 @@ class VideoSourceNode(SuiteNode):
                         f"{self.source.label}: no frame could be read in "
                         f"[{self.start}, {self.end if self.end is not None else 'end'})"
                     )
-                if not self.params["loop"] or self.source.live:
+                if not self.settings.loop or self.source.live:
                     break
             if not self.stopping.is_set():
                 reason = "end_frame reached" if self.source.live else "end of stream"
@@ -306,8 +313,8 @@ class VideoSourceNode(SuiteNode):
         so frame 0 is neither lost nor waits for an ack that cannot come."""
         if self.ack_sub is None:
             return
-        wanted = self.params["wait_for_subscribers"]
-        ack_topic, ack_sub, recorder_sub = self.params["ack_topic"], self.ack_sub, self.recorder_sub
+        wanted = self.settings.wait_for_subscribers
+        ack_topic, ack_sub, recorder_sub = self.settings.ack_topic, self.ack_sub, self.recorder_sub
 
         def ready() -> bool:
             return (
@@ -317,7 +324,7 @@ class VideoSourceNode(SuiteNode):
             )
 
         if not ready():
-            recorder = "" if recorder_sub is None else f" and of {self.params['recorder_topic']}"
+            recorder = "" if recorder_sub is None else f" and of {self.settings.recorder_topic}"
             self.get_logger().info(
                 f"lockstep: waiting for {wanted} subscriber(s) of scene/image_raw and a publisher "
                 f"of {ack_topic}{recorder}"
@@ -350,10 +357,10 @@ class VideoSourceNode(SuiteNode):
                 if self.stopping.is_set():
                     return
                 self._publish(frame, stamp)
-                if self.params["lockstep"]:
+                if self.settings.lockstep:
                     self.in_flight.append(stamp)
-                    self._wait_for_acks(self.params["frames_in_flight"] - 1)
-            if self.params["lockstep"]:
+                    self._wait_for_acks(self.settings.frames_in_flight - 1)
+            if self.settings.lockstep:
                 self._wait_for_acks(0)  # a pass ends answered: a loop starts a new epoch
         finally:
             if isinstance(frames, Prefetcher):
@@ -378,16 +385,16 @@ class VideoSourceNode(SuiteNode):
         if self.clock_pub is not None:
             self.clock_pub.publish(Clock(clock=stamp))
         image = frame.image
-        if self.params["encoding"] == "mono8":
+        if self.settings.encoding == "mono8":
             import cv2
 
             image = cv2.cvtColor(image, cv2.COLOR_BGR2GRAY)
-        frame_id = self.params["frame_id"]
+        frame_id = self.settings.frame_id
         height, width = image.shape[:2]
-        focal = self.params["focal_length"] or float(width)
+        focal = self.settings.focal_length or float(width)
         self.last_sent = (
             camera_info(width, height, focal, focal, width / 2, height / 2, stamp, frame_id),
-            array_to_image(image, self.params["encoding"], stamp, frame_id),
+            array_to_image(image, self.settings.encoding, stamp, frame_id),
         )
         # The status goes first: a runner that restarts a killed source at the frame after the
         # last status may then lose the frame in flight, but never sends one twice.
@@ -427,9 +434,9 @@ class VideoSourceNode(SuiteNode):
         frame is sent once more: a frame published while a subscriber was still completing
         discovery can be lost, and every node drops the repeat of a frame it did get (an
         acknowledgement of a newer frame answers the older ones too)."""
-        timeout = self.params["lockstep_timeout"]
+        timeout = self.settings.lockstep_timeout
         deadline = time.monotonic() + timeout
-        resend_at = time.monotonic() + timeout / 2
+        resend_at: float | None = time.monotonic() + timeout / 2
         while self.acked_ns < stamp_ns and not self.stopping.is_set():
             if resend_at is not None and time.monotonic() >= resend_at:
                 resend_at = None
@@ -439,13 +446,13 @@ class VideoSourceNode(SuiteNode):
             if remaining <= 0:
                 self.status.lockstep_timeouts += 1
                 waited_for = (
-                    f"recording on {self.params['recorder_topic']}"
+                    f"recording on {self.settings.recorder_topic}"
                     if self.answered_ns >= stamp_ns
-                    else f"acknowledgement on {self.params['ack_topic']}"
+                    else f"acknowledgement on {self.settings.ack_topic}"
                 )
                 self.get_logger().warning(
                     f"no {waited_for} of the frame stamped {stamp_ns / NS_PER_S:.3f} s within "
-                    f"{self.params['lockstep_timeout']} s; going on",
+                    f"{self.settings.lockstep_timeout} s; going on",
                     throttle_duration_sec=5.0,
                 )
                 return
