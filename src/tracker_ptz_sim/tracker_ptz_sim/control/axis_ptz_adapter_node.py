@@ -10,6 +10,7 @@ the adapter sends one when it shuts down.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Any
 
 from ptz_action_server_msgs.msg import Ptz
@@ -17,39 +18,54 @@ from ptz_action_server_msgs.msg import Ptz
 from tracker_msgs.msg import PtzCommand, PtzState
 from tracker_msgs_py.codec import command_qos, usable_value
 from tracker_msgs_py.node_main import SuiteNode, run_node
-from tracker_msgs_py.params import ParamSpec, declare_parameters
+from tracker_msgs_py.params import (
+    config_from_params,
+    declare_parameters,
+    param,
+    params_of,
+    specs_of,
+)
 from tracker_ptz_sim.control.command_messages import command_of
 from tracker_ptz_sim.control.controller import CameraPose, Command, CommandMode
-from tracker_ptz_sim.control.unit_joints import (
-    JOINT_MAPPING_PARAMETERS,
-    joint_mapping,
-    velocity_only,
-)
+from tracker_ptz_sim.control.unit_joints import JointMappingConfig, velocity_only
 
-PARAMS = [
-    ParamSpec(
-        "position_gain",
+
+@dataclass(frozen=True)
+class AxisPtzAdapterConfig:
+    """The axis_ptz_adapter node's parameters."""
+
+    position_gain: float = param(
         2.0,
-        "a direct move or search preset: pan/tilt rate per radian still to go [1/s]",
-        0.01,
-        100.0,
-    ),
-    ParamSpec("max_rate", 1.0, "largest rate sent [rad/s]", 0.01, 10.0),
-    *JOINT_MAPPING_PARAMETERS,
-]
+        "a direct move or search preset: pan/tilt rate per radian still to go",
+        min=0.01,
+        max=100.0,
+        unit="1/s",
+    )
+    max_rate: float = param(1.0, "largest rate sent", min=0.01, max=10.0, unit="rad/s")
+    joint_mapping: JointMappingConfig = params_of(JointMappingConfig)
+
+    def problems(self) -> list[str]:
+        return []
+
+
+PARAMS = list(specs_of(AxisPtzAdapterConfig))
 
 
 class AxisPtzAdapterNode(SuiteNode):
     def __init__(self, **node_options: Any) -> None:
         """node_options go to rclpy's Node (parameter_overrides, context...)."""
         super().__init__("axis_ptz_adapter", **node_options)
-        self.params = declare_parameters(self, PARAMS)
-        self.mapping = joint_mapping(self.params)
+        self.params = declare_parameters(self, PARAMS, on_change=self._on_change)
+        self.settings = config_from_params(AxisPtzAdapterConfig, self.params)
+        self.mapping = self.settings.joint_mapping.mapping()
         self.pose: CameraPose | None = None
         self.sent = False
         self.velocity_pub = self.create_publisher(Ptz, "cmd/velocity", command_qos())
         self.create_subscription(PtzCommand, "ptz/command", self._on_command, command_qos())
         self.create_subscription(PtzState, "ptz/state", self._on_state, 10)
+
+    def _on_change(self, changed: dict[str, Any]) -> None:
+        self.settings = config_from_params(AxisPtzAdapterConfig, self.params)
 
     def _on_state(self, state: PtzState) -> None:
         if usable_value(state.pan) and usable_value(state.tilt):
@@ -64,8 +80,9 @@ class AxisPtzAdapterNode(SuiteNode):
                 f"sent a stop for a PtzCommand with mode {msg.mode} and values {values}",
             )
             command = Command(CommandMode.HOLD)
+        settings = self.settings
         pan, tilt = velocity_only(
-            command, self.pose, self.mapping, self.params["position_gain"], self.params["max_rate"]
+            command, self.pose, self.mapping, settings.position_gain, settings.max_rate
         )
         self.velocity_pub.publish(Ptz(pan=pan, tilt=tilt, zoom=0.0))
         self.sent = True

@@ -32,7 +32,7 @@ from dataclasses import dataclass, replace
 from enum import Enum
 from typing import Any
 
-from tracker_msgs_py.params import check_config, config_from_params
+from tracker_msgs_py.params import check_config, config_from_params, param
 
 
 class ControlState(Enum):
@@ -143,26 +143,152 @@ class ControllerConfig:
         return found
 
 
-def _pairs(flat: list[float], name: str) -> list[tuple[float, float]]:
-    if len(flat) % 2:
-        raise ValueError(f"{name} needs an even number of values, got {len(flat)}")
-    return [(float(flat[i]), float(flat[i + 1])) for i in range(0, len(flat), 2)]
+_DEFAULTS = ControllerConfig()
+
+
+@dataclass(frozen=True)
+class ControllerParams:
+    """The controller's parameters as the ptz_controller node declares them (and the in-process
+    pipeline reads them): the limits and home are [a, b] lists, presets a flat
+    [pan1, tilt1, ...] list; `controller_config()` is the ControllerConfig they describe."""
+
+    mode: str = param(
+        _DEFAULTS.mode,
+        "direct: jump to the target (seed 000); servo: PI velocity control; hold: a fixed "
+        "camera (every target answered with HOLD)",
+        choices=("direct", "servo", "hold"),
+    )
+    kp: float = param(_DEFAULTS.kp, "servo proportional gain", min=0.0, max=50.0, unit="1/s")
+    ki: float = param(_DEFAULTS.ki, "servo integral gain", min=0.0, max=50.0, unit="1/s^2")
+    dead_zone: float = param(
+        _DEFAULTS.dead_zone, "angular error left uncorrected", min=0.0, max=0.5, unit="rad"
+    )
+    max_rate: float = param(
+        _DEFAULTS.max_rate, "largest commanded rate", min=0.01, max=10.0, unit="rad/s"
+    )
+    feed_forward: bool = param(_DEFAULTS.feed_forward, "add the target's angular velocity")
+    aim_at_prediction: bool = param(
+        _DEFAULTS.aim_at_prediction,
+        "aim at the target's predicted position (latency compensation)",
+    )
+    unit_latency: float = param(
+        _DEFAULTS.unit_latency,
+        "the unit's delay from a command to its motion: the aim leads the target by this much "
+        "beyond the tracker's prediction; set from ptz/unit_latency when the unit's driver "
+        "measures it (onvif_ptz calibrate)",
+        min=0.0,
+        max=5.0,
+        unit="s",
+    )
+    search: str = param(
+        _DEFAULTS.search,
+        "what to do when nothing is tracked",
+        choices=("sweep", "presets", "none"),
+    )
+    sweep_rate: float = param(
+        _DEFAULTS.sweep_rate, "horizontal search sweep rate", min=0.0, max=5.0, unit="rad/s"
+    )
+    pan_limits: tuple[float, ...] = param(
+        list(_DEFAULTS.pan_limits),
+        "[min, max] pan: no command leaves it, the sweep reverses at it",
+        unit="rad",
+        interval=True,
+    )
+    tilt_limits: tuple[float, ...] = param(
+        list(_DEFAULTS.tilt_limits), "[min, max] tilt commanded", unit="rad", interval=True
+    )
+    presets: tuple[float, ...] = param(
+        [0.0, 0.0], "search presets as [pan1, tilt1, pan2, tilt2, ...]", unit="rad"
+    )
+    preset_dwell_time: float = param(
+        _DEFAULTS.preset_dwell_time, "time at each preset", min=0.1, max=600.0, unit="s"
+    )
+    home: tuple[float, ...] = param(list(_DEFAULTS.home), "[pan, tilt] home preset", unit="rad")
+    lost_scan_time: float = param(
+        _DEFAULTS.lost_scan_time, "scan the last region this long", min=0.0, max=600.0, unit="s"
+    )
+    scan_amplitude: float = param(
+        _DEFAULTS.scan_amplitude, "half-width of the scan", min=0.0, max=3.0, unit="rad"
+    )
+    scan_period: float = param(
+        _DEFAULTS.scan_period, "period of the scan", min=0.1, max=60.0, unit="s"
+    )
+    home_dwell_time: float = param(
+        _DEFAULTS.home_dwell_time,
+        "time at home before searching",
+        min=0.0,
+        max=3600.0,
+        unit="s",
+    )
+    zoom_control: bool = param(
+        _DEFAULTS.zoom_control,
+        "zoom so the target's height stays within [fill_low, fill_high] of the view's",
+    )
+    fill_low: float = param(
+        _DEFAULTS.fill_low, "target / view height to zoom in below", min=0.0, max=1.0
+    )
+    fill_high: float = param(
+        _DEFAULTS.fill_high, "target / view height to zoom out above", min=0.0, max=10.0
+    )
+    fill_target: float = param(
+        _DEFAULTS.fill_target, "target / view height zoomed to", min=0.0, max=10.0
+    )
+    zoom_step: float = param(
+        _DEFAULTS.zoom_step, "largest zoom ratio per command", min=1.001, max=10.0
+    )
+    home_zoom: float = param(_DEFAULTS.home_zoom, "zoom without a target", min=0.05, max=100.0)
+    max_zoom: float = param(
+        _DEFAULTS.max_zoom, "largest zoom the controller commands", min=0.05, max=100.0
+    )
+
+    def problems(self) -> list[str]:
+        """Lists of the wrong length, then what the ControllerConfig they describe rejects."""
+        found = [
+            f"{name} needs exactly two values"
+            for name in ("pan_limits", "tilt_limits", "home")
+            if len(getattr(self, name)) != 2
+        ]
+        if len(self.presets) % 2:
+            found.append(f"presets needs an even number of values, got {len(self.presets)}")
+        return found or self.controller_config().problems()
+
+    def controller_config(self) -> ControllerConfig:
+        """The controller configuration these parameters describe (not checked: `problems`)."""
+        flat = self.presets
+        return ControllerConfig(
+            mode=self.mode,
+            kp=self.kp,
+            ki=self.ki,
+            dead_zone=self.dead_zone,
+            max_rate=self.max_rate,
+            feed_forward=self.feed_forward,
+            aim_at_prediction=self.aim_at_prediction,
+            unit_latency=self.unit_latency,
+            search=self.search,
+            sweep_rate=self.sweep_rate,
+            pan_limits=(float(self.pan_limits[0]), float(self.pan_limits[1])),
+            tilt_limits=(float(self.tilt_limits[0]), float(self.tilt_limits[1])),
+            presets=tuple((float(flat[i]), float(flat[i + 1])) for i in range(0, len(flat) - 1, 2)),
+            preset_dwell_time=self.preset_dwell_time,
+            home=(float(self.home[0]), float(self.home[1])),
+            lost_scan_time=self.lost_scan_time,
+            scan_amplitude=self.scan_amplitude,
+            scan_period=self.scan_period,
+            home_dwell_time=self.home_dwell_time,
+            zoom_control=self.zoom_control,
+            fill_low=self.fill_low,
+            fill_high=self.fill_high,
+            fill_target=self.fill_target,
+            zoom_step=self.zoom_step,
+            home_zoom=self.home_zoom,
+            max_zoom=self.max_zoom,
+        )
 
 
 def controller_config(values: Mapping[str, Any]) -> ControllerConfig:
-    """The controller configuration the ptz_controller parameters describe (raises ValueError
-    when invalid): the limits and home are [a, b] lists, presets a flat [pan1, tilt1, ...] list."""
-    for name in ("pan_limits", "tilt_limits", "home"):
-        if len(values[name]) != 2:
-            raise ValueError(f"{name} needs exactly two values")
-    return config_from_params(
-        ControllerConfig,
-        values,
-        pan_limits=(float(values["pan_limits"][0]), float(values["pan_limits"][1])),
-        tilt_limits=(float(values["tilt_limits"][0]), float(values["tilt_limits"][1])),
-        home=(float(values["home"][0]), float(values["home"][1])),
-        presets=tuple(_pairs(values["presets"], "presets")),
-    )
+    """The controller configuration the ptz_controller parameters describe (`ControllerParams`;
+    raises ValueError when invalid)."""
+    return config_from_params(ControllerParams, values).controller_config()
 
 
 class PanTiltController:

@@ -20,6 +20,7 @@ import math
 import threading
 import time
 from collections.abc import Coroutine
+from dataclasses import dataclass
 from typing import Any, TypeVar
 
 from sensor_msgs.msg import JointState
@@ -28,7 +29,7 @@ from std_msgs.msg import Float64
 from tracker_msgs.msg import PtzCommand, Target
 from tracker_msgs_py.codec import command_qos, result_qos
 from tracker_msgs_py.node_main import Health, StartupError, SuiteNode, run_node
-from tracker_msgs_py.params import ParamSpec, declare_parameters
+from tracker_msgs_py.params import config_from_params, declare_parameters, param, specs_of
 from tracker_ptz_sim.control.command_messages import command_of
 from tracker_ptz_sim.control.controller import CameraPose, Command, CommandMode
 from tracker_ptz_sim.control.onvif_ptz import (
@@ -49,94 +50,112 @@ def _two(name: str) -> Any:
     return lambda v: None if len(v) == 2 else f"{name} needs two values"
 
 
-PARAMS = [
-    ParamSpec("host", "", "the camera's address (name or IP)", read_only=True),
-    ParamSpec("port", 80, "the camera's ONVIF (HTTP) port", 1, 65535, read_only=True),
-    ParamSpec("user", "", "ONVIF user name ('' = none)", read_only=True),
-    ParamSpec("password", "", "ONVIF password (never logged)", read_only=True),
-    ParamSpec("profile", "", "media profile token ('' = the first with PTZ)", read_only=True),
-    ParamSpec(
-        "pan_range",
+def _pair(values: tuple[float, ...]) -> tuple[float, float]:
+    """A two-value parameter (`_two` checked its length) as a pair."""
+    return float(values[0]), float(values[1])
+
+
+@dataclass(frozen=True)
+class OnvifPtzConfig:
+    """The onvif_ptz node's parameters."""
+
+    host: str = param("", "the camera's address (name or IP)", read_only=True)
+    port: int = param(80, "the camera's ONVIF (HTTP) port", min=1, max=65535, read_only=True)
+    user: str = param("", "ONVIF user name ('' = none)", read_only=True)
+    password: str = param("", "ONVIF password (never logged)", read_only=True)
+    profile: str = param("", "media profile token ('' = the first with PTZ)", read_only=True)
+    pan_range: tuple[float, ...] = param(
         [math.pi, -math.pi],
-        "REP-103 pan [rad] the camera looks at for generic x = -1 and x = +1 (x + = right on "
-        "most cameras: a range from + to -)",
+        "REP-103 pan the camera looks at for generic x = -1 and x = +1 (x + = right on most "
+        "cameras: a range from + to -)",
+        unit="rad",
         validator=_two("pan_range"),
         read_only=True,
-    ),
-    ParamSpec(
-        "tilt_range",
+    )
+    tilt_range: tuple[float, ...] = param(
         [math.pi / 2, -math.pi / 2],
-        "REP-103 tilt [rad, + = down] at generic y = -1 and y = +1",
+        "REP-103 tilt (+ = down) at generic y = -1 and y = +1",
+        unit="rad",
         validator=_two("tilt_range"),
         read_only=True,
-    ),
-    ParamSpec(
-        "top_rates",
+    )
+    top_rates: tuple[float, ...] = param(
         [1.0, 1.0],
-        "[pan, tilt] rate [rad/s] of ContinuousMove velocity 1",
+        "[pan, tilt] rate of ContinuousMove velocity 1",
+        unit="rad/s",
         validator=_two("top_rates"),
         read_only=True,
-    ),
-    ParamSpec("status_rate", 5.0, "GetStatus polls per second", 0.2, 50.0, read_only=True),
-    ParamSpec(
-        "move_timeout",
+    )
+    status_rate: float = param(5.0, "GetStatus polls per second", min=0.2, max=50.0, read_only=True)
+    move_timeout: float = param(
         1.0,
-        "ContinuousMove timeout [s]: the camera stops by itself when commands stop coming",
-        0.1,
-        60.0,
-    ),
-    ParamSpec(
-        "position_gain",
+        "ContinuousMove timeout: the camera stops by itself when commands stop coming",
+        min=0.1,
+        max=60.0,
+        unit="s",
+    )
+    position_gain: float = param(
         2.0,
-        "cameras without position moves: rate per rad to go [1/s]",
-        0.01,
-        100.0,
-    ),
-    ParamSpec(
-        "return_preset", "", "preset to go to after return_after s without a target ('' = none)"
-    ),
-    ParamSpec(
-        "return_after", 10.0, "s without a locked target before the return preset", 0.0, 3600.0
-    ),
-    ParamSpec(
-        "still_polls",
+        "cameras without position moves: rate per rad to go",
+        min=0.01,
+        max=100.0,
+        unit="1/s",
+    )
+    return_preset: str = param(
+        "", "preset to go to after return_after s without a target ('' = none)"
+    )
+    return_after: float = param(
+        10.0,
+        "time without a locked target before the return preset",
+        min=0.0,
+        max=3600.0,
+        unit="s",
+    )
+    still_polls: int = param(
         3,
         "polls over which an unchanged position means still (for cameras whose MoveStatus "
         "never returns to IDLE)",
-        2,
-        100,
-    ),
-    ParamSpec(
-        "joint_names",
+        min=2,
+        max=100,
+    )
+    joint_names: tuple[str, ...] = param(
         ["pan_joint", "tilt_joint"],
         "pan and tilt joints of joint_states",
         validator=_two("joint_names"),
-    ),
-    ParamSpec(
-        "connect_timeout", 10.0, "s to wait for the camera at start", 0.5, 600.0, read_only=True
-    ),
-    ParamSpec(
-        "calibrate",
+    )
+    connect_timeout: float = param(
+        10.0,
+        "time to wait for the camera at start",
+        min=0.5,
+        max=600.0,
+        unit="s",
+        read_only=True,
+    )
+    calibrate: bool = param(
         False,
         "at start, time a 1 s pan at half speed and fit its latency and rate: the measured pan "
         "rate replaces top_rates[0] (the camera moves and comes back)",
         read_only=True,
-    ),
-]
+    )
+
+    def problems(self) -> list[str]:
+        return []
+
+
+PARAMS = list(specs_of(OnvifPtzConfig))
 
 
 class OnvifPtzNode(SuiteNode):
     def __init__(self, **node_options: Any) -> None:
         """node_options go to rclpy's Node (parameter_overrides, context...)."""
         super().__init__("onvif_ptz", **node_options)
-        self.params = declare_parameters(self, PARAMS)
-        p = self.params
-        if not p["host"]:
+        self.params = declare_parameters(self, PARAMS, on_change=self._on_change)
+        self.settings = config_from_params(OnvifPtzConfig, self.params)
+        p = self.settings
+        if not p.host:
             raise StartupError("host is empty: give the camera's address (host:=192.168.1.20)")
         try:
-            self.range = GenericRange(
-                tuple(p["pan_range"]), tuple(p["tilt_range"]), tuple(p["top_rates"])
-            )
+            self.range = GenericRange(_pair(p.pan_range), _pair(p.tilt_range), _pair(p.top_rates))
         except ValueError as error:
             raise StartupError(str(error)) from error
         self.loop = asyncio.new_event_loop()
@@ -144,14 +163,14 @@ class OnvifPtzNode(SuiteNode):
             target=self.loop.run_forever, name="onvif_ptz.loop", daemon=True
         )
         self.loop_thread.start()
-        self.camera = OnvifPtz(p["host"], p["port"], p["user"], p["password"])
+        self.camera = OnvifPtz(p.host, p.port, p.user, p.password)
         try:
-            self.support = self._wait(self.camera.connect(p["profile"]), p["connect_timeout"])
+            self.support = self._wait(self.camera.connect(p.profile), p.connect_timeout)
         except (OnvifError, TimeoutError) as error:
             self._stop_loop()
-            cause = str(error) or f"no answer within {p['connect_timeout']} s"
-            raise StartupError(f"ONVIF camera {p['host']}:{p['port']}: {cause}") from error
-        self.get_logger().info(f"ONVIF camera {p['host']}:{p['port']}, {self.support.describe()}")
+            cause = str(error) or f"no answer within {p.connect_timeout} s"
+            raise StartupError(f"ONVIF camera {p.host}:{p.port}: {cause}") from error
+        self.get_logger().info(f"ONVIF camera {p.host}:{p.port}, {self.support.describe()}")
         if not self.support.position_in_status:
             self._stop_loop()
             raise StartupError(
@@ -159,9 +178,9 @@ class OnvifPtzNode(SuiteNode):
                 "looked for each image, so this camera cannot be followed with"
             )
         self.calibration: Calibration | None = None
-        if p["calibrate"] and self.support.continuous:
+        if p.calibrate and self.support.continuous:
             self._calibrate()
-        self.judge = StillJudge(p["still_polls"])
+        self.judge = StillJudge(p.still_polls)
         self.pose: tuple[float, float] | None = None  # REP-103 pan, tilt of the newest status
         self.moving = False
         self.sent: tuple[str, tuple[float, ...]] | None = (
@@ -179,6 +198,9 @@ class OnvifPtzNode(SuiteNode):
         self.create_subscription(Target, "target", self._on_target, 10)
         self.poller = asyncio.run_coroutine_threadsafe(self._poll(), self.loop)
         self.create_steady_timer(0.2, self._check_return)
+
+    def _on_change(self, changed: dict[str, Any]) -> None:
+        self.settings = config_from_params(OnvifPtzConfig, self.params)
 
     def _calibrate(self) -> None:
         """Measure the pan response; the measured rate replaces top_rates[0]."""
@@ -223,7 +245,7 @@ class OnvifPtzNode(SuiteNode):
         self.loop_thread.join(5.0)
 
     async def _poll(self) -> None:
-        period = 1.0 / self.params["status_rate"]
+        period = 1.0 / self.settings.status_rate
         while not self.stopping.is_set():
             started = time.monotonic()
             try:
@@ -242,7 +264,7 @@ class OnvifPtzNode(SuiteNode):
         self.pose = (pan, tilt)
         age_ns = round((time.monotonic() - status.taken_at) * 1e9)
         stamp = self.get_clock().now().nanoseconds - age_ns
-        msg = JointState(name=list(self.params["joint_names"]), position=[pan, tilt])
+        msg = JointState(name=list(self.settings.joint_names), position=[pan, tilt])
         msg.header.stamp.sec, msg.header.stamp.nanosec = divmod(stamp, 1_000_000_000)
         self.joint_pub.publish(msg)
 
@@ -254,15 +276,14 @@ class OnvifPtzNode(SuiteNode):
             self.at_return_preset = False
 
     def _check_return(self) -> None:
-        preset = self.params["return_preset"]
+        settings = self.settings
+        preset = settings.return_preset
         if not preset or self.at_return_preset:
             return
-        if time.monotonic() - self.last_locked >= self.params["return_after"]:
+        if time.monotonic() - self.last_locked >= settings.return_after:
             self.at_return_preset = True
             self.sent = None
-            self.get_logger().info(
-                f"no target for {self.params['return_after']} s: to preset {preset}"
-            )
+            self.get_logger().info(f"no target for {settings.return_after} s: to preset {preset}")
             self._send(self.camera.goto_preset(preset), f"GotoPreset {preset}")
 
     def _on_command(self, msg: PtzCommand) -> None:
@@ -294,7 +315,7 @@ class OnvifPtzNode(SuiteNode):
                 command,
                 pose,
                 JointMapping(),
-                self.params["position_gain"],
+                self.settings.position_gain,
                 max(self.range.top_rates),
             )
         elif command.mode is CommandMode.VELOCITY:
@@ -305,14 +326,14 @@ class OnvifPtzNode(SuiteNode):
         if velocity == (0.0, 0.0):
             self._move("stop", (), self.camera.stop())
         else:
-            timeout = self.params["move_timeout"]
+            timeout = self.settings.move_timeout
             self._move("continuous", velocity, self.camera.continuous_move(*velocity, timeout))
 
     def _move(self, kind: str, values: tuple[float, ...], coroutine: Any) -> None:
         """Send the move unless it repeats the last one (a continuous move is renewed after half
         its timeout, so the camera's watchdog does not stop it while the rate holds)."""
         now = time.monotonic()
-        renew = kind == "continuous" and now - self.sent_at > self.params["move_timeout"] / 2
+        renew = kind == "continuous" and now - self.sent_at > self.settings.move_timeout / 2
         if (kind, values) == self.sent and not renew:
             coroutine.close()
             return
@@ -328,7 +349,7 @@ class OnvifPtzNode(SuiteNode):
             else ("moving" if self.moving else "still")
         )
         details = {
-            "camera": f"{self.params['host']}:{self.params['port']}",
+            "camera": f"{self.settings.host}:{self.settings.port}",
             "supports": self.support.describe(),
             "errors": str(self.errors),
         }

@@ -13,6 +13,7 @@ from __future__ import annotations
 import math
 import time
 from collections import deque
+from dataclasses import dataclass
 from typing import Any
 
 from geometry_msgs.msg import PointStamped
@@ -33,186 +34,126 @@ from tracker_msgs_py.codec import (
     usable_value,
 )
 from tracker_msgs_py.node_main import Health, SuiteNode, run_node
-from tracker_msgs_py.params import ParamSpec, declare_parameters
+from tracker_msgs_py.params import (
+    config_from_params,
+    declare_parameters,
+    param,
+    params_of,
+    specs_of,
+)
 from tracker_msgs_py.stamps import Order, StampOrder
 from tracker_ptz_sim.control.command_messages import command_msg
 from tracker_ptz_sim.control.controller import (
     CameraPose,
     Command,
     CommandMode,
-    ControllerConfig,
+    ControllerParams,
     PanTiltController,
     TargetEstimate,
     controller_config,
 )
 from tracker_ptz_sim.control.pan_tilt_frames import PanTiltFrames
 from tracker_ptz_sim.control.unit_joints import (
-    JOINT_MAPPING_PARAMETERS,
     CommandStyle,
     JointCommand,
+    JointMappingConfig,
     UnitSettings,
-    joint_mapping,
     unit_command,
 )
 
 STATE_BUFFER = 16  # pan-tilt states kept to pair with targets by stamp
 
-_DEFAULTS = ControllerConfig()
-PARAMS = [
-    ParamSpec(
-        "mode",
-        _DEFAULTS.mode,
-        "direct: jump to the target (seed 000); servo: PI velocity control; hold: a fixed "
-        "camera (every target answered with HOLD)",
-        choices=("direct", "servo", "hold"),
-    ),
-    ParamSpec("kp", _DEFAULTS.kp, "servo proportional gain [1/s]", 0.0, 50.0),
-    ParamSpec("ki", _DEFAULTS.ki, "servo integral gain [1/s^2]", 0.0, 50.0),
-    ParamSpec("dead_zone", _DEFAULTS.dead_zone, "angular error left uncorrected [rad]", 0.0, 0.5),
-    ParamSpec("max_rate", _DEFAULTS.max_rate, "largest commanded rate [rad/s]", 0.01, 10.0),
-    ParamSpec("feed_forward", _DEFAULTS.feed_forward, "add the target's angular velocity"),
-    ParamSpec(
-        "aim_at_prediction",
-        _DEFAULTS.aim_at_prediction,
-        "aim at the target's predicted position (latency compensation)",
-    ),
-    ParamSpec(
-        "unit_latency",
-        _DEFAULTS.unit_latency,
-        "the unit's delay from a command to its motion [s]: the aim leads the target by this much "
-        "beyond the tracker's prediction; set from ptz/unit_latency when the unit's driver "
-        "measures it (onvif_ptz calibrate)",
-        0.0,
-        5.0,
-    ),
-    ParamSpec(
-        "search",
-        _DEFAULTS.search,
-        "what to do when nothing is tracked",
-        choices=("sweep", "presets", "none"),
-    ),
-    ParamSpec("sweep_rate", _DEFAULTS.sweep_rate, "horizontal search sweep rate [rad/s]", 0.0, 5.0),
-    ParamSpec(
-        "pan_limits",
-        list(_DEFAULTS.pan_limits),
-        "[min, max] pan [rad]: no command leaves it, the sweep reverses at it",
-        interval=True,
-    ),
-    ParamSpec(
-        "tilt_limits", list(_DEFAULTS.tilt_limits), "[min, max] tilt [rad] commanded", interval=True
-    ),
-    ParamSpec("presets", [0.0, 0.0], "search presets as [pan1, tilt1, pan2, tilt2, ...] [rad]"),
-    ParamSpec(
-        "preset_dwell_time", _DEFAULTS.preset_dwell_time, "time at each preset [s]", 0.1, 600.0
-    ),
-    ParamSpec("home", list(_DEFAULTS.home), "[pan, tilt] home preset [rad]"),
-    ParamSpec(
-        "lost_scan_time", _DEFAULTS.lost_scan_time, "scan the last region this long [s]", 0.0, 600.0
-    ),
-    ParamSpec("scan_amplitude", _DEFAULTS.scan_amplitude, "half-width of the scan [rad]", 0.0, 3.0),
-    ParamSpec("scan_period", _DEFAULTS.scan_period, "period of the scan [s]", 0.1, 60.0),
-    ParamSpec(
-        "home_dwell_time",
-        _DEFAULTS.home_dwell_time,
-        "time at home before searching [s]",
-        0.0,
-        3600.0,
-    ),
-    ParamSpec(
-        "zoom_control",
-        _DEFAULTS.zoom_control,
-        "zoom so the target's height stays within [fill_low, fill_high] of the view's",
-    ),
-    ParamSpec("fill_low", _DEFAULTS.fill_low, "target / view height to zoom in below", 0.0, 1.0),
-    ParamSpec(
-        "fill_high", _DEFAULTS.fill_high, "target / view height to zoom out above", 0.0, 10.0
-    ),
-    ParamSpec("fill_target", _DEFAULTS.fill_target, "target / view height zoomed to", 0.0, 10.0),
-    ParamSpec("zoom_step", _DEFAULTS.zoom_step, "largest zoom ratio per command", 1.001, 10.0),
-    ParamSpec("home_zoom", _DEFAULTS.home_zoom, "zoom without a target", 0.05, 100.0),
-    ParamSpec("max_zoom", _DEFAULTS.max_zoom, "largest zoom the controller commands", 0.05, 100.0),
-    ParamSpec(
-        "target_timeout", 1.0, "no target for this long (scene time) -> HOLD [s]", 0.05, 60.0
-    ),
-    ParamSpec(
-        "state_timeout",
+
+@dataclass(frozen=True)
+class PtzControllerNodeConfig:
+    """The ptz_controller node's parameters: the controller's (`ControllerParams`), then how it
+    pairs targets with states and sends joint commands."""
+
+    control: ControllerParams = params_of(ControllerParams)
+    target_timeout: float = param(
+        1.0, "no target for this long (scene time) -> HOLD", min=0.05, max=60.0, unit="s"
+    )
+    state_timeout: float = param(
         0.5,
-        "answer a target whose image's ptz/state has not come within this with HOLD [s, wall]",
-        0.01,
-        60.0,
-    ),
-    ParamSpec(
-        "max_state_age",
+        "answer a target whose image's ptz/state has not come within this with HOLD",
+        min=0.01,
+        max=60.0,
+        unit="s, wall",
+    )
+    max_state_age: float = param(
         0.25,
-        "when a target's own ptz/state is lost, use an earlier one at most this old [s]",
-        0.0,
-        10.0,
-    ),
-    ParamSpec("joint_command_topic", "", "also publish commands as JointState here ('' = off)"),
-    ParamSpec("joint_names", ["pan_joint", "tilt_joint"], "pan and tilt joint names"),
-    ParamSpec(
-        "zoom_joint",
+        "when a target's own ptz/state is lost, use an earlier one at most this old",
+        min=0.0,
+        max=10.0,
+        unit="s",
+    )
+    joint_command_topic: str = param("", "also publish commands as JointState here ('' = off)")
+    joint_names: tuple[str, ...] = param(["pan_joint", "tilt_joint"], "pan and tilt joint names")
+    zoom_joint: str = param(
         "",
         "joint commands: the zoom joint, commanded by position when the zoom changes ('' = none)",
-    ),
-    ParamSpec(
-        "joint_command_style",
+    )
+    joint_command_style: str = param(
         CommandStyle.VELOCITY_OR_POSITION.value,
         "what a JointState command holds: velocity_or_position (velocities for servo moves, "
         "positions for direct moves; NaN = not commanded) or positions_with_speeds (the FLIR PTU "
         "driver's cmd: always two positions and two speeds >= 0)",
         choices=tuple(style.value for style in CommandStyle),
-    ),
-    ParamSpec(
-        "joint_speed_limits",
+    )
+    joint_speed_limits: tuple[float, ...] = param(
         [0.0, 1.0],
-        "positions_with_speeds: [min, max] speed [rad/s] the unit accepts (its driver logs them)",
+        "positions_with_speeds: [min, max] speed the unit accepts (its driver logs them)",
+        unit="rad/s",
         interval=True,
-    ),
-    ParamSpec(
-        "position_lead",
+    )
+    position_lead: float = param(
         0.5,
-        "positions_with_speeds: a rate becomes a goal this far ahead [s] of the image's pose",
-        0.01,
-        10.0,
-    ),
-    *JOINT_MAPPING_PARAMETERS,
-    ParamSpec("base_frame_id", "ptz_base", "frame_id of the commands"),
-    ParamSpec(
-        "optical_frame_id",
+        "positions_with_speeds: a rate becomes a goal this far ahead of the image's pose",
+        min=0.01,
+        max=10.0,
+        unit="s",
+    )
+    joint_mapping: JointMappingConfig = params_of(JointMappingConfig)
+    base_frame_id: str = param("ptz_base", "frame_id of the commands")
+    optical_frame_id: str = param(
         "ptz_camera_optical",
         "frame of target_ray (the camera images' frame in the unit's TF tree)",
-    ),
-]
+    )
+
+    def problems(self) -> list[str]:
+        if len(self.joint_names) != 2:
+            return ["joint_names needs exactly two names (pan, tilt)"]
+        try:
+            self.unit_settings()
+        except ValueError as error:
+            return [str(error)]
+        return []
+
+    def unit_settings(self) -> UnitSettings:
+        """How JointState commands reach the unit."""
+        low, high = self.joint_speed_limits
+        limits = self.control
+        return UnitSettings(
+            names=(self.joint_names[0], self.joint_names[1]),
+            style=CommandStyle(self.joint_command_style),
+            mapping=self.joint_mapping.mapping(),
+            zoom_joint=self.zoom_joint,
+            speed_limits=(float(low), float(high)),
+            lead=self.position_lead,
+            pan_limits=(float(limits.pan_limits[0]), float(limits.pan_limits[1])),
+            tilt_limits=(float(limits.tilt_limits[0]), float(limits.tilt_limits[1])),
+        )
+
+
+PARAMS = list(specs_of(PtzControllerNodeConfig))
 
 
 def _check(values: dict[str, Any]) -> str | None:
     try:
-        controller_config(values)
-    except ValueError as error:
-        return str(error)
-    if len(values["joint_names"]) != 2:
-        return "joint_names needs exactly two names (pan, tilt)"
-    try:
-        unit_settings(values)
+        config_from_params(PtzControllerNodeConfig, values)
     except ValueError as error:
         return str(error)
     return None
-
-
-def unit_settings(values: dict[str, Any]) -> UnitSettings:
-    """How JointState commands reach the unit, from the node's parameter values."""
-    low, high = values["joint_speed_limits"]
-    return UnitSettings(
-        names=(values["joint_names"][0], values["joint_names"][1]),
-        style=CommandStyle(values["joint_command_style"]),
-        mapping=joint_mapping(values),
-        zoom_joint=values["zoom_joint"],
-        speed_limits=(float(low), float(high)),
-        lead=values["position_lead"],
-        pan_limits=(float(values["pan_limits"][0]), float(values["pan_limits"][1])),
-        tilt_limits=(float(values["tilt_limits"][0]), float(values["tilt_limits"][1])),
-    )
 
 
 class PtzControllerNode(SuiteNode):
@@ -220,8 +161,9 @@ class PtzControllerNode(SuiteNode):
         """node_options go to rclpy's Node (parameter_overrides, context...)."""
         super().__init__("ptz_controller", **node_options)
         self.params = declare_parameters(self, PARAMS, on_change=self._on_change, check_all=_check)
+        self.settings = config_from_params(PtzControllerNodeConfig, self.params)
         self.controller = PanTiltController(controller_config(self.params))
-        self.unit = unit_settings(self.params)
+        self.unit = self.settings.unit_settings()
         self.frames = PanTiltFrames()  # the ray's direction depends on the axes, not the names
         # Usable pan-tilt states by stamp, and the stamps of the latest unusable ones (their
         # images' targets are answered with HOLD).
@@ -258,18 +200,19 @@ class PtzControllerNode(SuiteNode):
             stop = unit_command(Command(CommandMode.HOLD), newest_pose, self.unit)
             if stop.positions or stop.velocities:
                 header = Header(
-                    stamp=ns_to_stamp(self.last_target_ns), frame_id=self.params["base_frame_id"]
+                    stamp=ns_to_stamp(self.last_target_ns), frame_id=self.settings.base_frame_id
                 )
                 self.joint_pub.publish(joint_state(stop, header))
         super().destroy_node()
 
     def _joint_publisher(self) -> Publisher | None:
-        topic = self.params["joint_command_topic"]
+        topic = self.settings.joint_command_topic
         return self.create_publisher(JointState, topic, command_qos()) if topic else None
 
     def _on_change(self, changed: dict[str, Any]) -> None:
+        self.settings = config_from_params(PtzControllerNodeConfig, self.params)
         self.controller.config = controller_config(self.params)
-        self.unit = unit_settings(self.params)
+        self.unit = self.settings.unit_settings()
         if "joint_command_topic" in changed:
             if self.joint_pub is not None:
                 self.destroy_publisher(self.joint_pub)
@@ -326,7 +269,7 @@ class PtzControllerNode(SuiteNode):
         images are still on their way and no target could come while there were no images; the
         control looks for its target standing still (`PanTiltController.resume`)."""
         previous = max((s for s in self.states if s < stamp_ns), default=None)
-        timeout_ns = self.params["target_timeout"] * NS_PER_S
+        timeout_ns = self.settings.target_timeout * NS_PER_S
         if previous is not None and stamp_ns - previous > timeout_ns:
             self.images_resumed_ns = stamp_ns
             self.controller.resume(stamp_ns / NS_PER_S)
@@ -336,7 +279,7 @@ class PtzControllerNode(SuiteNode):
         `target_timeout` past the last target (one alone may carry a bad stamp) and past the end
         of a gap in the images: stop the camera, and acknowledge those states' images with HOLD
         until targets return."""
-        timeout_ns = self.params["target_timeout"] * NS_PER_S
+        timeout_ns = self.settings.target_timeout * NS_PER_S
         if self.last_target_ns is None:
             return
         since = max(self.last_target_ns, self.images_resumed_ns or 0)
@@ -425,7 +368,7 @@ class PtzControllerNode(SuiteNode):
         """Targets whose state did not come in time are answered with HOLD (and acknowledged)."""
         now = time.monotonic()
         for stamp, (target, since) in sorted(self.waiting.items()):
-            if now - since >= self.params["state_timeout"]:
+            if now - since >= self.settings.state_timeout:
                 del self.waiting[stamp]
                 self._respond(target)
 
@@ -445,7 +388,7 @@ class PtzControllerNode(SuiteNode):
         if not earlier:
             return None
         nearest = max(earlier)
-        if stamp_ns - nearest > self.params["max_state_age"] * NS_PER_S:
+        if stamp_ns - nearest > self.settings.max_state_age * NS_PER_S:
             return None
         return self.states[nearest]
 
@@ -469,7 +412,7 @@ class PtzControllerNode(SuiteNode):
         right = (estimate.x - pose.center_x) / pose.focal_length  # scene px per rad
         down = (estimate.y - pose.center_y) / pose.focal_length
         point = PointStamped()
-        point.header.stamp, point.header.frame_id = stamp, self.params["optical_frame_id"]
+        point.header.stamp, point.header.frame_id = stamp, self.settings.optical_frame_id
         ray = self.frames.ray(pose.pan, pose.tilt, right, down)
         point.point.x, point.point.y, point.point.z = ray
         return point
@@ -487,19 +430,19 @@ class PtzControllerNode(SuiteNode):
             self.problems.report(
                 "no ptz/state for a target",
                 f"no usable ptz/state for the image stamped {stamp_ns} ns within "
-                f"{self.params['state_timeout']} s; answered with HOLD",
+                f"{self.settings.state_timeout} s; answered with HOLD",
             )
 
     def diagnostic_state(self) -> tuple[str, dict[str, str]]:
         """The control state (track / scan / home / search), or holding the camera still."""
         state = "holding" if self.last_mode is CommandMode.HOLD else self.controller.state.value
-        return state, {"mode": self.params["mode"], "last command": self.last_mode.value}
+        return state, {"mode": self.settings.control.mode, "last command": self.last_mode.value}
 
     def diagnostic_health(self) -> tuple[Health, str]:
         if self.last_target_ns is not None and not self.states:
             return Health.ERROR, "targets arrive but no usable ptz/state has: the camera holds"
         if self.targets_stopped:
-            return Health.WARN, f"no target for over {self.params['target_timeout']} s: holding"
+            return Health.WARN, f"no target for over {self.settings.target_timeout} s: holding"
         return Health.OK, ""
 
     def _publish(self, command: Command, stamp: Any, pose: CameraPose | None = None) -> None:
@@ -507,7 +450,7 @@ class PtzControllerNode(SuiteNode):
         looked in the image it answers (a positions_with_speeds hold or rate needs it: without
         it, no JointState goes out, and the unit keeps its last goal)."""
         self.last_mode = command.mode
-        msg = command_msg(command, Header(stamp=stamp, frame_id=self.params["base_frame_id"]))
+        msg = command_msg(command, Header(stamp=stamp, frame_id=self.settings.base_frame_id))
         self.command_pub.publish(msg)
         if self.joint_pub is not None:
             joints = unit_command(command, pose, self.unit)

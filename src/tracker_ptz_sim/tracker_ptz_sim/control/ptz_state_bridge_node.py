@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import math
 import time
+from dataclasses import dataclass
 from typing import Any
 
 from sensor_msgs.msg import CameraInfo, JointState
@@ -34,65 +35,81 @@ from tracker_msgs_py.codec import (
     usable_value,
 )
 from tracker_msgs_py.node_main import SuiteNode, run_node
-from tracker_msgs_py.params import ParamSpec, declare_parameters
+from tracker_msgs_py.params import (
+    config_from_params,
+    declare_parameters,
+    param,
+    params_of,
+    specs_of,
+)
 from tracker_ptz_sim.control.command_messages import command_of
 from tracker_ptz_sim.control.controller import CommandMode
 from tracker_ptz_sim.control.joint_pose import JointPoseBridge, JointSample, PtzPose
-from tracker_ptz_sim.control.unit_joints import (
-    JOINT_MAPPING_PARAMETERS,
-    CommandedMotion,
-    joint_mapping,
-)
+from tracker_ptz_sim.control.unit_joints import CommandedMotion, JointMappingConfig
 
-PARAMS = [
-    ParamSpec(
-        "joint_names",
+
+@dataclass(frozen=True)
+class PtzStateBridgeConfig:
+    """The ptz_state_bridge node's parameters."""
+
+    joint_names: tuple[str, ...] = param(
         ["pan_joint", "tilt_joint"],
         "pan and tilt joints of JointState",
         validator=lambda v: None if len(v) == 2 else "joint_names needs two names (pan, tilt)",
         read_only=True,
-    ),
-    ParamSpec(
-        "zoom_joint", "", "JointState joint whose position is the zoom ('' = none)", read_only=True
-    ),
-    ParamSpec("scene_width", 0, "scene width [px] (0 = the camera image's)", 0, 1_000_000),
-    ParamSpec("scene_height", 0, "scene height [px] (0 = the camera image's)", 0, 1_000_000),
-    ParamSpec(
-        "scene_focal_length",
+    )
+    zoom_joint: str = param(
+        "", "JointState joint whose position is the zoom ('' = none)", read_only=True
+    )
+    scene_width: int = param(
+        0, "scene width (0 = the camera image's)", min=0, max=1_000_000, unit="px"
+    )
+    scene_height: int = param(
+        0, "scene height (0 = the camera image's)", min=0, max=1_000_000, unit="px"
+    )
+    scene_focal_length: float = param(
         0.0,
         "scene px per radian (0 = the first CameraInfo's fx at zoom 1)",
-        0.0,
-        1e9,
+        min=0.0,
+        max=1e9,
         read_only=True,
-    ),
-    ParamSpec("joint_buffer_size", 64, "joint states kept", 2, 10000, read_only=True),
-    ParamSpec(
-        "max_gap", 0.5, "interpolate between joint states at most this far apart [s]", 0.0, 60.0
-    ),
-    ParamSpec(
-        "pose_wait",
+    )
+    joint_buffer_size: int = param(64, "joint states kept", min=2, max=10000, read_only=True)
+    max_gap: float = param(
+        0.5,
+        "interpolate between joint states at most this far apart",
+        min=0.0,
+        max=60.0,
+        unit="s",
+    )
+    pose_wait: float = param(
         0.2,
-        "an image waits this long [s, wall] for a joint state after its stamp, then takes the "
-        "latest one before it",
-        0.0,
-        10.0,
-    ),
-    ParamSpec(
-        "max_pose_age", 0.5, "that earlier joint state may be at most this old [s]", 0.0, 60.0
-    ),
-    ParamSpec("scene_frame_id", "scene", "frame_id of ptz/state (its window is in scene px)"),
-    ParamSpec(
-        "reliable_images", False, "reliable QoS for camera_info (lockstep replays)", read_only=True
-    ),
-    ParamSpec(
-        "command_topic",
+        "an image waits this long for a joint state after its stamp, then takes the latest one "
+        "before it",
+        min=0.0,
+        max=10.0,
+        unit="s, wall",
+    )
+    max_pose_age: float = param(
+        0.5, "that earlier joint state may be at most this old", min=0.0, max=60.0, unit="s"
+    )
+    scene_frame_id: str = param("scene", "frame_id of ptz/state (its window is in scene px)")
+    reliable_images: bool = param(
+        False, "reliable QoS for camera_info (lockstep replays)", read_only=True
+    )
+    command_topic: str = param(
         "ptz/command",
         "the controller's commands (tracker_msgs/PtzCommand): their rates carry the latest joint "
         "state forward to an image's stamp ('' = take the latest joint state as it is)",
         read_only=True,
-    ),
-    *JOINT_MAPPING_PARAMETERS,
-]
+    )
+    joint_mapping: JointMappingConfig = params_of(JointMappingConfig)
+
+    def problems(self) -> list[str]:
+        return []
+
+
+PARAMS = list(specs_of(PtzStateBridgeConfig))
 
 
 class PtzStateBridgeNode(SuiteNode):
@@ -100,30 +117,32 @@ class PtzStateBridgeNode(SuiteNode):
         """node_options go to rclpy's Node (parameter_overrides, context...)."""
         super().__init__("ptz_state_bridge", **node_options)
         self.params = declare_parameters(self, PARAMS, on_change=self._on_change)
+        self.settings = config_from_params(PtzStateBridgeConfig, self.params)
+        settings = self.settings
         self.bridge = JointPoseBridge(
             self._scene(),
-            self.params["joint_buffer_size"],
-            round(self.params["max_gap"] * NS_PER_S),
-            round(self.params["max_pose_age"] * NS_PER_S),
-            CommandedMotion() if self.params["command_topic"] else None,
+            settings.joint_buffer_size,
+            round(settings.max_gap * NS_PER_S),
+            round(settings.max_pose_age * NS_PER_S),
+            CommandedMotion() if settings.command_topic else None,
         )
-        self.mapping = joint_mapping(self.params)
+        self.mapping = settings.joint_mapping.mapping()
         self.arrivals: dict[int, float] = {}  # waiting image stamps -> wall time they came
         self.state_pub = self.create_publisher(PtzState, "ptz/state", result_qos())
-        qos = image_qos(self.params["reliable_images"], depth=self.params["joint_buffer_size"])
+        qos = image_qos(settings.reliable_images, depth=settings.joint_buffer_size)
         self.create_subscription(JointState, "ptz/joint_states", self._on_joints, qos)
         self.create_subscription(CameraInfo, "camera/camera_info", self._on_camera_info, qos)
-        if self.params["command_topic"]:
+        if settings.command_topic:
             self.create_subscription(
-                PtzCommand, self.params["command_topic"], self._on_command, command_qos()
+                PtzCommand, settings.command_topic, self._on_command, command_qos()
             )
         self.create_steady_timer(0.02, self._release_overdue)
         self.get_logger().info("ptz_state_bridge ready")
 
     def _scene(self) -> SceneSettings:
-        params = self.params
+        settings = self.settings
         return SceneSettings(
-            params["scene_width"], params["scene_height"], params["scene_focal_length"]
+            settings.scene_width, settings.scene_height, settings.scene_focal_length
         )
 
     def diagnostic_state(self) -> tuple[str, dict[str, str]]:
@@ -134,9 +153,10 @@ class PtzStateBridgeNode(SuiteNode):
         return state, {"scene focal length [px/rad]": f"{self.bridge.focal_length or 0.0:.1f}"}
 
     def _on_change(self, changed: dict[str, Any]) -> None:
+        self.settings = config_from_params(PtzStateBridgeConfig, self.params)
         self.bridge.scene = self._scene()
-        self.bridge.joints.max_gap_ns = round(self.params["max_gap"] * NS_PER_S)
-        self.bridge.max_age_ns = round(self.params["max_pose_age"] * NS_PER_S)
+        self.bridge.joints.max_gap_ns = round(self.settings.max_gap * NS_PER_S)
+        self.bridge.max_age_ns = round(self.settings.max_pose_age * NS_PER_S)
 
     def _on_joints(self, msg: JointState) -> None:
         sample = self._sample(msg)
@@ -145,8 +165,8 @@ class PtzStateBridgeNode(SuiteNode):
 
     def _sample(self, msg: JointState) -> JointSample | None:
         names = list(msg.name)
-        wanted = list(self.params["joint_names"])
-        zoom_joint = self.params["zoom_joint"]
+        wanted = list(self.settings.joint_names)
+        zoom_joint = self.settings.zoom_joint
         needed = wanted + [zoom_joint] if zoom_joint else wanted
         positions = joint_values(names, msg.position, needed)
         if positions is None:
@@ -206,7 +226,7 @@ class PtzStateBridgeNode(SuiteNode):
         waiting = self.bridge.waiting
         if (
             waiting
-            and time.monotonic() - self.arrivals.get(waiting[0][0], 0.0) >= self.params["pose_wait"]
+            and time.monotonic() - self.arrivals.get(waiting[0][0], 0.0) >= self.settings.pose_wait
         ):
             self._publish(self.bridge.give_up())
 
@@ -231,7 +251,7 @@ class PtzStateBridgeNode(SuiteNode):
             moving=pose.moving,
         )
         state.header.stamp = ns_to_stamp(pose.stamp_ns)
-        state.header.frame_id = self.params["scene_frame_id"]
+        state.header.frame_id = self.settings.scene_frame_id
         return state
 
 

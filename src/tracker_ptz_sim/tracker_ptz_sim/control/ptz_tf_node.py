@@ -11,6 +11,7 @@ like it, so rviz, Foxglove's 3D panel or a robot's TF listener can tell where th
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 from typing import Any
 
 from geometry_msgs.msg import TransformStamped
@@ -21,7 +22,7 @@ from tf2_msgs.msg import TFMessage
 
 from tracker_msgs_py.codec import joint_values, result_qos, usable_value
 from tracker_msgs_py.node_main import SuiteNode, run_node
-from tracker_msgs_py.params import ParamSpec, declare_parameters
+from tracker_msgs_py.params import config_from_params, declare_parameters, param, specs_of
 from tracker_ptz_sim.control.pan_tilt_frames import PanTiltFrames, Transform
 
 LATCHED = QoSProfile(
@@ -29,18 +30,30 @@ LATCHED = QoSProfile(
 )  # what tf2's static broadcaster and robot_state_publisher offer
 TF_QOS = QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE)  # tf2's broadcaster
 
-PARAMS = [
-    ParamSpec("frame_prefix", "", "prefix of every frame and joint name ('cam1/')", read_only=True),
-    ParamSpec("joint_names", ["pan_joint", "tilt_joint"], "pan and tilt names in the joint states"),
-]
+
+@dataclass(frozen=True)
+class PtzTfConfig:
+    """The ptz_tf node's parameters."""
+
+    frame_prefix: str = param("", "prefix of every frame and joint name ('cam1/')", read_only=True)
+    joint_names: tuple[str, ...] = param(
+        ["pan_joint", "tilt_joint"], "pan and tilt names in the joint states"
+    )
+
+    def problems(self) -> list[str]:
+        return []
+
+
+PARAMS = list(specs_of(PtzTfConfig))
 
 
 class PtzTfNode(SuiteNode):
     def __init__(self, **node_options: Any) -> None:
         """node_options go to rclpy's Node (namespace, parameter_overrides, context...)."""
         super().__init__("ptz_tf", **node_options)
-        self.params = declare_parameters(self, PARAMS)
-        self.frames = PanTiltFrames(self.params["frame_prefix"])
+        self.params = declare_parameters(self, PARAMS, on_change=self._on_change)
+        self.settings = config_from_params(PtzTfConfig, self.params)
+        self.frames = PanTiltFrames(self.settings.frame_prefix)
         self.tf_pub = self.create_publisher(TFMessage, "/tf", TF_QOS)
         static_pub = self.create_publisher(TFMessage, "/tf_static", LATCHED)
         static_pub.publish(TFMessage(transforms=[to_msg(t, None) for t in self.frames.fixed()]))
@@ -49,8 +62,11 @@ class PtzTfNode(SuiteNode):
         self.create_subscription(JointState, "ptz/joint_states", self._on_joints, result_qos())
         self.get_logger().info(f"ptz_tf ready: {self.frames.base} -> {self.frames.optical}")
 
+    def _on_change(self, changed: dict[str, Any]) -> None:
+        self.settings = config_from_params(PtzTfConfig, self.params)
+
     def _on_joints(self, msg: JointState) -> None:
-        wanted = list(self.params["joint_names"])
+        wanted = list(self.settings.joint_names)
         angles = joint_values(list(msg.name), msg.position, wanted)
         if angles is None or not all(usable_value(a) for a in angles):
             self.problems.report(

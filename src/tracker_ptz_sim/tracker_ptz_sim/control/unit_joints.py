@@ -30,12 +30,11 @@ from __future__ import annotations
 
 import bisect
 import math
-from collections.abc import Mapping
 from dataclasses import dataclass
 from enum import Enum
 from typing import Any
 
-from tracker_msgs_py.params import ParamSpec
+from tracker_msgs_py.params import param, specs_of
 from tracker_ptz_sim.control.controller import CameraPose, Command, CommandMode
 
 
@@ -80,30 +79,39 @@ def _signs_problem(value: Any) -> str | None:
     return None
 
 
-#: The mapping's parameters, declared alike by every node that meets the unit's joints.
-JOINT_MAPPING_PARAMETERS = [
-    ParamSpec(
-        "joint_signs",
+@dataclass(frozen=True)
+class JointMappingConfig:
+    """The mapping's parameters, declared alike by every node that meets the unit's joints (each
+    nests this with `params_of`)."""
+
+    joint_signs: tuple[float, ...] = param(
         [1.0, 1.0],
         "[pan, tilt] joint = sign * REP-103 angle + offset: -1 where the unit counts the other "
         "way (Axis: pan clockwise, tilt + = up)",
         validator=_signs_problem,
         read_only=True,
-    ),
-    ParamSpec(
-        "joint_offsets",
+    )
+    joint_offsets: tuple[float, ...] = param(
         [0.0, 0.0],
-        "[pan, tilt] joint position [rad] when the camera looks along the suite's pan/tilt 0",
+        "[pan, tilt] joint position when the camera looks along the suite's pan/tilt 0",
+        unit="rad",
         validator=lambda v: None if len(v) == 2 else "joint_offsets needs two values (pan, tilt)",
         read_only=True,
-    ),
-]
+    )
+
+    def problems(self) -> list[str]:
+        return []
+
+    def mapping(self) -> JointMapping:
+        """The mapping these parameters describe."""
+        signs, offsets = self.joint_signs, self.joint_offsets
+        return JointMapping(
+            (float(signs[0]), float(signs[1])), (float(offsets[0]), float(offsets[1]))
+        )
 
 
-def joint_mapping(values: Mapping[str, Any]) -> JointMapping:
-    """The mapping from the values of JOINT_MAPPING_PARAMETERS."""
-    signs, offsets = values["joint_signs"], values["joint_offsets"]
-    return JointMapping((float(signs[0]), float(signs[1])), (float(offsets[0]), float(offsets[1])))
+#: The mapping's parameters (`JointMappingConfig`'s), for code that wants the specs.
+JOINT_MAPPING_PARAMETERS = list(specs_of(JointMappingConfig))
 
 
 @dataclass(frozen=True)

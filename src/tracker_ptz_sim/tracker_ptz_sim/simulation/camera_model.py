@@ -29,6 +29,7 @@ import numpy as np
 
 from tracker_detect.pinhole import pinhole_view
 from tracker_msgs_py.geometry import Rect, SceneGeometry
+from tracker_msgs_py.params import check_config, param
 
 INTEGRATION_STEP_S = 0.005  # servo dynamics are integrated in steps of at most this
 MIN_VIEW_SIDE = 8  # px: the smallest camera image the model makes (a scene must allow it)
@@ -37,46 +38,54 @@ MAX_COMMAND_DELAY_FRAMES = 32
 
 @dataclass(frozen=True)
 class PtzConfig:
-    view_height_fraction: float = 110 / 240  # window height / scene height at zoom 1 (the seed's)
-    view_aspect: float = 1.0  # window width / height (the seed's window is square)
-    focal_length: float = 0.0  # scene px per rad; 0 = window width / view_fov
-    view_fov: float = 0.6  # rad, horizontal field of view at zoom 1 (used when focal_length = 0)
-    servo: str = "dynamic"  # "dynamic" or "instant" (the seed's jumping window)
-    max_speed: float = 1.5  # rad/s per axis
-    max_acceleration: float = 8.0  # rad/s^2 per axis
-    command_latency: float = 0.0  # s from a command's stamp until the servos act on it
-    command_delay_frames: int = 1  # a command answering frame n acts from frame n + this on
-    velocity_timeout: float = 0.5  # s without a new velocity command before the unit stops
-    max_zoom: float = 4.0
-    min_zoom: float = 1.0  # below 1 the window grows beyond the zoom-1 view (up to the scene)
-    initial_pan: float = 0.0  # rad
-    initial_tilt: float = 0.0  # rad
+    view_height_fraction: float = param(
+        110 / 240,
+        "window height / scene height at zoom 1 (seed: 110/240)",
+        min=0.05,
+        max=1.0,
+    )
+    view_aspect: float = param(1.0, "window width / height (seed: square)", min=0.1, max=10.0)
+    focal_length: float = param(
+        0.0, "scene px per rad (0 = window width / view_fov)", min=0.0, max=1e6
+    )
+    view_fov: float = param(
+        0.6, "horizontal field of view at zoom 1", min=0.01, max=3.0, unit="rad"
+    )
+    servo: str = param(
+        "dynamic",
+        "dynamic: rate/acceleration-limited servos; instant: the seed's jumps",
+        choices=("dynamic", "instant"),
+    )
+    max_speed: float = param(1.5, "servo rate limit per axis", min=0.001, max=100.0, unit="rad/s")
+    max_acceleration: float = param(
+        8.0, "servo acceleration limit", min=0.001, max=1e4, unit="rad/s^2"
+    )
+    command_latency: float = param(0.0, "delay before a command acts", min=0.0, max=10.0, unit="s")
+    command_delay_frames: int = param(
+        1,
+        "a command answering image n acts from image n + this on; lockstep: as many frames may "
+        "be in flight (video_source frames_in_flight)",
+        min=1,
+        max=MAX_COMMAND_DELAY_FRAMES,
+        read_only=True,
+    )
+    velocity_timeout: float = param(0.5, "velocity command watchdog", min=0.01, max=60.0, unit="s")
+    max_zoom: float = param(4.0, "largest zoom factor", min=1.0, max=100.0)
+    min_zoom: float = param(
+        1.0,
+        "smallest zoom factor; below 1 the view widens beyond the zoom-1 window (up to the scene)",
+        min=0.05,
+        max=1.0,
+    )
+    initial_pan: float = param(
+        0.0, "pan at start", min=-math.pi, max=math.pi, unit="rad", read_only=True
+    )
+    initial_tilt: float = param(
+        0.0, "tilt at start", min=-math.pi, max=math.pi, unit="rad", read_only=True
+    )
 
     def problems(self) -> list[str]:
-        # (holds, why not) per rule, in the order the problems are reported
-        rules = [
-            (0.05 <= self.view_height_fraction <= 1.0, "view_height_fraction must be in [0.05, 1]"),
-            (0.1 <= self.view_aspect <= 10.0, "view_aspect must be in [0.1, 10]"),
-            (
-                self.servo in ("dynamic", "instant"),
-                f"servo must be dynamic or instant, got '{self.servo}'",
-            ),
-            *(
-                (getattr(self, name) > 0, f"{name} must be > 0")
-                for name in ("max_speed", "max_acceleration", "view_fov")
-            ),
-            *(
-                (getattr(self, name) >= 0, f"{name} must be >= 0")
-                for name in ("focal_length", "command_latency", "velocity_timeout")
-            ),
-            (
-                1 <= self.command_delay_frames <= MAX_COMMAND_DELAY_FRAMES,
-                f"command_delay_frames must be in [1, {MAX_COMMAND_DELAY_FRAMES}]",
-            ),
-            (self.max_zoom >= 1.0, "max_zoom must be >= 1"),
-            (0.05 <= self.min_zoom <= 1.0, "min_zoom must be in [0.05, 1]"),
-        ]
-        return [why for holds, why in rules if not holds]
+        return []
 
 
 @dataclass(frozen=True)
@@ -117,9 +126,7 @@ class PtzCameraModel:
     """The camera over a scene of `width` x `height` px; `advance(t)` then `render(frame)`."""
 
     def __init__(self, config: PtzConfig, width: int, height: int) -> None:
-        problems = config.problems()
-        if problems:
-            raise ValueError("; ".join(problems))
+        check_config(config)
         self.config = config
         self.width, self.height = width, height
         self.base_size = view_size(config, width, height)
@@ -337,9 +344,7 @@ class PtzCameraModel:
 
     def reconfigure(self, config: PtzConfig) -> None:
         """Apply new limits/dynamics; the pose is kept (then clamped to the new window)."""
-        problems = config.problems()
-        if problems:
-            raise ValueError("; ".join(problems))
+        check_config(config)
         geometry_changed = (
             config.view_height_fraction != self.config.view_height_fraction
             or config.view_aspect != self.config.view_aspect

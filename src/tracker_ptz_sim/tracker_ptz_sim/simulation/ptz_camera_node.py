@@ -24,7 +24,7 @@ from __future__ import annotations
 import math
 import time
 from collections import deque
-from dataclasses import fields
+from dataclasses import dataclass, fields
 from typing import Any
 
 import numpy as np
@@ -47,10 +47,15 @@ from tracker_msgs_py.codec import (
     usable_value,
 )
 from tracker_msgs_py.node_main import Health, SuiteNode, run_node
-from tracker_msgs_py.params import ParamSpec, config_from_params, declare_parameters
+from tracker_msgs_py.params import (
+    config_from_params,
+    declare_parameters,
+    param,
+    params_of,
+    specs_of,
+)
 from tracker_msgs_py.stamps import Order, StampOrder
 from tracker_ptz_sim.simulation.camera_model import (
-    MAX_COMMAND_DELAY_FRAMES,
     PtzCameraModel,
     PtzCommand,
     PtzConfig,
@@ -59,109 +64,68 @@ from tracker_ptz_sim.simulation.camera_model import (
 )
 from tracker_ptz_sim.simulation.command_latency import CommandLatency, diagnostics_values
 
-_D = PtzConfig()
 MODES = {
     PtzCommandMsg.MODE_POSITION: "position",
     PtzCommandMsg.MODE_VELOCITY: "velocity",
     PtzCommandMsg.MODE_HOLD: "hold",
 }
-PARAMS = [
-    ParamSpec(
-        "view_height_fraction",
-        _D.view_height_fraction,
-        "window height / scene height at zoom 1 (seed: 110/240)",
-        0.05,
-        1.0,
-    ),
-    ParamSpec("view_aspect", _D.view_aspect, "window width / height (seed: square)", 0.1, 10.0),
-    ParamSpec(
-        "focal_length", _D.focal_length, "scene px per rad (0 = window width / view_fov)", 0.0, 1e6
-    ),
-    ParamSpec("view_fov", _D.view_fov, "horizontal field of view at zoom 1 [rad]", 0.01, 3.0),
-    ParamSpec(
-        "servo",
-        _D.servo,
-        "dynamic: rate/acceleration-limited servos; instant: the seed's jumps",
-        choices=("dynamic", "instant"),
-    ),
-    ParamSpec("max_speed", _D.max_speed, "servo rate limit per axis [rad/s]", 0.001, 100.0),
-    ParamSpec(
-        "max_acceleration", _D.max_acceleration, "servo acceleration limit [rad/s^2]", 0.001, 1e4
-    ),
-    ParamSpec("command_latency", _D.command_latency, "delay before a command acts [s]", 0.0, 10.0),
-    ParamSpec(
-        "command_delay_frames",
-        _D.command_delay_frames,
-        "a command answering image n acts from image n + this on; lockstep: as many frames may "
-        "be in flight (video_source frames_in_flight)",
-        1,
-        MAX_COMMAND_DELAY_FRAMES,
-        read_only=True,
-    ),
-    ParamSpec("velocity_timeout", _D.velocity_timeout, "velocity command watchdog [s]", 0.01, 60.0),
-    ParamSpec("max_zoom", _D.max_zoom, "largest zoom factor", 1.0, 100.0),
-    ParamSpec(
-        "min_zoom",
-        _D.min_zoom,
-        "smallest zoom factor; below 1 the view widens beyond the zoom-1 window (up to the scene)",
-        0.05,
-        1.0,
-    ),
-    ParamSpec(
-        "initial_pan", _D.initial_pan, "pan at start [rad]", -math.pi, math.pi, read_only=True
-    ),
-    ParamSpec(
-        "initial_tilt", _D.initial_tilt, "tilt at start [rad]", -math.pi, math.pi, read_only=True
-    ),
-    ParamSpec("camera_frame_id", "ptz_camera_optical", "frame_id of the camera images"),
-    ParamSpec("scene_frame_id", "scene", "frame_id of ptz/state (its window is in scene px)"),
-    ParamSpec("joint_names", ["pan_joint", "tilt_joint"], "names of the pan and tilt joints"),
-    ParamSpec(
-        "interface",
+
+
+@dataclass(frozen=True)
+class PtzCameraNodeConfig:
+    """The simulated camera's parameters: its model's, then the node's."""
+
+    model: PtzConfig = params_of(PtzConfig)
+    camera_frame_id: str = param("ptz_camera_optical", "frame_id of the camera images")
+    scene_frame_id: str = param("scene", "frame_id of ptz/state (its window is in scene px)")
+    joint_names: tuple[str, ...] = param(
+        ["pan_joint", "tilt_joint"],
+        "names of the pan and tilt joints",
+        validator=lambda v: None if len(v) == 2 else "joint_names needs two names (pan, tilt)",
+    )
+    interface: str = param(
         "suite",
         "suite: PtzCommand in, PtzState out; standard: only sensor_msgs, like a real unit's "
         "drivers (JointState commands on ptz/joint_command)",
         choices=("suite", "standard"),
         read_only=True,
-    ),
-    ParamSpec("zoom_joint", "", "standard interface: the zoom joint's name ('' = no zoom joint)"),
-    ParamSpec(
-        "joint_command_style",
+    )
+    zoom_joint: str = param("", "standard interface: the zoom joint's name ('' = no zoom joint)")
+    joint_command_style: str = param(
         "velocity_or_position",
         "standard interface: what its JointState commands hold: velocity_or_position (velocities "
         "where finite, else positions) or positions_with_speeds (a FLIR PTU's: two positions "
         "reached at two speeds, by index)",
         choices=("velocity_or_position", "positions_with_speeds"),
         read_only=True,
-    ),
-    ParamSpec(
-        "lockstep",
-        False,
-        "process image n+1 only after a command acknowledging image n",
-        read_only=True,
-    ),
-    ParamSpec(
-        "lockstep_timeout", 2.0, "stop waiting for that command after this [s]", 0.01, 3600.0
-    ),
-    ParamSpec(
-        "reliable_images", False, "reliable instead of sensor-data image QoS", read_only=True
-    ),
-]
+    )
+    lockstep: bool = param(
+        False, "process image n+1 only after a command acknowledging image n", read_only=True
+    )
+    lockstep_timeout: float = param(
+        2.0, "stop waiting for that command after this", min=0.01, max=3600.0, unit="s"
+    )
+    reliable_images: bool = param(
+        False, "reliable instead of sensor-data image QoS", read_only=True
+    )
+
+    def problems(self) -> list[str]:
+        return []
+
+
+PARAMS = specs_of(PtzCameraNodeConfig)
 MODEL_FIELDS = {f.name for f in fields(PtzConfig)}  # the parameters the camera model reads
 LOCKSTEP_WARN_S = 5.0  # diagnostics say WARN this long after a lockstep wait timed out
 
 
 def _check(values: dict[str, Any], scene_size: tuple[int, int] | None = None) -> str | None:
-    problems = []
-    if len(values["joint_names"]) != 2:
-        problems.append("joint_names needs two names (pan, tilt)")
     try:
-        config = config_from_params(PtzConfig, values)
+        config = config_from_params(PtzCameraNodeConfig, values)
         if scene_size is not None:
-            view_size(config, *scene_size)
+            view_size(config.model, *scene_size)
     except ValueError as error:
-        problems.append(str(error))
-    return "; ".join(problems) or None
+        return str(error)
+    return None
 
 
 class PtzCameraNode(SuiteNode):
@@ -171,6 +135,7 @@ class PtzCameraNode(SuiteNode):
         self.params = declare_parameters(
             self, PARAMS, on_change=self._on_change, check_all=self._check_parameters
         )
+        self.settings = config_from_params(PtzCameraNodeConfig, self.params)
         self.model: PtzCameraModel | None = None
         self.scene_order = StampOrder()
         self.last_image_ns: int | None = None
@@ -182,14 +147,14 @@ class PtzCameraNode(SuiteNode):
         self.pending: deque[tuple[Image, np.ndarray]] = deque()  # with its decoded pixels
         self.pending_since = 0.0
         self.lockstep_timed_out_at: float | None = None  # time.monotonic() of the latest
-        self.processed_ns: deque[int] = deque(maxlen=self.params["command_delay_frames"])
+        self.processed_ns: deque[int] = deque(maxlen=self.settings.model.command_delay_frames)
         self.early_commands: list[PtzCommand] = []
         self.last_snapshot: PtzSnapshot | None = None
         self.latency = CommandLatency()  # camera image out -> its command in
-        qos = image_qos(self.params["reliable_images"])
+        qos = image_qos(self.settings.reliable_images)
         self.view_pub = self.create_publisher(Image, "camera/image_raw", qos)
         self.info_pub = self.create_publisher(CameraInfo, "camera/camera_info", qos)
-        self.standard = self.params["interface"] == "standard"
+        self.standard = self.settings.interface == "standard"
         self.state_pub = (
             None if self.standard else self.create_publisher(PtzState, "ptz/state", result_qos())
         )
@@ -204,7 +169,7 @@ class PtzCameraNode(SuiteNode):
             )
         else:
             self.create_subscription(PtzCommandMsg, "ptz/command", self._on_command, command_qos())
-        if self.params["lockstep"]:
+        if self.settings.lockstep:
             self.create_steady_timer(0.05, self._on_lockstep_timer)
 
     def _check_parameters(self, values: dict[str, Any]) -> str | None:
@@ -212,8 +177,9 @@ class PtzCameraNode(SuiteNode):
         return _check(values, None if model is None else (model.width, model.height))
 
     def _on_change(self, changed: dict[str, Any]) -> None:
+        self.settings = config_from_params(PtzCameraNodeConfig, self.params)
         if self.model is not None and MODEL_FIELDS & changed.keys():
-            self.model.reconfigure(config_from_params(PtzConfig, self.params))
+            self.model.reconfigure(self.settings.model)
 
     # --- commands -------------------------------------------------------------------------------
 
@@ -234,7 +200,7 @@ class PtzCameraNode(SuiteNode):
             if self.pending
             else "streaming"
         )
-        details = {"interface": self.params["interface"]}
+        details = {"interface": self.settings.interface}
         if self.last_snapshot is not None:
             shot = self.last_snapshot
             details |= {"pan [rad]": f"{shot.pan:.4f}", "tilt [rad]": f"{shot.tilt:.4f}"}
@@ -305,11 +271,11 @@ class PtzCameraNode(SuiteNode):
 
     def _joint_command_from(self, msg: JointState) -> PtzCommand | None:
         """A JointState command: velocities where given (finite), else positions; or None."""
-        if self.params["joint_command_style"] == "positions_with_speeds":
+        if self.settings.joint_command_style == "positions_with_speeds":
             return self._position_with_speeds(msg)
         stamp = stamp_to_ns(msg.header.stamp)
         names = list(msg.name)
-        pan_name, tilt_name = self.params["joint_names"]
+        pan_name, tilt_name = self.settings.joint_names
         if pan_name not in names or tilt_name not in names:
             self.problems.report(
                 "joint command without the joints",
@@ -317,7 +283,7 @@ class PtzCameraNode(SuiteNode):
             )
             return None
         zoom = math.nan
-        zoom_joint = self.params["zoom_joint"]
+        zoom_joint = self.settings.zoom_joint
         if zoom_joint in names and len(msg.position) == len(names):
             zoom = float(msg.position[names.index(zoom_joint)])
         if not _usable_zoom(zoom):
@@ -384,7 +350,7 @@ class PtzCameraNode(SuiteNode):
             return
         if order is Order.NEW_EPOCH:
             self._start_epoch(stamp)
-        elif len(self.pending) >= self.params["command_delay_frames"]:
+        elif len(self.pending) >= self.settings.model.command_delay_frames:
             # More images in flight than commands may lag (or no lockstep): the oldest goes on.
             self._process(*self.pending.popleft())
             self.pending_since = time.monotonic()
@@ -414,7 +380,7 @@ class PtzCameraNode(SuiteNode):
         `command_delay_frames` before it)?"""
         gate = self.processed_ns
         return (
-            not self.params["lockstep"]
+            not self.settings.lockstep
             or len(gate) < (gate.maxlen or 1)
             or self.last_command_ns >= gate[0]
         )
@@ -427,7 +393,7 @@ class PtzCameraNode(SuiteNode):
     def _on_lockstep_timer(self) -> None:
         if not self.pending:
             return
-        if time.monotonic() - self.pending_since >= self.params["lockstep_timeout"]:
+        if time.monotonic() - self.pending_since >= self.settings.lockstep_timeout:
             self.get_logger().warning(
                 "no pan-tilt command acknowledged the image the next one waits for within "
                 f"{self.params['lockstep_timeout']} s; going on without it",
@@ -458,7 +424,7 @@ class PtzCameraNode(SuiteNode):
     def _start_model(self, width: int, height: int) -> bool:
         """A camera for a scene of this size (False, reported, when it cannot have one)."""
         try:
-            model = PtzCameraModel(config_from_params(PtzConfig, self.params), width, height)
+            model = PtzCameraModel(self.settings.model, width, height)
         except ValueError as error:
             self.problems.report("scene too small", f"dropped a scene image: {error}")
             return False
@@ -478,7 +444,7 @@ class PtzCameraNode(SuiteNode):
     def _publish(self, scene_msg: Image, view: Any, snapshot: PtzSnapshot) -> None:
         self.last_snapshot = snapshot
         stamp = scene_msg.header.stamp
-        camera_frame = self.params["camera_frame_id"]
+        camera_frame = self.settings.camera_frame_id
         model = self.model
         assert model is not None, "published only after the model exists"
         fx, fy, cx, cy = model.intrinsics()
@@ -497,16 +463,16 @@ class PtzCameraNode(SuiteNode):
             moving=snapshot.moving,
         )
         state.header.stamp = stamp
-        state.header.frame_id = self.params["scene_frame_id"]
+        state.header.frame_id = self.settings.scene_frame_id
         if self.state_pub is not None:
             self.state_pub.publish(state)
         joints = JointState(
-            name=list(self.params["joint_names"]),
+            name=list(self.settings.joint_names),
             position=[snapshot.pan, snapshot.tilt],
             velocity=[snapshot.pan_rate, snapshot.tilt_rate],
         )
-        if self.standard and self.params["zoom_joint"]:
-            joints.name.append(self.params["zoom_joint"])
+        if self.standard and self.settings.zoom_joint:
+            joints.name.append(self.settings.zoom_joint)
             joints.position.append(snapshot.zoom)
             joints.velocity.append(0.0)
         joints.header.stamp = stamp
