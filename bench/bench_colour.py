@@ -5,7 +5,7 @@ out/bench/colour.json. Everything runs on ONE core (OpenCV and BLAS limited to o
 
 Frames: the predictor study's purple ball on a textured desk, 640x480, moving on the thesis's
 concentric circles at 20 fps (`evaluation.prediction_study`), rendered before timing.
-- camshift: `tracker_detect.camshift.CamShiftTracker.process` per frame (search region only,
+- camshift: `tracker_detect.camshift.camshift.CamShiftTracker.process` per frame (search region only,
   background-weighted histogram, misses checked), and the peer measured in the same run: OpenCV's
   camshiftdemo loop as the thesis ran it (whole-frame HSV, S/V mask, hue back-projection, AND,
   cv2.CamShift from the last window).
@@ -38,7 +38,7 @@ ROOT = Path(__file__).resolve().parents[1]
 for _pkg in ("tracker_msgs", "tracker_detect", "tracker_filter", "tracker_ptz_sim"):
     sys.path.insert(0, str(ROOT / "src" / _pkg))
 
-from tracker_detect.camshift import CamShiftTracker  # noqa: E402
+from tracker_detect.camshift.camshift import CamShiftTracker  # noqa: E402
 from tracker_detect.detector import CameraFrame  # noqa: E402
 from tracker_msgs_py.geometry import Rect  # noqa: E402
 from tracker_ptz_sim.evaluation import prediction_study as study  # noqa: E402

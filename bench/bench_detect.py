@@ -48,7 +48,7 @@ from skimage.metrics import structural_similarity  # noqa: E402
 
 from tracker_detect.detector import CameraFrame  # noqa: E402
 from tracker_detect.detectors import DETECTORS  # noqa: E402
-from tracker_detect.motion import DetectorConfig, MotionDetector  # noqa: E402
+from tracker_detect.motion.motion import DetectorConfig, MotionDetector  # noqa: E402
 from tracker_detect.registration import (  # noqa: E402
     View,
     phase_correlation_shift,

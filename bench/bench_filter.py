@@ -38,8 +38,8 @@ ROOT = Path(__file__).resolve().parents[1]
 for _pkg in ("tracker_msgs", "tracker_filter"):
     sys.path.insert(0, str(ROOT / "src" / _pkg))
 
-from tracker_filter.config import TrackerConfig  # noqa: E402
 from tracker_filter.filters import PerTrackFactory  # noqa: E402
+from tracker_filter.gated_hungarian.config import TrackerConfig  # noqa: E402
 from tracker_filter.management import TrackManager  # noqa: E402
 from tracker_filter.observation import Detections, Observation  # noqa: E402
 from tracker_filter.synthetic import bouncing_scene  # noqa: E402

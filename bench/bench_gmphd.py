@@ -41,7 +41,7 @@ ROOT = Path(__file__).resolve().parents[1]
 for _pkg in ("tracker_msgs", "tracker_filter", "tracker_ptz_sim"):
     sys.path.insert(0, str(ROOT / "src" / _pkg))
 
-from tracker_filter.gmphd import GmPhdConfig, GmPhdFilter, Mixture  # noqa: E402
+from tracker_filter.gm_phd.gmphd import GmPhdConfig, GmPhdFilter, Mixture  # noqa: E402
 from tracker_ptz_sim.bringup import phd_benchmark  # noqa: E402
 from tracker_ptz_sim.evaluation import phd_scenarios  # noqa: E402
 from tracker_ptz_sim.evaluation.phd_scenarios import AREA, OSPA_CUTOFF  # noqa: E402

@@ -173,7 +173,7 @@ def model_alone_ms(bag: Path) -> float:
     import cv2
     import numpy as np
 
-    from tracker_detect.person import PersonConfig, PersonModel
+    from tracker_detect.person.person import PersonConfig, PersonModel
     from tracker_msgs_py.params import config_from_params
     from tracker_ptz_sim.evaluation.recording import read_bag
 

@@ -42,7 +42,7 @@ from tracker_filter.colour_histograms import (  # noqa: E402
     coefficients,
     coefficients_reference,
 )
-from tracker_filter.colour_particle import (  # noqa: E402
+from tracker_filter.particles.colour_particle import (  # noqa: E402
     ColourParticleFilter,
     CovarianceAppearance,
     HistogramAppearance,

@@ -34,12 +34,12 @@ for _pkg in ("tracker_msgs", "tracker_filter", "tracker_ptz_sim"):
     sys.path.insert(0, str(ROOT / "src" / _pkg))
 
 from tracker_filter.observation import Detections, Observation  # noqa: E402
-from tracker_filter.occupancy_grid import GridGeometry, OccupancyGrid  # noqa: E402
-from tracker_filter.occupancy_particles import (  # noqa: E402
+from tracker_filter.occupancy.occupancy_grid import GridGeometry, OccupancyGrid  # noqa: E402
+from tracker_filter.occupancy.occupancy_particles import (  # noqa: E402
     OccupancyFilterConfig,
     OccupancyParticleFilters,
 )
-from tracker_filter.occupancy_tracker import METHOD  # noqa: E402
+from tracker_filter.occupancy.occupancy_tracker import METHOD  # noqa: E402
 from tracker_msgs_py.geometry import Rect  # noqa: E402
 from tracker_ptz_sim.simulation.voxel_scenes import (  # noqa: E402
     VoxelSceneConfig,

@@ -50,7 +50,7 @@ def camera_views(seed: int = 0) -> np.ndarray:
     """(N, 3, 192, 256) float32 model inputs of the development scenes' camera views."""
     import cv2
 
-    from tracker_detect.person import PersonConfig, PersonModel
+    from tracker_detect.person.person import PersonConfig, PersonModel
     from tracker_ptz_sim.bringup import benchmark
     from tracker_ptz_sim.simulation import street
     from tracker_ptz_sim.simulation.frame_sources import video_frames

@@ -11,7 +11,7 @@ from functools import partial
 import numpy as np
 import pytest
 
-from tracker_filter.gmphd_tracker import GmPhdTracker
+from tracker_filter.gm_phd.gmphd_tracker import GmPhdTracker
 from tracker_ptz_sim.bringup.phd_benchmark import (
     gm_phd_scan_tracker,
     missed_draws,

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from tracker_filter.colour_particle import HistogramAppearance, ParticleFilterConfig
+from tracker_filter.particles.colour_particle import HistogramAppearance, ParticleFilterConfig
 from tracker_msgs_py.geometry import Rect
 from tracker_ptz_sim.evaluation.single_target import (
     CameraPath,
@@ -179,8 +179,8 @@ def test_q1_is_split_into_what_the_centre_and_the_size_cost():
 def test_particle_boxes_are_clipped_to_the_image_and_the_mask_is_passed_on():
     """A box leaving the image is scored as its visible part (the truth is the visible box), and
     the foreground cue gets each frame's mask: with it the box follows a box that grows."""
-    from tracker_filter.colour_particle import RECOMMENDED_SIGMA
-    from tracker_filter.foreground_cue import ForegroundCue
+    from tracker_filter.particles.colour_particle import RECOMMENDED_SIGMA
+    from tracker_filter.particles.foreground_cue import ForegroundCue
 
     rng = np.random.default_rng(1)
     background = rng.integers(60, 160, size=(120, 200, 3), dtype=np.uint8)
@@ -251,7 +251,7 @@ def test_a_filter_told_the_camera_pose_keeps_a_target_hidden_while_the_window_sw
     board; told each window's place, the filter works in scene px: the box coasts at its
     constant scene speed while hidden and is found again when it comes out. With every window
     at the origin the filter is the static camera's, draw for draw."""
-    from tracker_filter.colour_particle import RECOMMENDED_SIGMA
+    from tracker_filter.particles.colour_particle import RECOMMENDED_SIGMA
 
     rng = np.random.default_rng(2)
     scene = rng.integers(60, 160, size=(160, 400, 3), dtype=np.uint8)

@@ -3,7 +3,7 @@ Blocking keeps two people apart through their contacts; without it their filters
 
 from __future__ import annotations
 
-from tracker_filter.occupancy_particles import OccupancyFilterConfig
+from tracker_filter.occupancy.occupancy_particles import OccupancyFilterConfig
 from tracker_ptz_sim.bringup.voxel_benchmark import Row, contacts, run_scene, table
 from tracker_ptz_sim.evaluation.set_metrics import score_points
 from tracker_ptz_sim.simulation.voxel_scenes import VoxelSceneConfig

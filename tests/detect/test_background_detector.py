@@ -1,4 +1,4 @@
-"""The background-mosaic detector (`tracker_detect.background`) scored box by box at IoU >= 0.5.
+"""The background-mosaic detector (`tracker_detect.background.background`) scored box by box at IoU >= 0.5.
 
 Ground truth is each object's *visible* box: the tight box of its pixels in the scene's label
 image, inside the camera window. Blobs and visible boxes are matched one to one (Hungarian on
@@ -16,10 +16,10 @@ import numpy as np
 import pytest
 from box_scores import BoxScore
 
-from tracker_detect import mosaic as mosaic_module
-from tracker_detect.background import BackgroundConfig, BackgroundDetector
+from tracker_detect.background import mosaic as mosaic_module
+from tracker_detect.background.background import BackgroundConfig, BackgroundDetector
+from tracker_detect.background.mosaic import SceneMosaic
 from tracker_detect.detector import CameraFrame
-from tracker_detect.mosaic import SceneMosaic
 from tracker_detect.registration import View
 from tracker_msgs_py.geometry import Rect
 from tracker_ptz_sim.simulation.scenes import SceneConfig, generate_scene
@@ -175,7 +175,7 @@ def test_register_reach_is_checked():
 
 def test_the_seed_frame_difference_boxes_fail_iou():
     """Why the mosaic exists: a k - 3 difference blob covers the old and the new position."""
-    from tracker_detect.motion import DetectorConfig, MotionDetector
+    from tracker_detect.motion.motion import DetectorConfig, MotionDetector
 
     scene = generate_scene(separate_walkers(seed=41, num_frames=40))
     detector = MotionDetector(DetectorConfig())
@@ -487,7 +487,7 @@ def test_a_view_the_mosaic_cannot_hold_is_refused_before_anything_changes():
     """A pose far off the scene or a window of absurd size would need a mosaic of TiB: the frame
     is refused (UnusableViewError, naming the size) and the next frames detect as if it had never
     come."""
-    from tracker_detect.background import MAX_MOSAIC_PIXELS
+    from tracker_detect.background.background import MAX_MOSAIC_PIXELS
     from tracker_detect.detector import UnusableViewError
 
     rng = np.random.default_rng(1)

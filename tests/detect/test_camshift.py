@@ -1,4 +1,4 @@
-"""CamShift colour tracking (tracker_detect.camshift): boxes at IoU >= 0.5 on a coloured target,
+"""CamShift colour tracking (tracker_detect.camshift.camshift): boxes at IoU >= 0.5 on a coloured target,
 on a static and a moving (panning, zoomed-out) view, misses instead of OpenCV's (0, 0) window,
 loss and re-acquisition, prediction-guided search, and the selection's errors."""
 
@@ -20,7 +20,7 @@ from colour_scene import (  # noqa: I001
     true_box,
 )
 
-from tracker_detect.camshift import CamShiftConfig, CamShiftTracker, OrientedBox
+from tracker_detect.camshift.camshift import CamShiftConfig, CamShiftTracker, OrientedBox
 from tracker_detect.detector import CameraFrame, SeededDetector
 from tracker_detect.detectors import DETECTORS
 from tracker_detect.registration import View

@@ -25,7 +25,7 @@ import cv2
 import numpy as np
 import pytest
 
-from tracker_detect.motion import DetectorConfig, MotionDetector
+from tracker_detect.motion.motion import DetectorConfig, MotionDetector
 from tracker_detect.registration import View
 from tracker_msgs_py.geometry import Rect
 from tracker_ptz_sim.simulation.scenes import SceneConfig, generate_scene

@@ -8,14 +8,14 @@ import numpy as np
 import pytest
 
 from tracker_detect.detector import Blob, CameraFrame
-from tracker_detect.fusion import (
+from tracker_detect.person.fusion import (
     FusionConfig,
     FusionDetector,
     moving_shares,
     unexplained,
     vouched_scores,
 )
-from tracker_detect.person import PersonConfig
+from tracker_detect.person.person import PersonConfig
 from tracker_msgs_py.geometry import Rect
 
 
@@ -87,7 +87,7 @@ def test_the_model_beside_the_motion_detector_gives_the_model_s_own_boxes(vtest_
     is the one the model alone finds on that image, and a frame the motion detector refuses (a
     stale one) raises its error and leaves the next frame as good."""
     from tracker_detect.detector import StaleFrameError
-    from tracker_detect.person import PersonModel
+    from tracker_detect.person.person import PersonModel
     from tracker_ptz_sim.simulation.frame_sources import video_frames
 
     config = PersonConfig(score_threshold=0.2)

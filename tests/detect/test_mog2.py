@@ -1,4 +1,4 @@
-"""Seed 004's MOG2 detector (`tracker_detect.mog2`, method `mog2`): the thesis's morphology,
+"""Seed 004's MOG2 detector (`tracker_detect.mog2.mog2`, method `mog2`): the thesis's morphology,
 detection of many small moving objects scored against ground truth, shadows, the static-camera
 restart on a view change, stale frames, reconfiguration and determinism.
 
@@ -18,7 +18,7 @@ from box_scores import BoxScore
 
 from tracker_detect.detector import CameraFrame, Detection, StaleFrameError
 from tracker_detect.detectors import DETECTORS
-from tracker_detect.mog2 import Mog2Config, Mog2Detector, close_square, diamond
+from tracker_detect.mog2.mog2 import Mog2Config, Mog2Detector, close_square, diamond
 from tracker_detect.registration import View
 from tracker_msgs_py.geometry import Rect
 from tracker_msgs_py.params import specs_of

@@ -8,7 +8,7 @@ import pytest
 from scipy import ndimage
 
 from tracker_detect.blobs import components, fill_holes, find_blobs, largest_blob, presence_test
-from tracker_detect.motion import (
+from tracker_detect.motion.motion import (
     SEED_KERNEL,
     DetectorConfig,
     MotionDetector,

@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 from ros_process import RosProcess
 
-from tracker_detect import person
 from tracker_detect.detector import CameraFrame
-from tracker_detect.person import ModelUnavailableError, PersonConfig, PersonModel
+from tracker_detect.person import person
+from tracker_detect.person.person import ModelUnavailableError, PersonConfig, PersonModel
 from tracker_detect.registration import View
 from tracker_msgs_py.geometry import Rect
 

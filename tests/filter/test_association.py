@@ -7,7 +7,11 @@ import numpy as np
 import pytest
 from scipy.spatial.distance import mahalanobis
 
-from tracker_filter.association import GatedHungarianAssociator, gate_threshold, mahalanobis_squared
+from tracker_filter.gated_hungarian.association import (
+    GatedHungarianAssociator,
+    gate_threshold,
+    mahalanobis_squared,
+)
 
 
 def random_covariances(rng, count):
@@ -78,7 +82,7 @@ def test_without_gate_everything_pairs_and_empty_inputs_work():
 
 
 def test_gated_pairs_are_exactly_the_dense_matrix_inside_the_gate():
-    from tracker_filter.association import gated_pairs
+    from tracker_filter.gated_hungarian.association import gated_pairs
 
     rng = np.random.default_rng(5)
     gate = gate_threshold(0.99)

@@ -7,7 +7,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from tracker_filter.byte_tracker import BoxKalman, ByteConfig, ByteTracker, appearance, similarity
+from tracker_filter.byte.byte_tracker import (
+    BoxKalman,
+    ByteConfig,
+    ByteTracker,
+    appearance,
+    similarity,
+)
 from tracker_filter.observation import Detections, Observation
 from tracker_filter.tracking import TrackStatus
 from tracker_msgs_py.geometry import Rect

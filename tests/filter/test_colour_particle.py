@@ -19,7 +19,8 @@ from tracker_filter.colour_histograms import (
     ring_coefficients,
     ring_coefficients_reference,
 )
-from tracker_filter.colour_particle import (
+from tracker_filter.object_scale import ExpectedHeight
+from tracker_filter.particles.colour_particle import (
     RECOMMENDED_SIGMA,
     ColourParticleFilter,
     CovarianceAppearance,
@@ -34,9 +35,8 @@ from tracker_filter.colour_particle import (
     static_noise_share,
     top_parts,
 )
-from tracker_filter.foreground_cue import ForegroundCue, ForegroundMask
-from tracker_filter.object_scale import ExpectedHeight
-from tracker_filter.region_covariance import (
+from tracker_filter.particles.foreground_cue import ForegroundCue, ForegroundMask
+from tracker_filter.particles.region_covariance import (
     RIDGE,
     forstner_distances,
     integral_features,

@@ -4,7 +4,12 @@ import math
 
 import pytest
 
-from tracker_filter.config import PARAMETERS, PRESETS, TrackerConfig, seed_process_noise
+from tracker_filter.gated_hungarian.config import (
+    PARAMETERS,
+    PRESETS,
+    TrackerConfig,
+    seed_process_noise,
+)
 from tracker_filter.management import LargestDetection
 from tracker_filter.selection import SelectionPolicy
 

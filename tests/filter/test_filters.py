@@ -4,13 +4,6 @@ common interface, bad input, and accuracy on synthetic trajectories."""
 import numpy as np
 import pytest
 
-from tracker_filter.config import (
-    SEED_CYCLE,
-    SEED_DT,
-    SEED_SIGMA_A,
-    TrackerConfig,
-    seed_process_noise,
-)
 from tracker_filter.filters import (
     AlphaBetaFilter,
     FilterConfig,
@@ -19,6 +12,13 @@ from tracker_filter.filters import (
     StateFilter,
 )
 from tracker_filter.gains import resolve_gains
+from tracker_filter.gated_hungarian.config import (
+    SEED_CYCLE,
+    SEED_DT,
+    SEED_SIGMA_A,
+    TrackerConfig,
+    seed_process_noise,
+)
 from tracker_filter.models import CONSTANT_ACCELERATION, CONSTANT_VELOCITY
 from tracker_filter.synthetic import circle, piecewise_constant_velocity, seed_case1
 

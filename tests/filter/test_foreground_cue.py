@@ -12,15 +12,15 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from tracker_filter.colour_particle import (
+from tracker_filter.object_scale import ExpectedHeight
+from tracker_filter.particles.colour_particle import (
     RECOMMENDED_SIGMA,
     ColourParticleFilter,
     HistogramAppearance,
     ImageView,
     ParticleFilterConfig,
 )
-from tracker_filter.foreground_cue import ForegroundCue, ForegroundMask, blob_box
-from tracker_filter.object_scale import ExpectedHeight
+from tracker_filter.particles.foreground_cue import ForegroundCue, ForegroundMask, blob_box
 
 
 def silhouette(shape=(200, 200), x=80, y=40, height=100) -> np.ndarray:

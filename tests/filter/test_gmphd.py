@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from scipy.stats import multivariate_normal
 
-from tracker_filter.gmphd import (
+from tracker_filter.gm_phd.gmphd import (
     DetectionTerms,
     GmPhdConfig,
     GmPhdFilter,
@@ -190,7 +190,7 @@ def test_the_same_scans_give_the_same_estimates():
 def test_after_the_warm_up_the_filter_compiles_nothing():
     """`gm_phd`'s `warm_up` (called by the node before it subscribes) compiles the merge kernel
     for the types every merge passes, so no scan of a lockstep replay waits for numba."""
-    from tracker_filter import gmphd
+    from tracker_filter.gm_phd import gmphd
 
     gmphd.warm_up()
     before = len(gmphd._merge_groups.signatures)

@@ -7,11 +7,16 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from tracker_filter.gmphd import Estimates
-from tracker_filter.gmphd_tracker import METHOD, GmPhdTracker, GmPhdTrackerConfig
+from tracker_filter.gm_phd.gmphd import Estimates
+from tracker_filter.gm_phd.gmphd_tracker import METHOD, GmPhdTracker, GmPhdTrackerConfig
+from tracker_filter.gm_phd.phd_labels import (
+    LabelledStates,
+    assign,
+    inside_merged_blob,
+    labelling_costs,
+)
+from tracker_filter.gm_phd.phd_occlusion import OcclusionConfig, OcclusionMonitor
 from tracker_filter.observation import Detections, Observation
-from tracker_filter.phd_labels import LabelledStates, assign, inside_merged_blob, labelling_costs
-from tracker_filter.phd_occlusion import OcclusionConfig, OcclusionMonitor
 from tracker_filter.tracking import TrackStatus
 from tracker_msgs_py.geometry import Rect
 

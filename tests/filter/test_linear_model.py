@@ -6,9 +6,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from tracker_filter.config import TrackerConfig
 from tracker_filter.filter_registry import FILTERS
 from tracker_filter.filters import FilterConfig, FilterKind, LinearModelFilterConfig
+from tracker_filter.gated_hungarian.config import TrackerConfig
 from tracker_filter.models import CONSTANT_VELOCITY, LinearModel, seed001_nominal_model
 
 DT = 0.1

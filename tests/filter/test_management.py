@@ -5,9 +5,9 @@ import motmetrics as mm
 import numpy as np
 import pytest
 
-from tracker_filter.association import Association
-from tracker_filter.config import TrackerConfig
 from tracker_filter.filters import PerTrackFactory
+from tracker_filter.gated_hungarian.association import Association
+from tracker_filter.gated_hungarian.config import TrackerConfig
 from tracker_filter.management import BoxGate, MergedSplitter, OverlapRecovery, TrackManager
 from tracker_filter.object_scale import HeightByRow
 from tracker_filter.observation import Detections, Observation

@@ -6,7 +6,7 @@ import math
 import numpy as np
 import pytest
 
-from tracker_filter.config import TrackerConfig
+from tracker_filter.gated_hungarian.config import TrackerConfig
 from tracker_filter.object_scale import NARROWEST, ExpectedHeight, HeightByRow, robust_line
 from tracker_filter.observation import Detections, Observation
 from tracker_filter.tracking import TrackStatus

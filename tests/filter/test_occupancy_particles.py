@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 
 from tracker_filter.observation import Detections, Observation
-from tracker_filter.occupancy_grid import GridGeometry, OccupancyGrid, components
-from tracker_filter.occupancy_particles import (
+from tracker_filter.occupancy.occupancy_grid import GridGeometry, OccupancyGrid, components
+from tracker_filter.occupancy.occupancy_particles import (
     OccupancyFilterConfig,
     OccupancyParticleFilters,
     _snap_unique,
@@ -16,7 +16,11 @@ from tracker_filter.occupancy_particles import (
     jitter_widths,
     surface_weight,
 )
-from tracker_filter.occupancy_tracker import METHOD, OccupancyTracker, OccupancyTrackerConfig
+from tracker_filter.occupancy.occupancy_tracker import (
+    METHOD,
+    OccupancyTracker,
+    OccupancyTrackerConfig,
+)
 from tracker_filter.tracking import TrackStatus
 from tracker_msgs_py.geometry import Rect, iou_matrix
 
@@ -237,7 +241,7 @@ def test_after_the_warm_up_a_replay_compiles_nothing():
     compiled (or loaded) then, so no frame of a lockstep replay waits for numba (a fresh install's
     first replay used to stall 9 s, time out the lockstep and give other tracks)."""
     numba = pytest.importorskip("numba")
-    from tracker_filter import occupancy_grid, occupancy_particles
+    from tracker_filter.occupancy import occupancy_grid, occupancy_particles
 
     def signatures() -> dict[str, int]:
         return {

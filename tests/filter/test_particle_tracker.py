@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from tracker_filter.observation import Detections, Need, Observation
-from tracker_filter.particle_tracker import COAST_NOISE, ColourParticleTracker
+from tracker_filter.particles.particle_tracker import COAST_NOISE, ColourParticleTracker
 from tracker_filter.trackers import TRACKERS
 from tracker_filter.tracking import TrackStatus
 from tracker_msgs_py.geometry import Rect

@@ -5,9 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from tracker_filter.config import TrackerConfig
 from tracker_filter.filter_registry import FILTERS
 from tracker_filter.filters import LinearModelFilterConfig
+from tracker_filter.gated_hungarian.config import TrackerConfig
 from tracker_filter.models import seed001_nominal_model
 from tracker_filter.robust_kalman import (
     EXACT_SEARCH_DECADES,

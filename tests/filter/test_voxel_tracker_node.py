@@ -8,7 +8,10 @@ import time
 import numpy as np
 import pytest
 
-from tracker_filter.occupancy_particles import OccupancyFilterConfig, OccupancyParticleFilters
+from tracker_filter.occupancy.occupancy_particles import (
+    OccupancyFilterConfig,
+    OccupancyParticleFilters,
+)
 from tracker_filter.voxel_tracking import (
     CloudError,
     VoxelTracker,

@@ -29,6 +29,7 @@ TOOLS = {
     "phd_benchmark",
     "voxel_benchmark",
     "annotate",
+    "parameter_tables",  # a README generator: runs and exits
 }
 
 

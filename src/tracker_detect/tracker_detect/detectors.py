@@ -10,13 +10,13 @@ registered detector keeps is checked by tests/detect/test_detector_contract.py.
 
 from __future__ import annotations
 
-from tracker_detect.background import METHOD as SSIM_BACKGROUND
-from tracker_detect.camshift import METHOD as CAMSHIFT
+from tracker_detect.background.background import METHOD as SSIM_BACKGROUND
+from tracker_detect.camshift.camshift import METHOD as CAMSHIFT
 from tracker_detect.detector import Detector
-from tracker_detect.fusion import METHOD as PERSON_MOTION
-from tracker_detect.mog2 import METHOD as MOG2
-from tracker_detect.motion import METHOD as SSIM
-from tracker_detect.person import METHOD as PERSON
+from tracker_detect.mog2.mog2 import METHOD as MOG2
+from tracker_detect.motion.motion import METHOD as SSIM
+from tracker_detect.person.fusion import METHOD as PERSON_MOTION
+from tracker_detect.person.person import METHOD as PERSON
 from tracker_msgs_py.registry import Registry
 
 DETECTORS: Registry[Detector] = Registry("detector")

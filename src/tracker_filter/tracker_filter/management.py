@@ -18,8 +18,8 @@ from typing import Protocol
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
-from tracker_filter.association import Association, Associator
 from tracker_filter.filters import FilterFactory
+from tracker_filter.gated_hungarian.association import Association, Associator
 from tracker_filter.layout import StateLayout
 from tracker_filter.object_scale import HeightByRow
 from tracker_filter.observation import Detections, Need, Observation

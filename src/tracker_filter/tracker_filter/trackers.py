@@ -11,11 +11,11 @@ registered tracker must keep is checked by tests/filter/test_tracker_contract.py
 
 from __future__ import annotations
 
-from tracker_filter.byte_tracker import METHOD as BYTE
-from tracker_filter.config import METHOD as GATED_HUNGARIAN
-from tracker_filter.gmphd_tracker import METHOD as GM_PHD
-from tracker_filter.occupancy_tracker import METHOD as OCCUPANCY_PARTICLES
-from tracker_filter.particle_tracker import METHOD as COLOUR_PARTICLES
+from tracker_filter.byte.byte_tracker import METHOD as BYTE
+from tracker_filter.gated_hungarian.config import METHOD as GATED_HUNGARIAN
+from tracker_filter.gm_phd.gmphd_tracker import METHOD as GM_PHD
+from tracker_filter.occupancy.occupancy_tracker import METHOD as OCCUPANCY_PARTICLES
+from tracker_filter.particles.particle_tracker import METHOD as COLOUR_PARTICLES
 from tracker_filter.tracking import Tracker
 from tracker_msgs_py.registry import Registry
 

@@ -13,7 +13,7 @@ from typing import Any
 
 from sensor_msgs.msg import PointCloud2
 
-from tracker_filter.occupancy_particles import (
+from tracker_filter.occupancy.occupancy_particles import (
     Jitter,
     OccupancyFilterConfig,
     OccupancyParticleFilters,

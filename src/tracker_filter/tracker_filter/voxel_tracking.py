@@ -24,8 +24,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from tracker_filter.occupancy_grid import GridGeometry, OccupancyGrid
-from tracker_filter.occupancy_particles import FilterStep, OccupancyParticleFilters
+from tracker_filter.occupancy.occupancy_grid import GridGeometry, OccupancyGrid
+from tracker_filter.occupancy.occupancy_particles import FilterStep, OccupancyParticleFilters
 from tracker_filter.tracking import TrackStatus
 
 LAYOUT_TEXT = "x y z"

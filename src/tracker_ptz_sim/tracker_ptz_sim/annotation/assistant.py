@@ -1,7 +1,7 @@
 """The annotation assistant's detector: two person models, test-time augmentation, fusion (no rclpy).
 
 Offline, so slow is fine: per frame
-- NanoDet (`tracker_detect.person.PersonModel`) on the whole frame at 1x, 1.5x and 2x its size,
+- NanoDet (`tracker_detect.person.person.PersonModel`) on the whole frame at 1x, 1.5x and 2x its size,
   each also mirrored;
 - CenterNet (`models/centernet.onnx`, RGB 0-255, a fixed 512 x 512 input) on overlapping
   512 px tiles of the frame at 1x and 2x, each also mirrored;
@@ -22,7 +22,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from tracker_detect.person import (
+from tracker_detect.person.person import (
     PersonConfig,
     PersonModel,
     non_maximum_suppression,

@@ -68,7 +68,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from tracker_filter.config import PRESETS
+from tracker_filter.gated_hungarian.config import PRESETS
 from tracker_msgs_py import stop_signals
 from tracker_msgs_py.codec import frame_stamp_ns
 from tracker_msgs_py.package_files import package_data

@@ -65,11 +65,15 @@ from typing import ClassVar
 
 import numpy as np
 
-from tracker_detect.camshift import CamShiftConfig
+from tracker_detect.camshift.camshift import CamShiftConfig
 from tracker_detect.detector import CameraFrame
 from tracker_detect.detectors import DETECTORS
 from tracker_filter.colour_histograms import ColourSpace
-from tracker_filter.colour_particle import (
+from tracker_filter.filters import FilterFactory
+from tracker_filter.models import seed001_nominal_model
+from tracker_filter.object_scale import HeightByRow
+from tracker_filter.observation import Observation
+from tracker_filter.particles.colour_particle import (
     RECOMMENDED_SIGMA,
     Appearance,
     CovarianceAppearance,
@@ -77,12 +81,8 @@ from tracker_filter.colour_particle import (
     ParticleFilterConfig,
     WeightCorrection,
 )
-from tracker_filter.filters import FilterFactory
-from tracker_filter.foreground_cue import ForegroundCue
-from tracker_filter.models import seed001_nominal_model
-from tracker_filter.object_scale import HeightByRow
-from tracker_filter.observation import Observation
-from tracker_filter.particle_tracker import (
+from tracker_filter.particles.foreground_cue import ForegroundCue
+from tracker_filter.particles.particle_tracker import (
     ASPECT_SPREAD,
     COAST_NOISE,
     FOREGROUND_FIT,

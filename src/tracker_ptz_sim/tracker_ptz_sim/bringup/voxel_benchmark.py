@@ -1,6 +1,6 @@
 """voxel_benchmark: seed 002's tables rebuilt on synthetic voxel scenes (no rclpy).
 
-Runs the per-person particle filters (`tracker_filter.occupancy_particles`) on the synthetic
+Runs the per-person particle filters (`tracker_filter.occupancy.occupancy_particles`) on the synthetic
 rooms of `simulation.voxel_scenes` (the thesis's 400 x 500 x 210 cm room, 2-6 people with forced
 crossings and long contacts, holes, salt noise, a chair and a jacket) and scores them with CLEAR MOT
 as Bernardin 2006: a match within 500 mm, MOTP in mm, miss / false positive / mismatch rates over
@@ -23,8 +23,8 @@ from pathlib import Path
 
 import numpy as np
 
-from tracker_filter.occupancy_grid import GridGeometry, OccupancyGrid
-from tracker_filter.occupancy_particles import (
+from tracker_filter.occupancy.occupancy_grid import GridGeometry, OccupancyGrid
+from tracker_filter.occupancy.occupancy_particles import (
     BlockShape,
     Jitter,
     OccupancyFilterConfig,

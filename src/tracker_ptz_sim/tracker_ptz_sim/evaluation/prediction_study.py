@@ -7,7 +7,7 @@ the last 80 frames and 100 runs: 44.39 px nominal, 40.92 px robust. The video is
 so the hand's path is written down here (`concentric_circles`) and the error is reported
 against the noisy position (the thesis's s_i) and against the true one. CamShift's measurement is
 either taken as the true centre (the vibration dominates its error) or measured: a purple ball is
-rendered on a textured desk at the true centre and `tracker_detect.camshift` follows it from a
+rendered on a textured desk at the true centre and `tracker_detect.camshift.camshift` follows it from a
 box drawn on it in the first frame (`camshift_centres`). Manoeuvring paths (stops, speed changes,
 a figure eight) test where model uncertainty should matter more.
 """
@@ -22,7 +22,7 @@ import cv2
 import numpy as np
 from scipy import stats
 
-from tracker_detect.camshift import CamShiftTracker
+from tracker_detect.camshift.camshift import CamShiftTracker
 from tracker_detect.detector import CameraFrame
 from tracker_filter.filters import FilterFactory
 from tracker_filter.models import seed001_nominal_model

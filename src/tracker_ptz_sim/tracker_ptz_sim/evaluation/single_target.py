@@ -23,17 +23,17 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from tracker_detect.camshift import CamShiftConfig, CamShiftTracker
+from tracker_detect.camshift.camshift import CamShiftConfig, CamShiftTracker
 from tracker_detect.detector import CameraFrame
-from tracker_filter.colour_particle import (
+from tracker_filter.filters import FilterFactory
+from tracker_filter.object_scale import ExpectedHeight
+from tracker_filter.particles.colour_particle import (
     Appearance,
     ColourParticleFilter,
     ImageView,
     ParticleFilterConfig,
 )
-from tracker_filter.filters import FilterFactory
-from tracker_filter.foreground_cue import ForegroundMask
-from tracker_filter.object_scale import ExpectedHeight
+from tracker_filter.particles.foreground_cue import ForegroundMask
 from tracker_msgs_py.codec import NS_PER_S
 from tracker_msgs_py.geometry import Rect
 

@@ -39,19 +39,19 @@ from typing import Any
 
 import numpy as np
 
-from tracker_filter import gmphd
-from tracker_filter.gmphd import Estimates, GmPhdConfig, GmPhdFilter, Mixture
-from tracker_filter.layout import StateLayout
-from tracker_filter.models import CONSTANT_VELOCITY
-from tracker_filter.observation import Detections, Need, Observation
-from tracker_filter.phd_labels import (
+from tracker_filter.gm_phd import gmphd
+from tracker_filter.gm_phd.gmphd import Estimates, GmPhdConfig, GmPhdFilter, Mixture
+from tracker_filter.gm_phd.phd_labels import (
     BARRED,
     LabelledStates,
     assign,
     inside_merged_blob,
     labelling_costs,
 )
-from tracker_filter.phd_occlusion import OcclusionConfig, OcclusionMonitor
+from tracker_filter.gm_phd.phd_occlusion import OcclusionConfig, OcclusionMonitor
+from tracker_filter.layout import StateLayout
+from tracker_filter.models import CONSTANT_VELOCITY
+from tracker_filter.observation import Detections, Need, Observation
 from tracker_filter.tracking import TrackBook, TrackSet
 from tracker_msgs_py.params import check_config, param
 from tracker_msgs_py.registry import Method

@@ -34,9 +34,9 @@ from dataclasses import dataclass, replace
 import cv2
 import numpy as np
 
-from tracker_detect.background import BackgroundConfig, BackgroundDetector
+from tracker_detect.background.background import BackgroundConfig, BackgroundDetector
 from tracker_detect.detector import Blob, CameraFrame, Detection
-from tracker_detect.person import PersonConfig, PersonModel, box_blob
+from tracker_detect.person.person import PersonConfig, PersonModel, box_blob
 from tracker_msgs_py.geometry import intersection_areas
 from tracker_msgs_py.labels import MOTION
 from tracker_msgs_py.params import check_config, param, params_of

@@ -41,7 +41,11 @@ import numpy as np
 
 from tracker_filter import colour_histograms
 from tracker_filter.colour_histograms import ColourSpace
-from tracker_filter.colour_particle import (
+from tracker_filter.layout import StateLayout
+from tracker_filter.management import MofNConfirmation
+from tracker_filter.object_scale import ExpectedHeight, HeightByRow, height_ratios
+from tracker_filter.observation import Detections, Need, Observation
+from tracker_filter.particles.colour_particle import (
     RECOMMENDED_SIGMA,
     Appearance,
     ColourParticleFilter,
@@ -52,11 +56,7 @@ from tracker_filter.colour_particle import (
     Resampling,
     WeightCorrection,
 )
-from tracker_filter.foreground_cue import ForegroundCue, ForegroundMask
-from tracker_filter.layout import StateLayout
-from tracker_filter.management import MofNConfirmation
-from tracker_filter.object_scale import ExpectedHeight, HeightByRow, height_ratios
-from tracker_filter.observation import Detections, Need, Observation
+from tracker_filter.particles.foreground_cue import ForegroundCue, ForegroundMask
 from tracker_filter.tracking import TrackBook, TrackSet
 from tracker_msgs_py.geometry import Rect, iou_matrix
 from tracker_msgs_py.params import check_config, param

@@ -17,9 +17,9 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
-from tracker_filter.association import GatedHungarianAssociator
 from tracker_filter.filter_registry import FilterParams
 from tracker_filter.filters import FilterFactory
+from tracker_filter.gated_hungarian.association import GatedHungarianAssociator
 from tracker_filter.management import (
     AllDetections,
     BoxGate,

@@ -100,9 +100,9 @@ from tracker_filter.colour_histograms import (
     histogram,
     ring_coefficients,
 )
-from tracker_filter.foreground_cue import ForegroundCue, ForegroundMask, blob_box
 from tracker_filter.object_scale import ExpectedHeight
-from tracker_filter.region_covariance import (
+from tracker_filter.particles.foreground_cue import ForegroundCue, ForegroundMask, blob_box
+from tracker_filter.particles.region_covariance import (
     forstner_distances,
     integral_features,
     region_covariances,

@@ -37,8 +37,8 @@ import numpy as np
 
 from tracker_filter.layout import StateLayout
 from tracker_filter.observation import Detections, Need, Observation
-from tracker_filter.occupancy_grid import GridGeometry, OccupancyGrid
-from tracker_filter.occupancy_particles import (
+from tracker_filter.occupancy.occupancy_grid import GridGeometry, OccupancyGrid
+from tracker_filter.occupancy.occupancy_particles import (
     BlockShape,
     Jitter,
     OccupancyFilterConfig,

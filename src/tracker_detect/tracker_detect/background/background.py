@@ -51,10 +51,10 @@ import cv2
 import numpy as np
 
 from tracker_detect import blobs
+from tracker_detect.background.mosaic import MosaicSample, SceneMosaic
 from tracker_detect.blobs import fill_holes, find_blobs, odd_side, presence_test
 from tracker_detect.detector import CameraFrame, Detection, UnusableViewError, checked_view
-from tracker_detect.mosaic import MosaicSample, SceneMosaic
-from tracker_detect.motion import DetectorConfig, MotionDetector, paste_map
+from tracker_detect.motion.motion import DetectorConfig, MotionDetector, paste_map
 from tracker_detect.registration import View, phase_correlation_shift
 from tracker_detect.ssim import SsimParams, auto_downsample_factor, ssim_map
 from tracker_msgs_py.geometry import Rect

@@ -34,7 +34,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from tracker_filter.gmphd import DIM, DetectionTerms, Mixture
+from tracker_filter.gm_phd.gmphd import DIM, DetectionTerms, Mixture
 
 AXES = 2
 

@@ -51,7 +51,12 @@ from enum import Enum
 import numba
 import numpy as np
 
-from tracker_filter.occupancy_grid import Components, GridGeometry, OccupancyGrid, components
+from tracker_filter.occupancy.occupancy_grid import (
+    Components,
+    GridGeometry,
+    OccupancyGrid,
+    components,
+)
 
 MAX_STAMP = 2**31 - 2
 

@@ -28,7 +28,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
-from tracker_filter.gmphd import Estimates
+from tracker_filter.gm_phd.gmphd import Estimates
 
 AXES = 2
 BARRED = 1e12

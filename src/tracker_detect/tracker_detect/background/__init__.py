@@ -1,0 +1,1 @@
+"""SSIM against a background mosaic kept in scene coordinates."""

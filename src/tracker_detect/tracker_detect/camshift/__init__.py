@@ -1,0 +1,1 @@
+"""CamShift colour tracking of one target (seed 001)."""

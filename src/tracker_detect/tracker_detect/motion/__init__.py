@@ -1,0 +1,1 @@
+"""Seed 000's SSIM motion detection between frames `gap` apart."""

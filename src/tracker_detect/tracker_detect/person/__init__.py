@@ -1,0 +1,1 @@
+"""The learned person model and its fusion with motion (person, person_motion)."""

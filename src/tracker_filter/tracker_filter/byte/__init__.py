@@ -1,0 +1,1 @@
+"""Tracking on scored boxes in the manner of ByteTrack."""

@@ -1,0 +1,1 @@
+"""The Gaussian-mixture PHD tracker (seed 004) with occlusion handling and labelling."""

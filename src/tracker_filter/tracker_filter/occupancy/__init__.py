@@ -1,0 +1,1 @@
+"""The occupancy-grid particle filters (seed 002)."""
