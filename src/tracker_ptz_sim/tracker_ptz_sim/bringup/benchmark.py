@@ -77,7 +77,13 @@ from tracker_ptz_sim.bringup import pipeline
 from tracker_ptz_sim.bringup.graph import load_graph, node_parameters, unknown_override_nodes
 from tracker_ptz_sim.evaluation import error_classes, run_files, scoring
 from tracker_ptz_sim.evaluation.centre_scores import OSPA_CUTOFFS, ospa_key
-from tracker_ptz_sim.simulation import ground_truth, real_people, small_objects, street
+from tracker_ptz_sim.simulation import (
+    camera_effects,
+    ground_truth,
+    real_people,
+    small_objects,
+    street,
+)
 from tracker_ptz_sim.simulation.frame_sources import video_frames
 from tracker_ptz_sim.simulation.scene_files import (
     GT_PATH,
@@ -291,7 +297,7 @@ def prepare_scene(
     renders its scenes anew; scenes of real people also by the annotation they are cut from)."""
     small = isinstance(config, small_objects.SmallObjectsConfig)
     real = isinstance(config, street.StreetConfig) and config.people != "drawn"
-    sources = (street, small_objects) if small else (street, real_people)
+    sources = (street, camera_effects, small_objects if small else real_people)
     key = hashlib.sha256(
         json.dumps(asdict(config), sort_keys=True).encode()
         + (background.tobytes() if background is not None else b"generated")
