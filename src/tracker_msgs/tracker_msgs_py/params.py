@@ -281,27 +281,43 @@ def _range_end(end: float | None, default: ParamValue) -> str:
     return str(int(end)) if integer else markdown_value(float(end))
 
 
-def markdown_table(specs: Sequence[ParamSpec]) -> str:
-    """The README table of `specs`: parameter, default, unit, range or choices, meaning."""
+def markdown_table(
+    specs: Sequence[ParamSpec], presets: Mapping[str, Mapping[str, Any]] | None = None
+) -> str:
+    """The README table of `specs`: parameter, default, each of `presets`' value where it is not
+    the default, unit, range or choices, meaning."""
+    presets = presets or {}
+    columns = "".join(f" `{name}` |" for name in presets)
     lines = [
-        "| parameter | default | unit | range / choices | meaning |",
-        "|---|---|---|---|---|",
+        f"| parameter | default |{columns} unit | range / choices | meaning |",
+        "|---|---|" + "---|" * len(presets) + "---|---|---|",
     ]
     for spec in specs:
-        if spec.choices:
-            allowed = ", ".join(f"`{c}`" for c in spec.choices)
-        elif spec.min is not None or spec.max is not None:
-            allowed = (
-                f"[{_range_end(spec.min, spec.default)}, {_range_end(spec.max, spec.default)}]"
-            )
-        else:
-            allowed = ""
-        if spec.read_only:
-            allowed = f"{allowed} (start-up only)".strip()
-        meaning = spec.description.replace("|", "\\|")
         default = markdown_value(spec.default)
-        lines.append(f"| `{spec.name}` | {default} | {spec.unit} | {allowed} | {meaning} |")
+        preset_cells = "".join(f" {_preset_cell(values, spec)} |" for values in presets.values())
+        meaning = spec.description.replace("|", "\\|")
+        lines.append(
+            f"| `{spec.name}` | {default} |{preset_cells} {spec.unit} | {_allowed(spec)} | "
+            f"{meaning} |"
+        )
     return "\n".join(lines)
+
+
+def _preset_cell(values: Mapping[str, Any], spec: ParamSpec) -> str:
+    value = values.get(spec.name, spec.default)
+    same = list(value) == spec.default if isinstance(value, tuple) else value == spec.default
+    return "" if same else markdown_value(value)
+
+
+def _allowed(spec: ParamSpec) -> str:
+    """A table's range / choices cell."""
+    if spec.choices:
+        allowed = ", ".join(f"`{c}`" for c in spec.choices)
+    elif spec.min is not None or spec.max is not None:
+        allowed = f"[{_range_end(spec.min, spec.default)}, {_range_end(spec.max, spec.default)}]"
+    else:
+        allowed = ""
+    return f"{allowed} (start-up only)".strip() if spec.read_only else allowed
 
 
 class ParameterError(ValueError):

@@ -13,6 +13,7 @@ import re
 import sys
 from collections.abc import Callable, Sequence
 from pathlib import Path
+from typing import Any
 
 from tracker_msgs_py.params import ParamSpec, markdown_table
 
@@ -119,9 +120,24 @@ TABLES: dict[str, Callable[[], Sequence[ParamSpec]]] = {
 }
 
 
+def _gated_hungarian_presets() -> dict[str, dict[str, Any]]:
+    """The tracker table's other presets (its defaults are `multi`'s)."""
+    from tracker_filter.trackers import TRACKERS
+
+    presets = TRACKERS.get("gated_hungarian").presets
+    return {name: dict(values) for name, values in presets.items() if name != "multi"}
+
+
+#: table key -> the presets whose values the table shows beside the defaults
+PRESET_COLUMNS: dict[str, Callable[[], dict[str, dict[str, Any]]]] = {
+    "tracker": _gated_hungarian_presets,
+}
+
+
 def table(key: str) -> str:
     """The markdown table of the parameters `key` stands for."""
-    return markdown_table(TABLES[key]())
+    presets = PRESET_COLUMNS[key]() if key in PRESET_COLUMNS else None
+    return markdown_table(TABLES[key](), presets)
 
 
 def regenerate(text: str) -> tuple[str, list[str]]:
