@@ -77,7 +77,6 @@ from tracker_msgs_py.codec import (
 from tracker_msgs_py.geometry import Rect
 from tracker_msgs_py.node_main import Health, StartupError, SuiteNode, run_node
 from tracker_msgs_py.params import (
-    ParamSpec,
     config_from_params,
     declare_parameters,
     param,
@@ -184,14 +183,8 @@ class DetectorNode(SuiteNode):
         super().__init__("detector", **node_options)
         for problem in DETECTORS.load_entry_points(PLUGIN_GROUP):
             self.problems.report("unusable detector plug-in", problem)
-        method_spec = ParamSpec(
-            "method",
-            DETECTORS.names()[0],
-            "the detector: " + "; ".join(f"{m.name}: {m.description}" for m in DETECTORS),
-            choices=DETECTORS.names(),
-            read_only=True,
-        )
-        self.method = DETECTORS.get(declare_parameters(self, [method_spec])["method"])
+        chosen = declare_parameters(self, [DETECTORS.method_spec()])["method"]
+        self.method = DETECTORS.get(chosen)
         self.params = declare_parameters(
             self,
             [*self.method.parameters, *NODE_PARAMETERS],

@@ -235,6 +235,12 @@ def zones_of(settings: TrackerNodeConfig) -> Zones:
     )
 
 
+#: The named defaults a method may offer (gated_hungarian: multi, seed000, seed000_kalman).
+PRESET_PARAMETER = ParamSpec(
+    "preset", "", "named defaults of the method's parameters", read_only=True
+)
+
+
 def parameter_specs(method: Method[Tracker], preset: str) -> list[ParamSpec]:
     """The node's parameters for `method` with `preset`: the method's own, then the target
     selection's and the node's, defaults from the preset."""
@@ -253,16 +259,8 @@ class TrackerNode(SuiteNode):
         choice = declare_parameters(
             self,
             [
-                ParamSpec(
-                    "method",
-                    TRACKERS.names()[0],
-                    "the tracker: " + "; ".join(f"{m.name}: {m.description}" for m in TRACKERS),
-                    choices=TRACKERS.names(),
-                    read_only=True,
-                ),
-                ParamSpec(
-                    "preset", "", "named defaults of the method's parameters", read_only=True
-                ),
+                TRACKERS.method_spec(),
+                PRESET_PARAMETER,
             ],
         )
         self._method = TRACKERS.get(choice["method"])

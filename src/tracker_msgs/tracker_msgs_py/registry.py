@@ -134,6 +134,18 @@ class Registry(Generic[T]):
     def names(self) -> tuple[str, ...]:
         return tuple(self._methods)
 
+    def method_spec(self) -> ParamSpec:
+        """The node parameter that picks one of the methods registered now (start-up only: a
+        node builds its method once), each named with its description."""
+        described = "; ".join(f"{m.name}: {m.description}" for m in self)
+        return ParamSpec(
+            "method",
+            self.names()[0],
+            f"the {self.role}: {described}",
+            choices=self.names(),
+            read_only=True,
+        )
+
     def __contains__(self, name: object) -> bool:
         return name in self._methods
 

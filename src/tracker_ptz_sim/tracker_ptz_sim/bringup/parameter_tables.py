@@ -45,14 +45,8 @@ def _detector_node() -> Sequence[ParamSpec]:
     from tracker_detect.detector_node import NODE_PARAMETERS
     from tracker_detect.detectors import DETECTORS
 
-    method = ParamSpec(
-        "method",
-        DETECTORS.names()[0],
-        "the detector (its parameters in the sections below)",
-        choices=DETECTORS.names(),
-        read_only=True,
-    )
-    return [method, *DETECTORS.get(DETECTORS.names()[0]).parameters, *NODE_PARAMETERS]
+    first = DETECTORS.get(DETECTORS.names()[0])
+    return [DETECTORS.method_spec(), *first.parameters, *NODE_PARAMETERS]
 
 
 def _fusion_own() -> Sequence[ParamSpec]:
@@ -73,18 +67,11 @@ def _fusion_own() -> Sequence[ParamSpec]:
 
 
 def _tracker_node() -> Sequence[ParamSpec]:
-    from tracker_filter.tracker_node import parameter_specs
+    from tracker_filter.tracker_node import PRESET_PARAMETER, parameter_specs
     from tracker_filter.trackers import TRACKERS
 
-    method = ParamSpec(
-        "method",
-        TRACKERS.names()[0],
-        "the tracker (its parameters in the sections below)",
-        choices=TRACKERS.names(),
-        read_only=True,
-    )
-    preset = ParamSpec("preset", "", "named defaults of the method's parameters", read_only=True)
-    return [method, preset, *parameter_specs(TRACKERS.get("gated_hungarian"), "multi")]
+    multi = parameter_specs(TRACKERS.get("gated_hungarian"), "multi")
+    return [TRACKERS.method_spec(), PRESET_PARAMETER, *multi]
 
 
 def _node(module: str, attribute: str = "PARAMS") -> Callable[[], Sequence[ParamSpec]]:
