@@ -47,12 +47,23 @@ def check_config(config: Config) -> None:
 def field_problems(config: object) -> list[str]:
     """Why the `param` fields of `config` are outside what they declare."""
     found = []
-    for declared_field in fields(config):  # type: ignore[arg-type]
-        if PARAM_KEY in declared_field.metadata:
-            reason = _spec_of(declared_field).check(getattr(config, declared_field.name))
-            if reason:
-                found.append(reason)
+    for spec in _own_specs(type(config)):
+        reason = spec.check(getattr(config, spec.name))
+        if reason:
+            found.append(reason)
     return found
+
+
+def _own_specs(cls: type) -> tuple[ParamSpec, ...]:
+    """The `ParamSpec`s of `cls`'s own `param` fields (not its `params_of` ones), made once."""
+    specs = _OWN_SPECS.get(cls)
+    if specs is None:
+        own = (f for f in fields(cls) if PARAM_KEY in f.metadata)
+        specs = _OWN_SPECS[cls] = tuple(_spec_of(f) for f in own)
+    return specs
+
+
+_OWN_SPECS: dict[type, tuple[ParamSpec, ...]] = {}
 
 
 def config_from_params(cls: type[C], values: Mapping[str, Any], **overrides: Any) -> C:
